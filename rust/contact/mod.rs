@@ -1,0 +1,65 @@
+//! Contact laws of clearance joints (one trait) and the ways a contact force enters the Newmark
+//! step ([`Coupling`]).
+//!
+//! Notation (METHOD.md section 4): `q` is the journal centre relative to the bearing centre
+//! (global axes, m), `delta_r = |q|`, penetration `delta = delta_r - delta_c` (contact when > 0).
+//! A law returns its force on the journal in the split form
+//! `f = -k q - c qdot + f_explicit` with 2 x 2 matrices `k` (N/m) and `c` (N s/m): the force
+//! reaction method uses `f` evaluated at the last state; the modified-matrix method moves `k` and
+//! `c` into the effective matrix and keeps `f_explicit` on the right-hand side.
+
+mod coupling;
+mod spring_damper;
+
+pub use coupling::Coupling;
+pub use spring_damper::{DampingLaw, SpringDamper};
+
+use crate::error::Result;
+
+/// 2 x 2 matrix, row-major.
+pub type Mat2 = [[f64; 2]; 2];
+
+/// A contact law evaluated at one state.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ContactTerms {
+    /// Penetration `delta_r - delta_c`, m (negative when open).
+    pub penetration: f64,
+    /// Secant stiffness matrix `k`, N/m.
+    pub k: Mat2,
+    /// Damping matrix `c`, N s/m.
+    pub c: Mat2,
+    /// Force part that stays explicit, N.
+    pub f_explicit: [f64; 2],
+}
+
+impl ContactTerms {
+    /// The force on the journal at `(q, qd)` with these terms, N.
+    #[inline]
+    pub fn force(&self, q: [f64; 2], qd: [f64; 2]) -> [f64; 2] {
+        let (k, c) = (&self.k, &self.c);
+        [
+            self.f_explicit[0] - k[0][0] * q[0] - k[0][1] * q[1] - c[0][0] * qd[0] - c[0][1] * qd[1],
+            self.f_explicit[1] - k[1][0] * q[0] - k[1][1] * q[1] - c[1][0] * qd[0] - c[1][1] * qd[1],
+        ]
+    }
+
+    /// True when the law exerts any force (contact closed).
+    #[inline]
+    pub fn active(&self) -> bool {
+        self.penetration > 0.0
+    }
+}
+
+/// A contact law between journal and bearing. Implement it to add Hertz, Lankarani-Nikravesh or
+/// other laws; the integrator only sees [`ContactTerms`].
+pub trait ContactLaw: std::fmt::Debug + Send + Sync {
+    /// Evaluates the law at relative position `q` (m) and velocity `qd` (m/s) for clearance
+    /// `clearance` (m). Must return finite terms for every finite input, including `q = 0`.
+    fn evaluate(&self, q: [f64; 2], qd: [f64; 2], clearance: f64) -> ContactTerms;
+
+    /// Checks the law's parameters; `name` prefixes parameter names in errors.
+    fn validate(&self, name: &str) -> Result<()>;
+
+    /// Contact stiffness scale, N/m: used for the gap coupling's defaults and diagnostics.
+    fn stiffness(&self) -> f64;
+}

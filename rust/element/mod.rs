@@ -1,0 +1,6 @@
+//! Finite elements. One file per element type; today the planar Euler-Bernoulli beam of
+//! METHOD.md section 2.
+
+pub mod beam;
+
+pub use beam::{BeamElement, Mat6, Vec6};

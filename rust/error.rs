@@ -1,0 +1,115 @@
+//! The engine's error type. Every failure a caller can provoke is a value of [`Error`]; the
+//! Python bindings map each variant to one exception class in one place (`python/errors.rs`).
+
+use std::fmt;
+
+/// Everything that can go wrong in the engine.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// A parameter is outside its allowed range. `name` is the parameter as the caller spells it
+    /// (for example `links[0].length`), `allowed` says the range in words with units.
+    InvalidParameter {
+        /// Dotted path of the parameter.
+        name: String,
+        /// The offending value, formatted.
+        value: String,
+        /// The allowed range, in words and units.
+        allowed: String,
+    },
+    /// The model refers to something that does not exist (a joint on a missing node, an unknown
+    /// link or body).
+    InvalidModel {
+        /// What is wrong, in words.
+        message: String,
+    },
+    /// The run blew up: a state became non-finite or exceeded the divergence limit.
+    Diverged {
+        /// Simulated time of the step where it was detected, s.
+        time: f64,
+        /// Index of that step (1-based count of completed steps).
+        step: u64,
+        /// Which degree of freedom went first, in words.
+        dof: String,
+        /// Why the state was judged divergent.
+        reason: String,
+    },
+    /// A matrix that must be positive definite was not (for example a mass matrix with zero
+    /// density, or an effective matrix made indefinite by a negative stiffness).
+    Singular {
+        /// Which matrix.
+        what: String,
+        /// Pivot index where the factorization failed.
+        index: usize,
+    },
+    /// The caller asked the run to stop (Ctrl-C from Python).
+    Interrupted {
+        /// Simulated time reached, s.
+        time: f64,
+        /// Steps completed.
+        step: u64,
+    },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidParameter`].
+    pub fn param(name: impl Into<String>, value: impl fmt::Display, allowed: impl Into<String>) -> Self {
+        Error::InvalidParameter {
+            name: name.into(),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::InvalidParameter { name, value, allowed } => {
+                write!(f, "invalid parameter `{name}` = {value}: allowed {allowed}")
+            }
+            Error::InvalidModel { message } => write!(f, "invalid model: {message}"),
+            Error::Diverged { time, step, dof, reason } => write!(
+                f,
+                "simulation diverged at t = {time:.6e} s (step {step}): {reason}; first at {dof}"
+            ),
+            Error::Singular { what, index } => {
+                write!(f, "{what} is not positive definite (pivot {index})")
+            }
+            Error::Interrupted { time, step } => {
+                write!(f, "interrupted at t = {time:.6e} s (step {step})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// Result alias for the engine.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Checks that `value` is finite and strictly positive.
+pub fn check_positive(name: &str, value: f64, unit: &str) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::param(name, value, format!("finite and > 0 {unit}")))
+    }
+}
+
+/// Checks that `value` is finite and not negative.
+pub fn check_non_negative(name: &str, value: f64, unit: &str) -> Result<()> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::param(name, value, format!("finite and >= 0 {unit}")))
+    }
+}
+
+/// Checks that `value` is finite.
+pub fn check_finite(name: &str, value: f64, unit: &str) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::param(name, value, format!("finite {unit}")))
+    }
+}

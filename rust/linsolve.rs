@@ -1,0 +1,216 @@
+//! Linear solves with faer: a simplicial sparse Cholesky (LL^T) whose symbolic analysis is done
+//! once per pattern and whose numeric factorization is redone into persistent buffers, plus the
+//! low-rank (Sherman-Morrison-Woodbury) correction that lets the contact-free factorization serve
+//! a step whose effective matrix differs only on the joints' DOFs (METHOD.md section 5).
+//!
+//! Nothing here allocates after construction.
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
+use faer::sparse::linalg::cholesky::simplicial::{
+    factorize_simplicial_numeric_ldlt, factorize_simplicial_numeric_ldlt_scratch, factorize_simplicial_symbolic_cholesky,
+    factorize_simplicial_symbolic_cholesky_scratch, prefactorize_symbolic_cholesky, prefactorize_symbolic_cholesky_scratch,
+    SimplicialLdltRef, SymbolicSimplicialCholesky,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par};
+
+use crate::assembly::Pattern;
+use crate::error::{Error, Result};
+
+/// Sparse Cholesky factorization (LDL^T, no pivoting) of a symmetric positive definite matrix on
+/// a fixed pattern; D is checked to be positive, so an indefinite matrix is reported, not solved.
+/// LDL^T rather than LL^T because its solve divides once per row instead of twice.
+/// Natural ordering: a chain of beam elements numbered along the chain is banded, so it has no
+/// fill outside the band.
+pub struct Cholesky {
+    symbolic: SymbolicSimplicialCholesky<usize>,
+    /// Upper-triangle pattern (faer reads every stored entry of a column).
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    /// Positions of the upper entries in the full pattern's value array.
+    src: Vec<usize>,
+    upper: Vec<f64>,
+    /// The factor's column pointers and row indices (copied once from faer's symbolic factor).
+    l_col_ptr: Vec<usize>,
+    l_row_idx: Vec<usize>,
+    /// 1 / D, so the per-step solve does not divide.
+    dinv: Vec<f64>,
+    values: Vec<f64>,
+    mem: MemBuffer,
+    /// Number of numeric factorizations done.
+    pub factorizations: u64,
+}
+
+impl std::fmt::Debug for Cholesky {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Cholesky").field("n", &self.symbolic.nrows()).field("nnz_l", &self.values.len()).finish()
+    }
+}
+
+impl Cholesky {
+    /// Symbolic analysis of `pattern` (upper triangle). Done once per run.
+    pub fn analyze(pattern: &Pattern) -> Result<Self> {
+        let n = pattern.n;
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let mut row_idx = Vec::new();
+        let mut src = Vec::new();
+        col_ptr.push(0);
+        for c in 0..n {
+            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                if pattern.row_idx[p] <= c {
+                    row_idx.push(pattern.row_idx[p]);
+                    src.push(p);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let mut etree = vec![0isize; n];
+        let mut counts = vec![0usize; n];
+        let mut mem = MemBuffer::new(StackReq::any_of(&[
+            prefactorize_symbolic_cholesky_scratch::<usize>(n, pattern.nnz()),
+            factorize_simplicial_symbolic_cholesky_scratch::<usize>(n),
+            factorize_simplicial_numeric_ldlt_scratch::<usize, f64>(n),
+        ]));
+        let stack = MemStack::new(&mut mem);
+        let etree_ref = prefactorize_symbolic_cholesky(&mut etree, &mut counts, sym, stack);
+        let symbolic = factorize_simplicial_symbolic_cholesky(sym, etree_ref, &counts, stack)
+            .map_err(|e| Error::InvalidModel { message: format!("symbolic factorization failed: {e:?}") })?;
+        let values = vec![0.0; symbolic.len_val()];
+        let l_col_ptr = symbolic.col_ptr().to_vec();
+        let l_row_idx = symbolic.row_idx().to_vec();
+        let dinv = vec![0.0; n];
+        let upper = vec![0.0; src.len()];
+        Ok(Cholesky { symbolic, col_ptr, row_idx, src, upper, l_col_ptr, l_row_idx, dinv, values, mem, factorizations: 0 })
+    }
+
+    /// Numeric factorization of the matrix with values `a` on the full pattern that was
+    /// analyzed (only its upper triangle is read). Fails with [`Error::Singular`] naming `what`
+    /// if the matrix is not positive definite.
+    pub fn factorize(&mut self, a: &[f64], what: &str) -> Result<()> {
+        let n = self.col_ptr.len() - 1;
+        for (u, &p) in self.upper.iter_mut().zip(&self.src) {
+            *u = a[p];
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let mat = SparseColMatRef::new(sym, &self.upper);
+        let stack = MemStack::new(&mut self.mem);
+        self.factorizations += 1;
+        factorize_simplicial_numeric_ldlt(&mut self.values, mat, LdltRegularization::default(), &self.symbolic, stack)
+            .map_err(|_| Error::Singular { what: what.to_string(), index: 0 })?;
+        // D sits first in each column of the factor; every pivot must be positive and finite.
+        let cp = self.symbolic.col_ptr();
+        for k in 0..n {
+            let d = self.values[cp[k]];
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(Error::Singular { what: what.to_string(), index: k });
+            }
+            self.dinv[k] = 1.0 / d;
+        }
+        Ok(())
+    }
+
+    /// Solves `A x = b` in place (`x` holds `b` on entry) with the LDL^T factor: a unit-lower
+    /// forward substitution (column axpy form), a scaling by the stored 1/D, and a backward
+    /// substitution (row dot form). This is the per-step hot path: a tight loop over faer's
+    /// factor, which at the sizes of our scenes costs about a third of faer's generic
+    /// `solve_in_place_with_conj` (see `benches/core.rs`, `linsolve/*`); [`Self::solve_in_place_faer`]
+    /// is the reference it is tested against.
+    #[inline]
+    pub fn solve_in_place(&self, x: &mut [f64]) {
+        let n = self.dinv.len();
+        let (cp, ri, v) = (&self.l_col_ptr[..], &self.l_row_idx[..], &self.values[..]);
+        assert!(x.len() == n && cp.len() == n + 1 && ri.len() == v.len());
+        for j in 0..n {
+            let xj = x[j];
+            if xj != 0.0 {
+                // the first entry of column j is the diagonal
+                for p in cp[j] + 1..cp[j + 1] {
+                    // SAFETY: row indices of the factor are < n (faer invariant) and p < len.
+                    unsafe {
+                        *x.get_unchecked_mut(*ri.get_unchecked(p)) -= v.get_unchecked(p) * xj;
+                    }
+                }
+            }
+        }
+        for (xi, d) in x.iter_mut().zip(&self.dinv) {
+            *xi *= d;
+        }
+        for j in (0..n).rev() {
+            let (lo, hi) = (cp[j] + 1, cp[j + 1]);
+            let (mut s0, mut s1) = (0.0, 0.0);
+            let mut p = lo;
+            while p + 1 < hi {
+                // SAFETY: as above.
+                unsafe {
+                    s0 += v.get_unchecked(p) * x.get_unchecked(*ri.get_unchecked(p));
+                    s1 += v.get_unchecked(p + 1) * x.get_unchecked(*ri.get_unchecked(p + 1));
+                }
+                p += 2;
+            }
+            if p < hi {
+                s0 += v[p] * x[ri[p]];
+            }
+            x[j] -= s0 + s1;
+        }
+    }
+
+    /// The same solve through faer's own `SimplicialLdltRef::solve_in_place_with_conj`.
+    pub fn solve_in_place_faer(&mut self, x: &mut [f64]) {
+        let n = x.len();
+        let ldlt = SimplicialLdltRef::new(&self.symbolic, &self.values);
+        let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
+        let stack = MemStack::new(&mut self.mem);
+        ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack);
+    }
+}
+
+/// Solves the small dense system `a x = b` (size `m`, row-major `a`) in place by Gaussian
+/// elimination with partial pivoting. Returns the ratio of the smallest to the largest pivot
+/// magnitude (0 when singular), a cheap conditioning indicator.
+#[inline]
+pub fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
+    let (mut pmin, mut pmax) = (f64::INFINITY, 0.0f64);
+    for k in 0..m {
+        let mut p = k;
+        for i in k + 1..m {
+            if a[i * m + k].abs() > a[p * m + k].abs() {
+                p = i;
+            }
+        }
+        if p != k {
+            for j in 0..m {
+                a.swap(k * m + j, p * m + j);
+            }
+            b.swap(k, p);
+        }
+        let piv = a[k * m + k];
+        pmin = pmin.min(piv.abs());
+        pmax = pmax.max(piv.abs());
+        if piv == 0.0 || !piv.is_finite() {
+            return 0.0;
+        }
+        for i in k + 1..m {
+            let f = a[i * m + k] / piv;
+            if f != 0.0 {
+                for j in k..m {
+                    a[i * m + j] -= f * a[k * m + j];
+                }
+                b[i] -= f * b[k];
+            }
+        }
+    }
+    for k in (0..m).rev() {
+        let mut s = b[k];
+        for j in k + 1..m {
+            s -= a[k * m + j] * b[j];
+        }
+        b[k] = s / a[k * m + k];
+    }
+    if pmax > 0.0 {
+        pmin / pmax
+    } else {
+        0.0
+    }
+}

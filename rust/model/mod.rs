@@ -1,0 +1,235 @@
+//! The mechanism: flexible links, rigid bodies with prescribed motion, and clearance joints.
+//! Plain data plus validation; nothing here knows about matrices or time stepping.
+
+pub mod motion;
+
+use std::sync::Arc;
+
+pub use motion::{Kinematics, Motion, Table};
+
+use crate::contact::ContactLaw;
+use crate::element::BeamElement;
+use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
+
+/// Degrees of freedom per beam node: axial u (m), transverse v (m), rotation theta (rad).
+pub const NODE_DOFS: usize = 3;
+
+/// A straight flexible link meshed into equal beam elements. Its frame has a fixed orientation
+/// `angle` and an origin that follows the prescribed translation `motion`; elastic displacements
+/// are measured in that frame (floating frame of reference).
+#[derive(Debug, Clone)]
+pub struct FlexibleLink {
+    /// Name, unique among links.
+    pub name: String,
+    /// Length L, m.
+    pub length: f64,
+    /// Number of elements N >= 1 (N + 1 nodes, node 0 at the frame origin).
+    pub elements: usize,
+    /// Young's modulus E, Pa.
+    pub youngs_modulus: f64,
+    /// Density rho, kg/m^3.
+    pub density: f64,
+    /// Kelvin-Voigt damping eta, Pa s (D1 = (eta/E) K1).
+    pub damping: f64,
+    /// Section area A, m^2.
+    pub area: f64,
+    /// Second moment of area I, m^4.
+    pub inertia: f64,
+    /// Include rotary inertia in the mass matrix.
+    pub rotary_inertia: bool,
+    /// Orientation of the link axis in the global frame, rad (fixed).
+    pub angle: f64,
+    /// Prescribed translation of the frame origin.
+    pub motion: Motion,
+    /// Initial elastic displacement, `3 (N + 1)` values `[u, v, th]` per node, link frame.
+    pub initial_displacement: Option<Vec<f64>>,
+    /// Initial elastic velocity, `3 (N + 1)` values, link frame (m/s, rad/s).
+    pub initial_velocity: Option<Vec<f64>>,
+}
+
+impl FlexibleLink {
+    /// Element length l = L / N, m.
+    pub fn element_length(&self) -> f64 {
+        self.length / self.elements as f64
+    }
+
+    /// Number of DOFs, `3 (N + 1)`.
+    pub fn dofs(&self) -> usize {
+        NODE_DOFS * (self.elements + 1)
+    }
+
+    /// The element all of whose copies make up the link.
+    pub fn element(&self) -> BeamElement {
+        BeamElement {
+            length: self.element_length(),
+            youngs_modulus: self.youngs_modulus,
+            density: self.density,
+            area: self.area,
+            inertia: self.inertia,
+            damping: self.damping,
+            rotary_inertia: self.rotary_inertia,
+        }
+    }
+
+    /// Rotation matrix of the link frame, columns are the frame axes in global coordinates.
+    pub fn rotation(&self) -> [[f64; 2]; 2] {
+        let (s, c) = self.angle.sin_cos();
+        [[c, -s], [s, c]]
+    }
+
+    fn validate(&self, i: usize) -> Result<()> {
+        let p = |f: &str| format!("links[{i}].{f}");
+        check_positive(&p("length"), self.length, "m")?;
+        if self.elements < 1 {
+            return Err(Error::param(p("elements"), self.elements, "an integer >= 1"));
+        }
+        check_positive(&p("youngs_modulus"), self.youngs_modulus, "Pa")?;
+        check_positive(&p("density"), self.density, "kg/m^3")?;
+        check_non_negative(&p("damping"), self.damping, "Pa s")?;
+        check_positive(&p("area"), self.area, "m^2")?;
+        check_positive(&p("inertia"), self.inertia, "m^4")?;
+        check_finite(&p("angle"), self.angle, "rad")?;
+        self.motion.validate(&p("motion"))?;
+        for (label, v) in [("initial_displacement", &self.initial_displacement), ("initial_velocity", &self.initial_velocity)] {
+            if let Some(v) = v {
+                if v.len() != self.dofs() {
+                    return Err(Error::param(p(label), format!("{} values", v.len()), format!("{} values (3 per node)", self.dofs())));
+                }
+                if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+                    return Err(Error::param(format!("{}[{k}]", p(label)), v[k], "finite values"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A rigid body with prescribed translation (yoke, ground).
+#[derive(Debug, Clone)]
+pub struct RigidBody {
+    /// Name, unique among bodies.
+    pub name: String,
+    /// Prescribed motion of its reference point.
+    pub motion: Motion,
+}
+
+/// What the journal node of a clearance joint is joined to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JointTarget {
+    /// The bearing centre is a point of a rigid body, at `point` (m) from its reference point.
+    Body {
+        /// Index into [`Model::bodies`].
+        body: usize,
+        /// Offset of the bearing centre from the body's reference point, m (global axes).
+        point: [f64; 2],
+    },
+    /// The bearing centre is a node of another flexible link.
+    Node {
+        /// Index into [`Model::links`].
+        link: usize,
+        /// Node index on that link.
+        node: usize,
+    },
+}
+
+/// A revolute joint with radial clearance: the journal is a beam node, the bearing a body point
+/// or another node. The contact law gives the force once the journal meets the bearing surface.
+#[derive(Debug, Clone)]
+pub struct ClearanceJoint {
+    /// Name, unique among joints.
+    pub name: String,
+    /// Link of the journal node.
+    pub link: usize,
+    /// Journal node index on that link (0 ..= elements).
+    pub node: usize,
+    /// The bearing side.
+    pub target: JointTarget,
+    /// Radial clearance delta_c, m.
+    pub clearance: f64,
+    /// The contact law (spring-dashpot by default).
+    pub law: Arc<dyn ContactLaw>,
+}
+
+/// A mechanism: links, bodies and joints.
+#[derive(Debug, Clone, Default)]
+pub struct Model {
+    /// Flexible links.
+    pub links: Vec<FlexibleLink>,
+    /// Rigid bodies with prescribed motion.
+    pub bodies: Vec<RigidBody>,
+    /// Clearance joints.
+    pub joints: Vec<ClearanceJoint>,
+}
+
+fn check_unique<'a>(kind: &str, names: impl Iterator<Item = &'a str>) -> Result<()> {
+    let mut seen = std::collections::HashSet::new();
+    for n in names {
+        if !seen.insert(n) {
+            return Err(Error::InvalidModel { message: format!("two {kind} are named {n:?}") });
+        }
+    }
+    Ok(())
+}
+
+impl Model {
+    /// Checks every parameter and reference. Fails with [`Error::InvalidParameter`] naming the
+    /// parameter and its allowed range, or [`Error::InvalidModel`] for dangling references.
+    pub fn validate(&self) -> Result<()> {
+        if self.links.is_empty() {
+            return Err(Error::InvalidModel { message: "the model has no flexible link".into() });
+        }
+        check_unique("links", self.links.iter().map(|l| l.name.as_str()))?;
+        check_unique("bodies", self.bodies.iter().map(|b| b.name.as_str()))?;
+        check_unique("joints", self.joints.iter().map(|j| j.name.as_str()))?;
+        for (i, l) in self.links.iter().enumerate() {
+            l.validate(i)?;
+        }
+        for (i, b) in self.bodies.iter().enumerate() {
+            b.motion.validate(&format!("bodies[{i}].motion"))?;
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            let p = |f: &str| format!("joints[{i}].{f}");
+            self.check_node(&p("node"), j.link, j.node)?;
+            match j.target {
+                JointTarget::Body { body, point } => {
+                    if body >= self.bodies.len() {
+                        return Err(Error::InvalidModel {
+                            message: format!("joint {:?} refers to rigid body #{body}, but the model has {}", j.name, self.bodies.len()),
+                        });
+                    }
+                    check_finite(&p("point[0]"), point[0], "m")?;
+                    check_finite(&p("point[1]"), point[1], "m")?;
+                }
+                JointTarget::Node { link, node } => {
+                    self.check_node(&p("target_node"), link, node)?;
+                    if link == j.link && node == j.node {
+                        return Err(Error::InvalidModel { message: format!("joint {:?} joins a node to itself", j.name) });
+                    }
+                }
+            }
+            check_non_negative(&p("clearance"), j.clearance, "m")?;
+            j.law.validate(&p("law"))?;
+        }
+        Ok(())
+    }
+
+    fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
+        let Some(l) = self.links.get(link) else {
+            return Err(Error::InvalidModel { message: format!("{name}: link #{link} does not exist (the model has {})", self.links.len()) });
+        };
+        if node > l.elements {
+            return Err(Error::param(name, node, format!("a node of link {:?}: 0 ..= {}", l.name, l.elements)));
+        }
+        Ok(())
+    }
+
+    /// Index of the link named `name`.
+    pub fn link_index(&self, name: &str) -> Option<usize> {
+        self.links.iter().position(|l| l.name == name)
+    }
+
+    /// Index of the joint named `name`.
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+}

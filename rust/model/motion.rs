@@ -1,0 +1,176 @@
+//! Prescribed planar motions of rigid bodies and of flexible links' frames.
+
+use crate::error::{check_finite, check_non_negative, Error, Result};
+
+/// Position, velocity and acceleration of a point, m, m/s, m/s^2.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Kinematics {
+    /// Position, m.
+    pub pos: [f64; 2],
+    /// Velocity, m/s.
+    pub vel: [f64; 2],
+    /// Acceleration, m/s^2.
+    pub acc: [f64; 2],
+}
+
+/// A prescribed translation `r(t)` in the global frame.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Motion {
+    /// At rest at `position` (m).
+    Fixed {
+        /// Position, m.
+        position: [f64; 2],
+    },
+    /// `r(t) = offset + amplitude sin(2 pi f t + phase)`.
+    Harmonic {
+        /// Mean position, m.
+        offset: [f64; 2],
+        /// Amplitude per axis, m.
+        amplitude: [f64; 2],
+        /// Frequency f, Hz.
+        frequency: f64,
+        /// Phase, rad.
+        phase: f64,
+    },
+    /// Tabulated motion, linearly interpolated between samples. Velocity and acceleration are
+    /// tabulated too (given by the caller or derived by central differences at construction).
+    Tabulated(Table),
+}
+
+/// Samples of a tabulated motion. Build it with [`Table::new`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    time: Vec<f64>,
+    pos: Vec<[f64; 2]>,
+    vel: Vec<[f64; 2]>,
+    acc: Vec<[f64; 2]>,
+}
+
+fn gradient(t: &[f64], y: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let n = t.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = if i == 0 {
+                (0, 1)
+            } else if i == n - 1 {
+                (n - 2, n - 1)
+            } else {
+                (i - 1, i + 1)
+            };
+            let dt = t[b] - t[a];
+            [(y[b][0] - y[a][0]) / dt, (y[b][1] - y[a][1]) / dt]
+        })
+        .collect()
+}
+
+impl Table {
+    /// Builds a table from strictly increasing times (s) and positions (m); velocity (m/s) and
+    /// acceleration (m/s^2) are derived by central differences when not given.
+    ///
+    /// Fails with [`Error::InvalidParameter`] if fewer than 2 samples, non-increasing or
+    /// non-finite times, or arrays of different lengths.
+    pub fn new(
+        name: &str,
+        time: Vec<f64>,
+        pos: Vec<[f64; 2]>,
+        vel: Option<Vec<[f64; 2]>>,
+        acc: Option<Vec<[f64; 2]>>,
+    ) -> Result<Self> {
+        let n = time.len();
+        if n < 2 {
+            return Err(Error::param(format!("{name}.time"), format!("{n} samples"), "at least 2 samples"));
+        }
+        for (i, w) in time.windows(2).enumerate() {
+            if !(w[0].is_finite() && w[1].is_finite() && w[1] > w[0]) {
+                return Err(Error::param(
+                    format!("{name}.time[{}]", i + 1),
+                    w[1],
+                    "finite and strictly increasing, s",
+                ));
+            }
+        }
+        for (label, arr) in [("position", Some(&pos)), ("velocity", vel.as_ref()), ("acceleration", acc.as_ref())] {
+            if let Some(a) = arr {
+                if a.len() != n {
+                    return Err(Error::param(
+                        format!("{name}.{label}"),
+                        format!("{} samples", a.len()),
+                        format!("as many samples as time ({n})"),
+                    ));
+                }
+                if let Some(i) = a.iter().position(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                    return Err(Error::param(format!("{name}.{label}[{i}]"), "non-finite", "finite values"));
+                }
+            }
+        }
+        let vel = vel.unwrap_or_else(|| gradient(&time, &pos));
+        let acc = acc.unwrap_or_else(|| gradient(&time, &vel));
+        Ok(Table { time, pos, vel, acc })
+    }
+
+    /// Last tabulated time, s.
+    pub fn end_time(&self) -> f64 {
+        *self.time.last().expect("table has >= 2 samples")
+    }
+
+    /// First tabulated time, s.
+    pub fn start_time(&self) -> f64 {
+        self.time[0]
+    }
+
+    fn eval(&self, t: f64) -> Kinematics {
+        let n = self.time.len();
+        let i = match self.time.partition_point(|&x| x <= t) {
+            0 => 0,
+            k if k >= n => n - 2,
+            k => k - 1,
+        };
+        let s = ((t - self.time[i]) / (self.time[i + 1] - self.time[i])).clamp(0.0, 1.0);
+        let lerp = |a: &[[f64; 2]]| [a[i][0] + s * (a[i + 1][0] - a[i][0]), a[i][1] + s * (a[i + 1][1] - a[i][1])];
+        Kinematics { pos: lerp(&self.pos), vel: lerp(&self.vel), acc: lerp(&self.acc) }
+    }
+}
+
+impl Motion {
+    /// Kinematics at time `t` (s).
+    #[inline]
+    pub fn at(&self, t: f64) -> Kinematics {
+        match self {
+            Motion::Fixed { position } => Kinematics { pos: *position, ..Default::default() },
+            Motion::Harmonic { offset, amplitude, frequency, phase } => {
+                let w = 2.0 * std::f64::consts::PI * frequency;
+                let (s, c) = (w * t + phase).sin_cos();
+                Kinematics {
+                    pos: [offset[0] + amplitude[0] * s, offset[1] + amplitude[1] * s],
+                    vel: [amplitude[0] * w * c, amplitude[1] * w * c],
+                    acc: [-amplitude[0] * w * w * s, -amplitude[1] * w * w * s],
+                }
+            }
+            Motion::Tabulated(table) => table.eval(t),
+        }
+    }
+
+    /// True when the acceleration is identically zero (no inertia load to apply).
+    pub fn is_fixed(&self) -> bool {
+        matches!(self, Motion::Fixed { .. })
+    }
+
+    /// Validates the parameters; `name` prefixes parameter names in errors.
+    pub fn validate(&self, name: &str) -> Result<()> {
+        match self {
+            Motion::Fixed { position } => {
+                check_finite(&format!("{name}.position[0]"), position[0], "m")?;
+                check_finite(&format!("{name}.position[1]"), position[1], "m")
+            }
+            Motion::Harmonic { offset, amplitude, frequency, phase } => {
+                for k in 0..2 {
+                    check_finite(&format!("{name}.offset[{k}]"), offset[k], "m")?;
+                    check_finite(&format!("{name}.amplitude[{k}]"), amplitude[k], "m")?;
+                }
+                check_non_negative(&format!("{name}.frequency"), *frequency, "Hz")?;
+                check_finite(&format!("{name}.phase"), *phase, "rad")
+            }
+            Motion::Tabulated(_) => Ok(()),
+        }
+    }
+}

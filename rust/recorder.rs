@@ -1,0 +1,205 @@
+//! What a run keeps: chosen joints' penetration, force and journal position, chosen nodes'
+//! displacements, every k-th step from a start time; and running extremes of every joint, which
+//! cost O(joints) memory whatever the run length.
+
+use crate::error::{Error, Result};
+
+/// What to record. The default records every joint's penetration and force at every step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordSpec {
+    /// Joints (indices) whose histories are kept; `None` = all joints.
+    pub joints: Option<Vec<usize>>,
+    /// Also keep the journal position `q` (qx, qy), m, of the recorded joints.
+    pub joint_position: bool,
+    /// Nodes `(link, node)` whose displacements `(u, v, theta)` (link frame) are kept.
+    pub nodes: Vec<(usize, usize)>,
+    /// Keep every k-th step (k >= 1); step 0 (the initial state) is always a sample.
+    pub every: usize,
+    /// Keep histories at all; `false` keeps only the running extremes.
+    pub histories: bool,
+    /// Histories and extremes start at this time, s (e.g. to skip a transient).
+    pub start: f64,
+}
+
+impl Default for RecordSpec {
+    fn default() -> Self {
+        RecordSpec { joints: None, joint_position: false, nodes: Vec::new(), every: 1, histories: true, start: 0.0 }
+    }
+}
+
+impl RecordSpec {
+    /// Checks the spec against a model with `joints` joints and the given links' node counts.
+    pub fn validate(&self, joints: usize, link_nodes: &[usize]) -> Result<()> {
+        if self.every < 1 {
+            return Err(Error::param("record.every", self.every, "an integer >= 1"));
+        }
+        if !self.start.is_finite() || self.start < 0.0 {
+            return Err(Error::param("record.start", self.start, "finite and >= 0 s"));
+        }
+        if let Some(js) = &self.joints {
+            if let Some(&j) = js.iter().find(|&&j| j >= joints) {
+                return Err(Error::param("record.joints", j, format!("joint indices 0 .. {joints}")));
+            }
+        }
+        for &(l, n) in &self.nodes {
+            match link_nodes.get(l) {
+                None => return Err(Error::param("record.nodes", format!("link #{l}"), format!("a link index 0 .. {}", link_nodes.len()))),
+                Some(&count) if n >= count => {
+                    return Err(Error::param("record.nodes", format!("node {n} of link #{l}"), format!("a node 0 ..= {}", count - 1)))
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Histories of one joint.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct JointHistory {
+    /// Joint index.
+    pub joint: usize,
+    /// Penetration `delta_r - delta_c`, m (negative when open).
+    pub penetration: Vec<f64>,
+    /// Magnitude of the contact force that acted in the step, N.
+    pub force: Vec<f64>,
+    /// Journal position relative to the bearing centre, m (only when asked).
+    pub qx: Vec<f64>,
+    /// See `qx`.
+    pub qy: Vec<f64>,
+}
+
+/// Histories of one node (link frame).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NodeHistory {
+    /// Link index.
+    pub link: usize,
+    /// Node index.
+    pub node: usize,
+    /// Axial displacement, m.
+    pub u: Vec<f64>,
+    /// Transverse displacement, m.
+    pub v: Vec<f64>,
+    /// Rotation, rad.
+    pub theta: Vec<f64>,
+}
+
+/// Running extremes of one joint from `RecordSpec::start` on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointExtremes {
+    /// Largest penetration, m (negative if never in contact).
+    pub max_penetration: f64,
+    /// Time of the largest penetration, s.
+    pub time_of_max_penetration: f64,
+    /// Largest contact force magnitude, N.
+    pub max_force: f64,
+    /// Number of impacts (open -> closed transitions).
+    pub impacts: u64,
+    /// Total time in contact, s.
+    pub contact_time: f64,
+}
+
+impl Default for JointExtremes {
+    fn default() -> Self {
+        JointExtremes { max_penetration: f64::NEG_INFINITY, time_of_max_penetration: 0.0, max_force: 0.0, impacts: 0, contact_time: 0.0 }
+    }
+}
+
+/// The recorder of a run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Recorder {
+    /// Sample times, s.
+    pub time: Vec<f64>,
+    /// Joint histories.
+    pub joints: Vec<JointHistory>,
+    /// Node histories.
+    pub nodes: Vec<NodeHistory>,
+    /// Extremes of every joint (indexed like the model's joints).
+    pub extremes: Vec<JointExtremes>,
+    was_closed: Vec<bool>,
+    spec_every: usize,
+    spec_start: f64,
+    histories: bool,
+    position: bool,
+    node_dofs: Vec<usize>,
+}
+
+impl Recorder {
+    /// A recorder for `spec`; `node_dof(link, node)` gives a node's first global DOF; `capacity`
+    /// is the expected number of samples (reserved up front so the time loop does not allocate).
+    pub fn new(spec: &RecordSpec, joints: usize, node_dof: impl Fn(usize, usize) -> usize, steps: u64) -> Self {
+        let js: Vec<usize> = spec.joints.clone().unwrap_or_else(|| (0..joints).collect());
+        let samples = if spec.histories { (steps / spec.every as u64 + 2) as usize } else { 0 };
+        let cap = |on: bool| if on { Vec::with_capacity(samples) } else { Vec::new() };
+        Recorder {
+            time: cap(spec.histories),
+            joints: if spec.histories {
+                js.iter()
+                    .map(|&j| JointHistory { joint: j, penetration: cap(true), force: cap(true), qx: cap(spec.joint_position), qy: cap(spec.joint_position) })
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            nodes: if spec.histories {
+                spec.nodes.iter().map(|&(l, n)| NodeHistory { link: l, node: n, u: cap(true), v: cap(true), theta: cap(true) }).collect()
+            } else {
+                Vec::new()
+            },
+            node_dofs: spec.nodes.iter().map(|&(l, n)| node_dof(l, n)).collect(),
+            extremes: vec![JointExtremes::default(); joints],
+            was_closed: vec![false; joints],
+            spec_every: spec.every,
+            spec_start: spec.start,
+            histories: spec.histories,
+            position: spec.joint_position,
+        }
+    }
+
+    /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]` and
+    /// `q[j]` are every joint's penetration (m), force magnitude (N) and position (m); `u` the
+    /// global displacement vector.
+    #[inline]
+    pub fn record(&mut self, step: u64, t: f64, dt: f64, pen: &[f64], force: &[f64], q: &[[f64; 2]], u: &[f64]) {
+        if t < self.spec_start {
+            for (c, &p) in self.was_closed.iter_mut().zip(pen) {
+                *c = p > 0.0;
+            }
+            return;
+        }
+        for (j, e) in self.extremes.iter_mut().enumerate() {
+            let p = pen[j];
+            if p > e.max_penetration {
+                e.max_penetration = p;
+                e.time_of_max_penetration = t;
+            }
+            e.max_force = e.max_force.max(force[j]);
+            let closed = p > 0.0;
+            if closed {
+                if !self.was_closed[j] && step > 0 {
+                    e.impacts += 1;
+                }
+                if step > 0 {
+                    e.contact_time += dt;
+                }
+            }
+            self.was_closed[j] = closed;
+        }
+        if !self.histories || step % self.spec_every as u64 != 0 {
+            return;
+        }
+        self.time.push(t);
+        for h in &mut self.joints {
+            h.penetration.push(pen[h.joint]);
+            h.force.push(force[h.joint]);
+            if self.position {
+                h.qx.push(q[h.joint][0]);
+                h.qy.push(q[h.joint][1]);
+            }
+        }
+        for (h, &d) in self.nodes.iter_mut().zip(&self.node_dofs) {
+            h.u.push(u[d]);
+            h.v.push(u[d + 1]);
+            h.theta.push(u[d + 2]);
+        }
+    }
+}

@@ -1,0 +1,161 @@
+//! A run: its settings, its output, and the [`simulate`] entry point.
+
+use crate::contact::Coupling;
+use crate::error::{check_positive, Error, Result};
+use crate::integrator::{Newmark, NewmarkRun};
+use crate::model::Model;
+use crate::recorder::{RecordSpec, Recorder};
+
+/// How the effective matrix with contact terms is solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SolverMode {
+    /// Contact-free factorization plus a Sherman-Morrison-Woodbury correction on the joints'
+    /// DOFs; falls back to a numeric refactorization for a step whose small capacitance matrix is
+    /// ill-conditioned (pivot ratio below 1e-12).
+    #[default]
+    Woodbury,
+    /// Numeric refactorization (symbolic analysis reused) whenever the contact terms change.
+    Refactor,
+}
+
+/// Settings of one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// End time, s (> 0).
+    pub t_end: f64,
+    /// Time step, s (> 0, at most `t_end`).
+    pub dt: f64,
+    /// Newmark parameters.
+    pub newmark: Newmark,
+    /// How contact enters the step.
+    pub coupling: Coupling,
+    /// How the effective matrix is solved.
+    pub solver: SolverMode,
+    /// A translational DOF beyond this magnitude (m) means divergence; `None` = 10 x the longest
+    /// link.
+    pub divergence_limit: Option<f64>,
+    /// What to record.
+    pub record: RecordSpec,
+}
+
+impl Settings {
+    /// Default settings for `t_end` and `dt` (s): average-acceleration Newmark, the modified
+    /// method with lagged kappa, Woodbury solves, full recording.
+    pub fn new(t_end: f64, dt: f64) -> Self {
+        Settings {
+            t_end,
+            dt,
+            newmark: Newmark::default(),
+            coupling: Coupling::default(),
+            solver: SolverMode::default(),
+            divergence_limit: None,
+            record: RecordSpec::default(),
+        }
+    }
+
+    /// Checks the settings against the model.
+    pub fn validate(&self, model: &Model) -> Result<()> {
+        check_positive("t_end", self.t_end, "s")?;
+        check_positive("dt", self.dt, "s")?;
+        if self.dt > self.t_end {
+            return Err(Error::param("dt", self.dt, format!("<= t_end = {} s", self.t_end)));
+        }
+        let steps = (self.t_end / self.dt).round();
+        if steps > 1e12 {
+            return Err(Error::param("dt", self.dt, format!("at least t_end/1e12 = {:e} s (at most 1e12 steps)", self.t_end / 1e12)));
+        }
+        self.newmark.validate()?;
+        self.coupling.validate()?;
+        if let Some(l) = self.divergence_limit {
+            check_positive("divergence_limit", l, "m")?;
+        }
+        let nodes: Vec<usize> = model.links.iter().map(|l| l.elements + 1).collect();
+        self.record.validate(model.joints.len(), &nodes)?;
+        for (i, l) in model.links.iter().enumerate() {
+            if let crate::model::Motion::Tabulated(t) = &l.motion {
+                check_table(&format!("links[{i}].motion"), t, self.t_end)?;
+            }
+        }
+        for (i, b) in model.bodies.iter().enumerate() {
+            if let crate::model::Motion::Tabulated(t) = &b.motion {
+                check_table(&format!("bodies[{i}].motion"), t, self.t_end)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of steps, `round(t_end / dt)`.
+    pub fn steps(&self) -> u64 {
+        (self.t_end / self.dt).round().max(1.0) as u64
+    }
+}
+
+fn check_table(name: &str, t: &crate::model::Table, t_end: f64) -> Result<()> {
+    if t.start_time() > 0.0 || t.end_time() < t_end {
+        return Err(Error::param(
+            format!("{name}.time"),
+            format!("[{}, {}] s", t.start_time(), t.end_time()),
+            format!("a table covering [0, t_end = {t_end}] s"),
+        ));
+    }
+    Ok(())
+}
+
+/// Counters of a run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunStats {
+    /// Steps completed.
+    pub steps: u64,
+    /// Numeric factorizations of an effective matrix (the contact-free one included).
+    pub factorizations: u64,
+    /// Steps solved with the Woodbury correction while some contact was closed.
+    pub woodbury_steps: u64,
+    /// Steps where the Woodbury capacitance was ill-conditioned and a refactorization was used.
+    pub woodbury_fallbacks: u64,
+    /// Coupling iterations in all (1 per step without iteration).
+    pub iterations: u64,
+    /// Largest number of iterations in one step.
+    pub max_iterations: u64,
+    /// Steps that hit the iteration cap without converging.
+    pub unconverged_steps: u64,
+    /// Terms active in the equations, in words.
+    pub terms: Vec<String>,
+}
+
+/// What a run produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunOutput {
+    /// Recorded histories and extremes.
+    pub record: Recorder,
+    /// Counters.
+    pub stats: RunStats,
+    /// Final displacement, velocity and acceleration (global DOFs).
+    pub state: [Vec<f64>; 3],
+    /// Time reached, s.
+    pub time: f64,
+}
+
+/// A run that stopped early: why, and what it had recorded until then.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunFailure {
+    /// Why the run stopped.
+    pub error: Error,
+    /// Everything recorded until then.
+    pub output: RunOutput,
+}
+
+/// Runs `model` with `settings`. `control(fraction_done)` is called every few thousand steps and
+/// stops the run (as [`Error::Interrupted`]) when it returns `false`.
+///
+/// Errors before the first step (invalid input, a mass matrix that is not positive definite) come
+/// with an empty output.
+pub fn simulate(model: &Model, settings: &Settings, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<RunOutput, Box<RunFailure>> {
+    let fail = |error| Box::new(RunFailure { error, output: RunOutput::default() });
+    model.validate().map_err(fail)?;
+    settings.validate(model).map_err(fail)?;
+    let run = NewmarkRun::new(model, settings).map_err(fail)?;
+    run.run(control)
+}
+
+/// The recorder type re-exported for convenience.
+pub type Record = Recorder;
