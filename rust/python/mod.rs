@@ -1,1 +1,462 @@
-//! placeholder
+//! Python bindings (`flexclear._core`), behind the `python` feature: the only code that knows
+//! about Python. Conversions, the model builder class, runs and modes; errors in `errors.rs`.
+
+mod errors;
+
+use std::sync::Arc;
+
+use numpy::{PyArray1, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::contact::{Coupling, DampingLaw, SpringDamper};
+use crate::error::Error;
+use crate::integrator::Newmark;
+use crate::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
+use crate::recorder::RecordSpec;
+use crate::scenes::{SliderYoke, SliderYokeGeometry};
+use crate::simulation::{simulate, RunOutput, Settings, SolverMode};
+
+use errors::{run_detached, to_pyerr};
+
+fn err(py: Python<'_>, e: Error) -> PyErr {
+    to_pyerr(py, &e, None)
+}
+
+/// A prescribed planar translation (see `flexclear.motion`).
+#[pyclass(name = "Motion", module = "flexclear._core", frozen)]
+#[derive(Clone)]
+struct PyMotion {
+    inner: Motion,
+}
+
+#[pymethods]
+impl PyMotion {
+    /// At rest at `position` (m).
+    #[staticmethod]
+    fn fixed(position: (f64, f64)) -> Self {
+        PyMotion { inner: Motion::Fixed { position: [position.0, position.1] } }
+    }
+
+    /// `offset + amplitude sin(2 pi frequency t + phase)` (m, Hz, rad).
+    #[staticmethod]
+    #[pyo3(signature = (amplitude, frequency, offset=(0.0, 0.0), phase=0.0))]
+    fn harmonic(amplitude: (f64, f64), frequency: f64, offset: (f64, f64), phase: f64) -> Self {
+        PyMotion {
+            inner: Motion::Harmonic { offset: [offset.0, offset.1], amplitude: [amplitude.0, amplitude.1], frequency, phase },
+        }
+    }
+
+    /// Tabulated motion: times (s), positions (m, shape (n, 2)), optional velocities (m/s) and
+    /// accelerations (m/s^2); missing derivatives by central differences.
+    #[staticmethod]
+    #[pyo3(signature = (time, position, velocity=None, acceleration=None))]
+    fn tabulated(
+        py: Python<'_>,
+        time: Vec<f64>,
+        position: Vec<(f64, f64)>,
+        velocity: Option<Vec<(f64, f64)>>,
+        acceleration: Option<Vec<(f64, f64)>>,
+    ) -> PyResult<Self> {
+        let conv = |v: Vec<(f64, f64)>| v.into_iter().map(|(a, b)| [a, b]).collect::<Vec<_>>();
+        let table = Table::new("motion", time, conv(position), velocity.map(conv), acceleration.map(conv)).map_err(|e| err(py, e))?;
+        Ok(PyMotion { inner: Motion::Tabulated(table) })
+    }
+
+    /// Position, velocity and acceleration at time `t` (s).
+    fn at(&self, t: f64) -> ((f64, f64), (f64, f64), (f64, f64)) {
+        let k = self.inner.at(t);
+        ((k.pos[0], k.pos[1]), (k.vel[0], k.vel[1]), (k.acc[0], k.acc[1]))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("{:?}", self.inner)
+    }
+}
+
+fn motion_or_fixed(m: Option<PyRef<'_, PyMotion>>) -> Motion {
+    m.map_or(Motion::Fixed { position: [0.0, 0.0] }, |m| m.inner.clone())
+}
+
+fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw> {
+    match s {
+        "viscous" => Ok(DampingLaw::Viscous),
+        "radial" => Ok(DampingLaw::Radial),
+        "literal" => Ok(DampingLaw::Literal),
+        other => Err(err(py, Error::param("damping_law", format!("{other:?}"), "one of \"viscous\", \"radial\", \"literal\""))),
+    }
+}
+
+/// The engine's model: links, rigid bodies and clearance joints. Built through
+/// `flexclear.Model`; every parameter is validated when added.
+#[pyclass(name = "Model", module = "flexclear._core")]
+#[derive(Clone, Default)]
+struct PyModel {
+    inner: Model,
+}
+
+fn array_vec(a: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
+    a.map(|a| Ok(a.as_slice()?.to_vec())).transpose()
+}
+
+#[pymethods]
+impl PyModel {
+    #[new]
+    fn new() -> Self {
+        PyModel::default()
+    }
+
+    /// Adds a flexible link; returns its index. Units: m, Pa, kg/m^3, m^2, m^4, Pa s, rad.
+    #[pyo3(signature = (name, length, elements, youngs_modulus, density, area, inertia, damping=0.0, angle=0.0,
+                        motion=None, rotary_inertia=false, initial_displacement=None, initial_velocity=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_link(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        length: f64,
+        elements: i64,
+        youngs_modulus: f64,
+        density: f64,
+        area: f64,
+        inertia: f64,
+        damping: f64,
+        angle: f64,
+        motion: Option<PyRef<'_, PyMotion>>,
+        rotary_inertia: bool,
+        initial_displacement: Option<PyReadonlyArray1<'_, f64>>,
+        initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
+    ) -> PyResult<usize> {
+        if elements < 1 {
+            return Err(err(py, Error::param("elements", elements, "an integer >= 1")));
+        }
+        let link = FlexibleLink {
+            name,
+            length,
+            elements: elements as usize,
+            youngs_modulus,
+            density,
+            damping,
+            area,
+            inertia,
+            rotary_inertia,
+            angle,
+            motion: motion_or_fixed(motion),
+            initial_displacement: array_vec(initial_displacement)?,
+            initial_velocity: array_vec(initial_velocity)?,
+        };
+        let mut m = self.inner.clone();
+        m.links.push(link);
+        validate_partial(py, &m, "links")?;
+        self.inner = m;
+        Ok(self.inner.links.len() - 1)
+    }
+
+    /// Adds a rigid body with prescribed motion; returns its index.
+    #[pyo3(signature = (name, motion=None))]
+    fn add_body(&mut self, py: Python<'_>, name: String, motion: Option<PyRef<'_, PyMotion>>) -> PyResult<usize> {
+        let mut m = self.inner.clone();
+        m.bodies.push(RigidBody { name, motion: motion_or_fixed(motion) });
+        validate_partial(py, &m, "bodies")?;
+        self.inner = m;
+        Ok(self.inner.bodies.len() - 1)
+    }
+
+    /// Adds a clearance joint between node `node` of link `link` and either a point of rigid body
+    /// `body` (offset `point`, m) or node `target_node` of link `target_link`; returns its index.
+    #[pyo3(signature = (name, link, node, clearance, stiffness, damping, body=None, point=(0.0, 0.0),
+                        target_link=None, target_node=None, damping_law="viscous", no_tension=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_joint(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        link: i64,
+        node: i64,
+        clearance: f64,
+        stiffness: f64,
+        damping: f64,
+        body: Option<i64>,
+        point: (f64, f64),
+        target_link: Option<i64>,
+        target_node: Option<i64>,
+        damping_law: &str,
+        no_tension: bool,
+    ) -> PyResult<usize> {
+        let idx = |v: i64, what: &str| -> PyResult<usize> {
+            usize::try_from(v).map_err(|_| err(py, Error::param(what, v, "an index >= 0")))
+        };
+        let target = match (body, target_link, target_node) {
+            (Some(b), None, None) => JointTarget::Body { body: idx(b, "body")?, point: [point.0, point.1] },
+            (None, Some(l), Some(n)) => JointTarget::Node { link: idx(l, "target_link")?, node: idx(n, "target_node")? },
+            _ => {
+                return Err(err(
+                    py,
+                    Error::InvalidModel { message: "a joint needs either `body` or both `target_link` and `target_node`".into() },
+                ))
+            }
+        };
+        let law = SpringDamper { stiffness, damping, damping_law: parse_damping_law(py, damping_law)?, no_tension };
+        let joint = ClearanceJoint { name, link: idx(link, "link")?, node: idx(node, "node")?, target, clearance, law: Arc::new(law) };
+        let mut m = self.inner.clone();
+        m.joints.push(joint);
+        validate_partial(py, &m, "joints")?;
+        self.inner = m;
+        Ok(self.inner.joints.len() - 1)
+    }
+
+    /// Names of links, bodies and joints, in index order.
+    #[getter]
+    fn link_names(&self) -> Vec<String> {
+        self.inner.links.iter().map(|l| l.name.clone()).collect()
+    }
+
+    #[getter]
+    fn body_names(&self) -> Vec<String> {
+        self.inner.bodies.iter().map(|l| l.name.clone()).collect()
+    }
+
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.inner.joints.iter().map(|l| l.name.clone()).collect()
+    }
+
+    /// Number of elements of each link.
+    #[getter]
+    fn link_elements(&self) -> Vec<usize> {
+        self.inner.links.iter().map(|l| l.elements).collect()
+    }
+
+    /// Lowest `count` natural frequencies, Hz, joints open, rigid-body modes left out.
+    fn natural_frequencies<'py>(&self, py: Python<'py>, count: i64) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        if count < 1 {
+            return Err(err(py, Error::param("count", count, "an integer >= 1")));
+        }
+        let model = self.inner.clone();
+        let f = py.detach(move || crate::modes::natural_frequencies(&model, count as usize)).map_err(|e| err(py, e))?;
+        Ok(PyArray1::from_vec(py, f))
+    }
+
+    /// Runs the model. See `flexclear.Model.simulate` for the parameters.
+    #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-10, max_iter=50, gap_stiffness=None,
+                        gap_damping=0.0, beta=0.25, gamma=0.5, solver="woodbury", divergence_limit=None,
+                        joints=None, joint_position=false, nodes=Vec::new(), every=1, histories=true, start=0.0,
+                        progress=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        t_end: f64,
+        dt: f64,
+        method: &str,
+        iterate: bool,
+        tol: f64,
+        max_iter: i64,
+        gap_stiffness: Option<f64>,
+        gap_damping: f64,
+        beta: f64,
+        gamma: f64,
+        solver: &str,
+        divergence_limit: Option<f64>,
+        joints: Option<Vec<usize>>,
+        joint_position: bool,
+        nodes: Vec<(usize, usize)>,
+        every: i64,
+        histories: bool,
+        start: f64,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let max_iter = usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
+        let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
+        let coupling = match method {
+            "force" => Coupling::Force,
+            "modified" => Coupling::Modified { iterate, tol, max_iter },
+            "gap" => Coupling::Gap { stiffness: gap_stiffness, damping: gap_damping, max_iter },
+            other => return Err(err(py, Error::param("method", format!("{other:?}"), "one of \"force\", \"modified\", \"gap\""))),
+        };
+        let solver = match solver {
+            "woodbury" => SolverMode::Woodbury,
+            "refactor" => SolverMode::Refactor,
+            other => return Err(err(py, Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""))),
+        };
+        let settings = Settings {
+            t_end,
+            dt,
+            newmark: Newmark { beta, gamma },
+            coupling,
+            solver,
+            divergence_limit,
+            record: RecordSpec { joints, joint_position, nodes, every, histories, start },
+        };
+        let model = &self.inner;
+        let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
+        match res {
+            Ok(out) => output_dict(py, out),
+            Err(fail) => {
+                if let Some(e) = pending {
+                    if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
+                        return Err(e); // the progress callback raised: propagate it as is
+                    }
+                }
+                let partial = output_dict(py, fail.output)?;
+                Err(to_pyerr(py, &fail.error, Some(partial)))
+            }
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Model(links={:?}, bodies={:?}, joints={:?})",
+            self.link_names(),
+            self.body_names(),
+            self.joint_names()
+        )
+    }
+}
+
+/// Validates a model under construction: only the parts added so far must be consistent.
+fn validate_partial(py: Python<'_>, m: &Model, _what: &str) -> PyResult<()> {
+    if m.links.is_empty() {
+        // bodies may come before links; check them alone
+        for (i, b) in m.bodies.iter().enumerate() {
+            b.motion.validate(&format!("bodies[{i}].motion")).map_err(|e| err(py, e))?;
+        }
+        return Ok(());
+    }
+    m.validate().map_err(|e| err(py, e))
+}
+
+fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    let rec = out.record;
+    d.set_item("time", PyArray1::from_vec(py, rec.time))?;
+    let joints = PyList::empty(py);
+    for h in rec.joints {
+        let j = PyDict::new(py);
+        j.set_item("joint", h.joint)?;
+        j.set_item("penetration", PyArray1::from_vec(py, h.penetration))?;
+        j.set_item("force", PyArray1::from_vec(py, h.force))?;
+        j.set_item("qx", PyArray1::from_vec(py, h.qx))?;
+        j.set_item("qy", PyArray1::from_vec(py, h.qy))?;
+        joints.append(j)?;
+    }
+    d.set_item("joints", joints)?;
+    let nodes = PyList::empty(py);
+    for h in rec.nodes {
+        let n = PyDict::new(py);
+        n.set_item("link", h.link)?;
+        n.set_item("node", h.node)?;
+        n.set_item("u", PyArray1::from_vec(py, h.u))?;
+        n.set_item("v", PyArray1::from_vec(py, h.v))?;
+        n.set_item("theta", PyArray1::from_vec(py, h.theta))?;
+        nodes.append(n)?;
+    }
+    d.set_item("nodes", nodes)?;
+    let ext = PyList::empty(py);
+    for e in rec.extremes {
+        let x = PyDict::new(py);
+        x.set_item("max_penetration", e.max_penetration)?;
+        x.set_item("time_of_max_penetration", e.time_of_max_penetration)?;
+        x.set_item("max_force", e.max_force)?;
+        x.set_item("impacts", e.impacts)?;
+        x.set_item("contact_time", e.contact_time)?;
+        ext.append(x)?;
+    }
+    d.set_item("extremes", ext)?;
+    let s = out.stats;
+    let st = PyDict::new(py);
+    st.set_item("steps", s.steps)?;
+    st.set_item("factorizations", s.factorizations)?;
+    st.set_item("woodbury_steps", s.woodbury_steps)?;
+    st.set_item("woodbury_fallbacks", s.woodbury_fallbacks)?;
+    st.set_item("iterations", s.iterations)?;
+    st.set_item("max_iterations", s.max_iterations)?;
+    st.set_item("unconverged_steps", s.unconverged_steps)?;
+    st.set_item("terms", s.terms)?;
+    d.set_item("stats", st)?;
+    let [u, v, a] = out.state;
+    d.set_item("state", (PyArray1::from_vec(py, u), PyArray1::from_vec(py, v), PyArray1::from_vec(py, a)))?;
+    d.set_item("t", out.time)?;
+    Ok(d)
+}
+
+/// Builds the slider-yoke scene (see `flexclear.scenes.slider_yoke`). Returns the model and the
+/// derived parameters as a dict.
+#[pyfunction]
+#[pyo3(signature = (clearance=0.0, amplitude=0.010, frequency=6.0, length=0.269, side=0.0127, density=7850.0,
+                    youngs_modulus=None, first_frequency=880.0, damping_ratio=0.01, elements=12,
+                    bearing_stiffness=None, stiffness_ratio=100.0, bearing_damping=None, bearing_damping_ratio=0.5,
+                    damping_law="viscous", no_tension=false, geometry="end", rotary_inertia=false))]
+#[allow(clippy::too_many_arguments)]
+fn slider_yoke<'py>(
+    py: Python<'py>,
+    clearance: f64,
+    amplitude: f64,
+    frequency: f64,
+    length: f64,
+    side: f64,
+    density: f64,
+    youngs_modulus: Option<f64>,
+    first_frequency: f64,
+    damping_ratio: f64,
+    elements: i64,
+    bearing_stiffness: Option<f64>,
+    stiffness_ratio: f64,
+    bearing_damping: Option<f64>,
+    bearing_damping_ratio: f64,
+    damping_law: &str,
+    no_tension: bool,
+    geometry: &str,
+    rotary_inertia: bool,
+) -> PyResult<(PyModel, Bound<'py, PyDict>)> {
+    if elements < 1 {
+        return Err(err(py, Error::param("elements", elements, "an integer >= 1")));
+    }
+    let geometry = match geometry {
+        "end" => SliderYokeGeometry::End,
+        "both_ends" => SliderYokeGeometry::BothEnds,
+        "mid_span" => SliderYokeGeometry::MidSpan,
+        other => return Err(err(py, Error::param("geometry", format!("{other:?}"), "one of \"end\", \"both_ends\", \"mid_span\""))),
+    };
+    let scene = SliderYoke {
+        clearance,
+        amplitude,
+        frequency,
+        length,
+        side,
+        density,
+        youngs_modulus,
+        first_frequency,
+        damping_ratio,
+        elements: elements as usize,
+        bearing_stiffness,
+        stiffness_ratio,
+        bearing_damping,
+        bearing_damping_ratio,
+        damping_law: parse_damping_law(py, damping_law)?,
+        no_tension,
+        geometry,
+        rotary_inertia,
+    };
+    let model = scene.build().map_err(|e| err(py, e))?;
+    let d = scene.derived().map_err(|e| err(py, e))?;
+    let info = PyDict::new(py);
+    info.set_item("area", d.area)?;
+    info.set_item("inertia", d.inertia)?;
+    info.set_item("mass", d.mass)?;
+    info.set_item("youngs_modulus", d.youngs_modulus)?;
+    info.set_item("eta", d.eta)?;
+    info.set_item("bearing_stiffness", d.bearing_stiffness)?;
+    info.set_item("bearing_damping", d.bearing_damping)?;
+    Ok((PyModel { inner: model }, info))
+}
+
+/// The compiled core of flexclear.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyModel>()?;
+    m.add_class::<PyMotion>()?;
+    m.add_function(wrap_pyfunction!(slider_yoke, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,94 @@
+"""The flexclear exception tree. Every error raised by flexclear is a :class:`FlexclearError`.
+
+The Rust core maps its errors to these classes in one place (``rust/python/errors.rs``) and sets
+the structured attributes documented on each class.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class FlexclearError(Exception):
+    """Base class of every flexclear error."""
+
+    partial: Any = None
+
+
+class InvalidParameterError(FlexclearError, ValueError):
+    """A parameter is outside its allowed range.
+
+    Attributes
+    ----------
+    parameter : str
+        The parameter, as the caller spells it (e.g. ``"links[0].length"``, ``"dt"``).
+    value : str
+        The offending value, formatted.
+    allowed : str
+        The allowed range, with units.
+    """
+
+    parameter: str = ""
+    value: str = ""
+    allowed: str = ""
+
+
+class ModelError(FlexclearError, ValueError):
+    """The model is inconsistent (a joint on a missing node or link, duplicate names, ...)."""
+
+
+class SingularMatrixError(FlexclearError, ArithmeticError):
+    """A matrix that must be positive definite is not.
+
+    Attributes
+    ----------
+    matrix : str
+        Which matrix.
+    pivot : int
+        Pivot index where the factorization failed.
+    """
+
+    matrix: str = ""
+    pivot: int = 0
+
+
+class SimulationDivergedError(FlexclearError, ArithmeticError):
+    """The run blew up. What it had recorded until then is in :attr:`result`.
+
+    Attributes
+    ----------
+    time : float
+        Simulated time where divergence was detected, s.
+    step : int
+        Step count at detection.
+    dof : str
+        The degree of freedom that went first.
+    reason : str
+        Why the state was judged divergent.
+    result : flexclear.Result
+        Everything recorded until the failure (``result.complete`` is False).
+    """
+
+    time: float = float("nan")
+    step: int = 0
+    dof: str = ""
+    reason: str = ""
+    result: Any = None
+
+
+class SimulationInterrupted(FlexclearError, KeyboardInterrupt):
+    """The run was interrupted (Ctrl-C). What it had recorded is in :attr:`result`."""
+
+    time: float = float("nan")
+    step: int = 0
+    result: Any = None
+
+
+__all__ = [
+    "FlexclearError",
+    "InvalidParameterError",
+    "ModelError",
+    "SingularMatrixError",
+    "SimulationDivergedError",
+    "SimulationInterrupted",
+]
