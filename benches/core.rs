@@ -1,1 +1,115 @@
-fn main(){}
+//! Criterion benches of the hot paths: element matrices, assembly, one Newmark step (contact
+//! open and closed), the linear solves, and a full slider-yoke run (the target case).
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use flexclear::assembly::System;
+use flexclear::contact::Coupling;
+use flexclear::linsolve::Cholesky;
+use flexclear::scenes::SliderYoke;
+use flexclear::{simulate, Settings};
+
+fn elements(c: &mut Criterion) {
+    let e = SliderYoke::default().build().unwrap().links[0].element();
+    c.bench_function("element/mass+stiffness", |b| {
+        b.iter(|| (black_box(&e).mass(), black_box(&e).stiffness()))
+    });
+    c.bench_function("element/geometric K2", |b| {
+        b.iter(|| black_box(&e).geometric_stiffness(black_box(100.0)))
+    });
+}
+
+fn assembly(c: &mut Criterion) {
+    for n in [12, 120, 1200] {
+        let model = SliderYoke {
+            elements: n,
+            ..Default::default()
+        }
+        .build()
+        .unwrap();
+        c.bench_function(&format!("assembly/slider {n} elements"), |b| {
+            b.iter(|| System::assemble(black_box(&model)))
+        });
+    }
+}
+
+fn linsolve(c: &mut Criterion) {
+    let model = SliderYoke::default().build().unwrap();
+    let sys = System::assemble(&model);
+    let a: Vec<f64> = (0..sys.pattern.nnz())
+        .map(|p| sys.mass[p] + 2.5e-13 * sys.stiffness[p])
+        .collect();
+    let mut ch = Cholesky::analyze(&sys.pattern).unwrap();
+    ch.factorize(&a, "bench").unwrap();
+    let b0: Vec<f64> = (0..sys.n()).map(|i| (i as f64).sin()).collect();
+    let mut x = b0.clone();
+    c.bench_function("linsolve/solve 39 dofs (ours on faer's LDLt)", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&b0);
+            ch.solve_in_place(black_box(&mut x));
+        })
+    });
+    c.bench_function("linsolve/solve 39 dofs (faer solve_in_place_with_conj)", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&b0);
+            ch.solve_in_place_faer(black_box(&mut x));
+        })
+    });
+    c.bench_function("linsolve/numeric refactorization 39 dofs", |b| {
+        b.iter(|| ch.factorize(black_box(&a), "bench").unwrap())
+    });
+}
+
+/// Cost of one step = (run of N + 1000 steps - run of 1000 steps) / N, so setup is excluded.
+fn steps(c: &mut Criterion) {
+    for (label, clearance, kb) in [("contact open", 1.0, None), ("contact closed", 0.0, Some(1e9))] {
+        let model = SliderYoke {
+            clearance,
+            bearing_stiffness: kb,
+            ..Default::default()
+        }
+        .build()
+        .unwrap();
+        for (mname, coupling) in [("modified", Coupling::default()), ("force", Coupling::Force)] {
+            let mut s = Settings::new(1e-2, 1e-6);
+            s.coupling = coupling;
+            s.record.histories = false;
+            c.bench_function(&format!("newmark/10k steps, {label}, {mname}"), |b| {
+                b.iter(|| simulate(black_box(&model), &s, &mut |_| true).unwrap())
+            });
+        }
+    }
+}
+
+fn full_run(c: &mut Criterion) {
+    let mut g = c.benchmark_group("slider-yoke");
+    g.sample_size(20);
+    let model = SliderYoke {
+        clearance: 1e-5,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
+    let mut s = Settings::new(0.1, 1e-6);
+    s.record.histories = false;
+    g.bench_function(
+        "target: 12 el, dt 1e-6, 0.1 s (1e5 steps), modified, extremes only",
+        |b| {
+            b.iter_batched(
+                || model.clone(),
+                |m| simulate(&m, &s, &mut |_| true).unwrap(),
+                BatchSize::SmallInput,
+            )
+        },
+    );
+    let mut s2 = s.clone();
+    s2.record.histories = true;
+    g.bench_function("12 el, dt 1e-6, 0.1 s, modified, full history", |b| {
+        b.iter(|| simulate(&model, &s2, &mut |_| true).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, elements, assembly, linsolve, steps, full_run);
+criterion_main!(benches);

@@ -57,9 +57,7 @@ def scene_parameters(clearance: float = 1e-5) -> dict:
     rho = 7850.0
     f1 = 880.0  # first free-free bending frequency the beam is calibrated to
     E = rho * A * (2 * math.pi * f1) ** 2 * L**4 / (22.3733**2 * I)
-    eta_over_E = (
-        2 * 0.01 / (2 * math.pi * f1)
-    )  # 1 % critical at 880 Hz, stiffness-prop.
+    eta_over_E = 2 * 0.01 / (2 * math.pi * f1)  # 1 % critical at 880 Hz, stiffness-prop.
     Y0 = 0.010
     f = 6.0
     omega = 2 * math.pi * f
@@ -178,9 +176,7 @@ def build_model(clearance: float = 1e-5, elements: int = 12):
         )
 
     ground = mbs.AddObject(ObjectGround())
-    m_ground = mbs.AddMarker(
-        MarkerBodyPosition(bodyNumber=ground, localPosition=[0.0, 0.0, 0.0])
-    )
+    m_ground = mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=[0.0, 0.0, 0.0]))
     m_node0 = mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[0]))
     connector = mbs.AddObject(
         CartesianSpringDamper(
@@ -209,9 +205,7 @@ def build_model(clearance: float = 1e-5, elements: int = 12):
             file=sys.stderr,
         )
         print("!" * 78, file=sys.stderr)
-        mbs.SetObjectParameter(
-            connector, "springForceUserFunction", _bearing_force_function(p, None)
-        )
+        mbs.SetObjectParameter(connector, "springForceUserFunction", _bearing_force_function(p, None))
         uf_kind = "python"
 
     sensor = mbs.AddSensor(
@@ -226,9 +220,7 @@ def build_model(clearance: float = 1e-5, elements: int = 12):
     return SC, mbs, sensor, keep_alive, uf_kind
 
 
-def simulation_settings(
-    dt: float, t_end: float, newton_abs_tol: float = NEWTON_ABS_TOL
-):
+def simulation_settings(dt: float, t_end: float, newton_abs_tol: float = NEWTON_ABS_TOL):
     """Newmark (beta=1/4, gamma=1/2), fixed step, modified Newton, no file output."""
     steps = round(t_end / dt)
     s = exu.SimulationSettings()

@@ -45,7 +45,9 @@ impl Pattern {
     /// (a programming error: every entry ever written is declared when the pattern is built).
     pub fn position(&self, row: usize, col: usize) -> usize {
         let (a, b) = (self.col_ptr[col], self.col_ptr[col + 1]);
-        a + self.row_idx[a..b].binary_search(&row).unwrap_or_else(|_| panic!("entry ({row}, {col}) not in pattern"))
+        a + self.row_idx[a..b]
+            .binary_search(&row)
+            .unwrap_or_else(|_| panic!("entry ({row}, {col}) not in pattern"))
     }
 
     /// `y = A x` for values `a` on this pattern; `A` must be symmetric (column c is read as row
@@ -241,7 +243,13 @@ impl System {
                     }
                 }
             }
-            links.push(LinkPlan { offset: o, ndof: l.dofs(), rotation: l.rotation(), motion: l.motion.clone(), inertia_load: load });
+            links.push(LinkPlan {
+                offset: o,
+                ndof: l.dofs(),
+                rotation: l.rotation(),
+                motion: l.motion.clone(),
+                inertia_load: load,
+            });
         }
         System {
             pattern,

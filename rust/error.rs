@@ -68,7 +68,12 @@ impl fmt::Display for Error {
                 write!(f, "invalid parameter `{name}` = {value}: allowed {allowed}")
             }
             Error::InvalidModel { message } => write!(f, "invalid model: {message}"),
-            Error::Diverged { time, step, dof, reason } => write!(
+            Error::Diverged {
+                time,
+                step,
+                dof,
+                reason,
+            } => write!(
                 f,
                 "simulation diverged at t = {time:.6e} s (step {step}): {reason}; first at {dof}"
             ),

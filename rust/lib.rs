@@ -14,6 +14,8 @@
 //! knows about Python.
 
 #![warn(missing_docs)]
+// Index loops over small fixed-size matrices read like the formulas they implement.
+#![allow(clippy::needless_range_loop)]
 
 pub mod assembly;
 pub mod contact;

@@ -8,9 +8,10 @@
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::simplicial::{
-    factorize_simplicial_numeric_ldlt, factorize_simplicial_numeric_ldlt_scratch, factorize_simplicial_symbolic_cholesky,
-    factorize_simplicial_symbolic_cholesky_scratch, prefactorize_symbolic_cholesky, prefactorize_symbolic_cholesky_scratch,
-    SimplicialLdltRef, SymbolicSimplicialCholesky,
+    factorize_simplicial_numeric_ldlt, factorize_simplicial_numeric_ldlt_scratch,
+    factorize_simplicial_symbolic_cholesky, factorize_simplicial_symbolic_cholesky_scratch,
+    prefactorize_symbolic_cholesky, prefactorize_symbolic_cholesky_scratch, SimplicialLdltRef,
+    SymbolicSimplicialCholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
@@ -44,7 +45,10 @@ pub struct Cholesky {
 
 impl std::fmt::Debug for Cholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Cholesky").field("n", &self.symbolic.nrows()).field("nnz_l", &self.values.len()).finish()
+        f.debug_struct("Cholesky")
+            .field("n", &self.symbolic.nrows())
+            .field("nnz_l", &self.values.len())
+            .finish()
     }
 }
 
@@ -75,14 +79,29 @@ impl Cholesky {
         ]));
         let stack = MemStack::new(&mut mem);
         let etree_ref = prefactorize_symbolic_cholesky(&mut etree, &mut counts, sym, stack);
-        let symbolic = factorize_simplicial_symbolic_cholesky(sym, etree_ref, &counts, stack)
-            .map_err(|e| Error::InvalidModel { message: format!("symbolic factorization failed: {e:?}") })?;
+        let symbolic = factorize_simplicial_symbolic_cholesky(sym, etree_ref, &counts, stack).map_err(|e| {
+            Error::InvalidModel {
+                message: format!("symbolic factorization failed: {e:?}"),
+            }
+        })?;
         let values = vec![0.0; symbolic.len_val()];
         let l_col_ptr = symbolic.col_ptr().to_vec();
         let l_row_idx = symbolic.row_idx().to_vec();
         let dinv = vec![0.0; n];
         let upper = vec![0.0; src.len()];
-        Ok(Cholesky { symbolic, col_ptr, row_idx, src, upper, l_col_ptr, l_row_idx, dinv, values, mem, factorizations: 0 })
+        Ok(Cholesky {
+            symbolic,
+            col_ptr,
+            row_idx,
+            src,
+            upper,
+            l_col_ptr,
+            l_row_idx,
+            dinv,
+            values,
+            mem,
+            factorizations: 0,
+        })
     }
 
     /// Numeric factorization of the matrix with values `a` on the full pattern that was
@@ -97,14 +116,26 @@ impl Cholesky {
         let mat = SparseColMatRef::new(sym, &self.upper);
         let stack = MemStack::new(&mut self.mem);
         self.factorizations += 1;
-        factorize_simplicial_numeric_ldlt(&mut self.values, mat, LdltRegularization::default(), &self.symbolic, stack)
-            .map_err(|_| Error::Singular { what: what.to_string(), index: 0 })?;
+        factorize_simplicial_numeric_ldlt(
+            &mut self.values,
+            mat,
+            LdltRegularization::default(),
+            &self.symbolic,
+            stack,
+        )
+        .map_err(|_| Error::Singular {
+            what: what.to_string(),
+            index: 0,
+        })?;
         // D sits first in each column of the factor; every pivot must be positive and finite.
         let cp = self.symbolic.col_ptr();
         for k in 0..n {
             let d = self.values[cp[k]];
             if !(d > 0.0 && d.is_finite()) {
-                return Err(Error::Singular { what: what.to_string(), index: k });
+                return Err(Error::Singular {
+                    what: what.to_string(),
+                    index: k,
+                });
             }
             self.dinv[k] = 1.0 / d;
         }

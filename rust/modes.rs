@@ -34,9 +34,15 @@ pub fn natural_frequencies(model: &Model, count: usize) -> Result<Vec<f64>> {
     let sys = System::assemble(model);
     let m = dense(&sys, &sys.mass);
     let k = dense(&sys, &sys.stiffness);
-    let chol = m.cholesky().ok_or(Error::Singular { what: "the mass matrix".into(), index: 0 })?;
+    let chol = m.cholesky().ok_or(Error::Singular {
+        what: "the mass matrix".into(),
+        index: 0,
+    })?;
     let l = chol.l();
-    let linv = l.clone().try_inverse().ok_or(Error::Singular { what: "the mass matrix".into(), index: 0 })?;
+    let linv = l.clone().try_inverse().ok_or(Error::Singular {
+        what: "the mass matrix".into(),
+        index: 0,
+    })?;
     let a = &linv * k * linv.transpose();
     let a = (&a + a.transpose()) * 0.5;
     let mut lam: Vec<f64> = a.symmetric_eigenvalues().iter().copied().collect();

@@ -23,7 +23,14 @@ pub struct RecordSpec {
 
 impl Default for RecordSpec {
     fn default() -> Self {
-        RecordSpec { joints: None, joint_position: false, nodes: Vec::new(), every: 1, histories: true, start: 0.0 }
+        RecordSpec {
+            joints: None,
+            joint_position: false,
+            nodes: Vec::new(),
+            every: 1,
+            histories: true,
+            start: 0.0,
+        }
     }
 }
 
@@ -43,9 +50,19 @@ impl RecordSpec {
         }
         for &(l, n) in &self.nodes {
             match link_nodes.get(l) {
-                None => return Err(Error::param("record.nodes", format!("link #{l}"), format!("a link index 0 .. {}", link_nodes.len()))),
+                None => {
+                    return Err(Error::param(
+                        "record.nodes",
+                        format!("link #{l}"),
+                        format!("a link index 0 .. {}", link_nodes.len()),
+                    ))
+                }
                 Some(&count) if n >= count => {
-                    return Err(Error::param("record.nodes", format!("node {n} of link #{l}"), format!("a node 0 ..= {}", count - 1)))
+                    return Err(Error::param(
+                        "record.nodes",
+                        format!("node {n} of link #{l}"),
+                        format!("a node 0 ..= {}", count - 1),
+                    ))
                 }
                 _ => {}
             }
@@ -101,7 +118,13 @@ pub struct JointExtremes {
 
 impl Default for JointExtremes {
     fn default() -> Self {
-        JointExtremes { max_penetration: f64::NEG_INFINITY, time_of_max_penetration: 0.0, max_force: 0.0, impacts: 0, contact_time: 0.0 }
+        JointExtremes {
+            max_penetration: f64::NEG_INFINITY,
+            time_of_max_penetration: 0.0,
+            max_force: 0.0,
+            impacts: 0,
+            contact_time: 0.0,
+        }
     }
 }
 
@@ -129,19 +152,38 @@ impl Recorder {
     /// is the expected number of samples (reserved up front so the time loop does not allocate).
     pub fn new(spec: &RecordSpec, joints: usize, node_dof: impl Fn(usize, usize) -> usize, steps: u64) -> Self {
         let js: Vec<usize> = spec.joints.clone().unwrap_or_else(|| (0..joints).collect());
-        let samples = if spec.histories { (steps / spec.every as u64 + 2) as usize } else { 0 };
+        let samples = if spec.histories {
+            (steps / spec.every as u64 + 2) as usize
+        } else {
+            0
+        };
         let cap = |on: bool| if on { Vec::with_capacity(samples) } else { Vec::new() };
         Recorder {
             time: cap(spec.histories),
             joints: if spec.histories {
                 js.iter()
-                    .map(|&j| JointHistory { joint: j, penetration: cap(true), force: cap(true), qx: cap(spec.joint_position), qy: cap(spec.joint_position) })
+                    .map(|&j| JointHistory {
+                        joint: j,
+                        penetration: cap(true),
+                        force: cap(true),
+                        qx: cap(spec.joint_position),
+                        qy: cap(spec.joint_position),
+                    })
                     .collect()
             } else {
                 Vec::new()
             },
             nodes: if spec.histories {
-                spec.nodes.iter().map(|&(l, n)| NodeHistory { link: l, node: n, u: cap(true), v: cap(true), theta: cap(true) }).collect()
+                spec.nodes
+                    .iter()
+                    .map(|&(l, n)| NodeHistory {
+                        link: l,
+                        node: n,
+                        u: cap(true),
+                        v: cap(true),
+                        theta: cap(true),
+                    })
+                    .collect()
             } else {
                 Vec::new()
             },
@@ -159,6 +201,7 @@ impl Recorder {
     /// `q[j]` are every joint's penetration (m), force magnitude (N) and position (m); `u` the
     /// global displacement vector.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub fn record(&mut self, step: u64, t: f64, dt: f64, pen: &[f64], force: &[f64], q: &[[f64; 2]], u: &[f64]) {
         if t < self.spec_start {
             for (c, &p) in self.was_closed.iter_mut().zip(pen) {
@@ -184,7 +227,7 @@ impl Recorder {
             }
             self.was_closed[j] = closed;
         }
-        if !self.histories || step % self.spec_every as u64 != 0 {
+        if !self.histories || !step.is_multiple_of(self.spec_every as u64) {
             return;
         }
         self.time.push(t);

@@ -62,7 +62,11 @@ impl Settings {
         }
         let steps = (self.t_end / self.dt).round();
         if steps > 1e12 {
-            return Err(Error::param("dt", self.dt, format!("at least t_end/1e12 = {:e} s (at most 1e12 steps)", self.t_end / 1e12)));
+            return Err(Error::param(
+                "dt",
+                self.dt,
+                format!("at least t_end/1e12 = {:e} s (at most 1e12 steps)", self.t_end / 1e12),
+            ));
         }
         self.newmark.validate()?;
         self.coupling.validate()?;
@@ -149,8 +153,17 @@ pub struct RunFailure {
 ///
 /// Errors before the first step (invalid input, a mass matrix that is not positive definite) come
 /// with an empty output.
-pub fn simulate(model: &Model, settings: &Settings, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<RunOutput, Box<RunFailure>> {
-    let fail = |error| Box::new(RunFailure { error, output: RunOutput::default() });
+pub fn simulate(
+    model: &Model,
+    settings: &Settings,
+    control: &mut dyn FnMut(f64) -> bool,
+) -> std::result::Result<RunOutput, Box<RunFailure>> {
+    let fail = |error| {
+        Box::new(RunFailure {
+            error,
+            output: RunOutput::default(),
+        })
+    };
     model.validate().map_err(fail)?;
     settings.validate(model).map_err(fail)?;
     let run = NewmarkRun::new(model, settings).map_err(fail)?;

@@ -13,7 +13,15 @@ use flexclear::{simulate, Error, Settings, SolverMode};
 use nalgebra::DMatrix;
 
 fn element() -> BeamElement {
-    BeamElement { length: 0.3, youngs_modulus: 2e11, density: 7800.0, area: 1e-4, inertia: 8e-10, damping: 0.0, rotary_inertia: false }
+    BeamElement {
+        length: 0.3,
+        youngs_modulus: 2e11,
+        density: 7800.0,
+        area: 1e-4,
+        inertia: 8e-10,
+        damping: 0.0,
+        rotary_inertia: false,
+    }
 }
 
 fn close(a: f64, b: f64, rel: f64) -> bool {
@@ -28,7 +36,12 @@ fn element_mass_matches_closed_form() {
     // axial: rho A l / 6 [2 1; 1 2]; bending: rho A l / 420 [156 22l 54 -13l; ...]
     assert!(close(m[(0, 0)], ra * l / 3.0, 1e-13) && close(m[(0, 3)], ra * l / 6.0, 1e-13));
     let b = ra * l / 420.0;
-    let exp = [[156.0, 22.0 * l, 54.0, -13.0 * l], [22.0 * l, 4.0 * l * l, 13.0 * l, -3.0 * l * l], [54.0, 13.0 * l, 156.0, -22.0 * l], [-13.0 * l, -3.0 * l * l, -22.0 * l, 4.0 * l * l]];
+    let exp = [
+        [156.0, 22.0 * l, 54.0, -13.0 * l],
+        [22.0 * l, 4.0 * l * l, 13.0 * l, -3.0 * l * l],
+        [54.0, 13.0 * l, 156.0, -22.0 * l],
+        [-13.0 * l, -3.0 * l * l, -22.0 * l, 4.0 * l * l],
+    ];
     let idx = [1, 2, 4, 5];
     for i in 0..4 {
         for j in 0..4 {
@@ -45,12 +58,22 @@ fn element_stiffness_and_geometric_match_closed_form() {
     let k = e.stiffness();
     assert!(close(k[(0, 0)], ea / l, 1e-13) && close(k[(0, 3)], -ea / l, 1e-13));
     let b = ei / l.powi(3);
-    let exp = [[12.0, 6.0 * l, -12.0, 6.0 * l], [6.0 * l, 4.0 * l * l, -6.0 * l, 2.0 * l * l], [-12.0, -6.0 * l, 12.0, -6.0 * l], [6.0 * l, 2.0 * l * l, -6.0 * l, 4.0 * l * l]];
+    let exp = [
+        [12.0, 6.0 * l, -12.0, 6.0 * l],
+        [6.0 * l, 4.0 * l * l, -6.0 * l, 2.0 * l * l],
+        [-12.0, -6.0 * l, 12.0, -6.0 * l],
+        [6.0 * l, 2.0 * l * l, -6.0 * l, 4.0 * l * l],
+    ];
     let idx = [1, 2, 4, 5];
     let f = 1234.0;
     let kg = e.geometric_stiffness(f);
     let g = f / (30.0 * l);
-    let gexp = [[36.0, 3.0 * l, -36.0, 3.0 * l], [3.0 * l, 4.0 * l * l, -3.0 * l, -l * l], [-36.0, -3.0 * l, 36.0, -3.0 * l], [3.0 * l, -l * l, -3.0 * l, 4.0 * l * l]];
+    let gexp = [
+        [36.0, 3.0 * l, -36.0, 3.0 * l],
+        [3.0 * l, 4.0 * l * l, -3.0 * l, -l * l],
+        [-36.0, -3.0 * l, 36.0, -3.0 * l],
+        [3.0 * l, -l * l, -3.0 * l, 4.0 * l * l],
+    ];
     for i in 0..4 {
         for j in 0..4 {
             assert!(close(k[(idx[i], idx[j])], b * exp[i][j], 1e-12), "K[{i}][{j}]");
@@ -90,7 +113,10 @@ fn beam(elements: usize) -> FlexibleLink {
 #[test]
 fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
     let link = beam(10);
-    let model = Model { links: vec![link.clone()], ..Default::default() };
+    let model = Model {
+        links: vec![link.clone()],
+        ..Default::default()
+    };
     let f = flexclear::modes::natural_frequencies(&model, 3).unwrap();
     let c = (link.youngs_modulus * link.inertia / (link.density * link.area)).sqrt() / link.length.powi(2);
     for (fi, bl) in f.iter().zip([4.730041, 7.853205, 10.995608]) {
@@ -98,7 +124,14 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
         assert!(close(*fi, exact, 1e-3), "{fi} vs {exact}");
     }
     // h-convergence: 20 elements are closer than 10
-    let f20 = flexclear::modes::natural_frequencies(&Model { links: vec![beam(20)], ..Default::default() }, 3).unwrap();
+    let f20 = flexclear::modes::natural_frequencies(
+        &Model {
+            links: vec![beam(20)],
+            ..Default::default()
+        },
+        3,
+    )
+    .unwrap();
     let exact3 = 10.995608f64.powi(2) * c / (2.0 * std::f64::consts::PI);
     assert!((f20[2] - exact3).abs() < (f[2] - exact3).abs());
 }
@@ -106,7 +139,10 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
 #[test]
 fn cantilever_tip_deflection_is_pl3_over_3ei() {
     let link = beam(8);
-    let model = Model { links: vec![link.clone()], ..Default::default() };
+    let model = Model {
+        links: vec![link.clone()],
+        ..Default::default()
+    };
     let sys = System::assemble(&model);
     let n = sys.n();
     let mut k = DMatrix::zeros(n, n);
@@ -128,7 +164,9 @@ fn cantilever_tip_deflection_is_pl3_over_3ei() {
 fn custom_triangular_solve_matches_faer_solve() {
     let model = SliderYoke::default().build().unwrap();
     let sys = System::assemble(&model);
-    let a: Vec<f64> = (0..sys.pattern.nnz()).map(|p| sys.mass[p] + 1e-10 * sys.stiffness[p]).collect();
+    let a: Vec<f64> = (0..sys.pattern.nnz())
+        .map(|p| sys.mass[p] + 1e-10 * sys.stiffness[p])
+        .collect();
     let mut ch = Cholesky::analyze(&sys.pattern).unwrap();
     ch.factorize(&a, "test").unwrap();
     let b: Vec<f64> = (0..sys.n()).map(|i| (i as f64 * 0.37).sin()).collect();
@@ -162,10 +200,14 @@ fn free_vibration(dt: f64, t_end: f64) -> (flexclear::RunOutput, Model) {
         // a smooth velocity field (slope-consistent rotation rates) so that the mesh's
         // unresolved high modes are barely excited
         v0[3 * i + 1] = (std::f64::consts::PI * x).cos(); // m/s
-        v0[3 * i + 2] = -std::f64::consts::PI * (std::f64::consts::PI * x).sin(); // rad/s
+        v0[3 * i + 2] = -std::f64::consts::PI * (std::f64::consts::PI * x).sin();
+        // rad/s
     }
     link.initial_velocity = Some(v0);
-    let model = Model { links: vec![link], ..Default::default() };
+    let model = Model {
+        links: vec![link],
+        ..Default::default()
+    };
     let mut s = Settings::new(t_end, dt);
     s.record.nodes = vec![(0, 10)];
     (simulate(&model, &s, &mut |_| true).unwrap(), model)
@@ -183,7 +225,11 @@ fn energy(sys: &System, u: &[f64], v: &[f64]) -> f64 {
 fn average_acceleration_newmark_conserves_energy_without_damping() {
     let (out, model) = free_vibration(2e-5, 0.05);
     let sys = System::assemble(&model);
-    let e0 = energy(&sys, &vec![0.0; sys.n()], model.links[0].initial_velocity.as_ref().unwrap());
+    let e0 = energy(
+        &sys,
+        &vec![0.0; sys.n()],
+        model.links[0].initial_velocity.as_ref().unwrap(),
+    );
     let e1 = energy(&sys, &out.state[0], &out.state[1]);
     // linear, undamped, average acceleration: energy is an exact invariant up to round-off
     assert!(close(e1, e0, 1e-9), "E0 = {e0}, E1 = {e1}");
@@ -196,16 +242,28 @@ fn newmark_converges_at_second_order() {
     let (reference, _) = free_vibration(1.25e-7 / 16.0, t_end);
     let tip = |o: &flexclear::RunOutput| *o.record.nodes[0].v.last().unwrap();
     let r = tip(&reference);
-    let errs: Vec<f64> = [5e-7, 2.5e-7, 1.25e-7].iter().map(|&dt| (tip(&free_vibration(dt, t_end).0) - r).abs()).collect();
+    let errs: Vec<f64> = [5e-7, 2.5e-7, 1.25e-7]
+        .iter()
+        .map(|&dt| (tip(&free_vibration(dt, t_end).0) - r).abs())
+        .collect();
     for w in errs.windows(2) {
         let ratio = w[0] / w[1];
-        assert!((3.5..4.6).contains(&ratio), "error ratio {ratio} for halved dt, errors {errs:?}");
+        assert!(
+            (3.5..4.6).contains(&ratio),
+            "error ratio {ratio} for halved dt, errors {errs:?}"
+        );
     }
 }
 
 #[test]
 fn zero_clearance_stiff_joint_makes_the_slider_follow_the_yoke() {
-    let model = SliderYoke { clearance: 0.0, bearing_stiffness: Some(1e9), ..Default::default() }.build().unwrap();
+    let model = SliderYoke {
+        clearance: 0.0,
+        bearing_stiffness: Some(1e9),
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
     let mut s = Settings::new(0.2, 1e-5);
     s.record.joint_position = true;
     let out = simulate(&model, &s, &mut |_| true).unwrap();
@@ -227,7 +285,10 @@ fn penetration(method: Coupling, solver: SolverMode, dt: f64, t_end: f64, sy: Sl
 
 #[test]
 fn force_and_modified_methods_agree_at_dt_1e_6() {
-    let sy = SliderYoke { clearance: 1e-4, ..Default::default() };
+    let sy = SliderYoke {
+        clearance: 1e-4,
+        ..Default::default()
+    };
     let a = penetration(Coupling::Force, SolverMode::Woodbury, 1e-6, 0.17, sy.clone());
     let b = penetration(Coupling::default(), SolverMode::Woodbury, 1e-6, 0.17, sy);
     let range = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -240,8 +301,16 @@ fn force_and_modified_methods_agree_at_dt_1e_6() {
 #[test]
 fn woodbury_and_refactorization_give_the_same_answer() {
     for (kb, iterate) in [(None, false), (Some(1e10), true), (Some(1e13), false)] {
-        let sy = SliderYoke { clearance: 1e-5, bearing_stiffness: kb, ..Default::default() };
-        let c = Coupling::Modified { iterate, tol: 1e-12, max_iter: 50 };
+        let sy = SliderYoke {
+            clearance: 1e-5,
+            bearing_stiffness: kb,
+            ..Default::default()
+        };
+        let c = Coupling::Modified {
+            iterate,
+            tol: 1e-12,
+            max_iter: 50,
+        };
         // 5 ms: the first impacts; later, rattling amplifies round-off differences
         let a = penetration(c, SolverMode::Woodbury, 1e-6, 0.005, sy.clone());
         let b = penetration(c, SolverMode::Refactor, 1e-6, 0.005, sy);
@@ -259,7 +328,13 @@ fn woodbury_and_refactorization_give_the_same_answer() {
 #[test]
 fn lagged_force_loses_stability_with_stiff_bearing_modified_does_not() {
     let run = |kb: f64, c: Coupling, dt: f64| {
-        let model = SliderYoke { clearance: 1e-5, bearing_stiffness: Some(kb), ..Default::default() }.build().unwrap();
+        let model = SliderYoke {
+            clearance: 1e-5,
+            bearing_stiffness: Some(kb),
+            ..Default::default()
+        }
+        .build()
+        .unwrap();
         let mut s = Settings::new(0.03, dt);
         s.coupling = c;
         s.record.histories = false;
@@ -271,16 +346,28 @@ fn lagged_force_loses_stability_with_stiff_bearing_modified_does_not() {
     let f = run(1e10, Coupling::Force, 1e-5).unwrap_err();
     assert!(matches!(f.error, Error::Diverged { .. }));
     assert!(f.output.stats.steps > 0 && f.output.stats.steps < 3000);
-    assert!(run(1e10, Coupling::Force, 1e-6).is_ok(), "the force method is stable once omega_c dt is small");
+    assert!(
+        run(1e10, Coupling::Force, 1e-6).is_ok(),
+        "the force method is stable once omega_c dt is small"
+    );
     let m = run(1e10, Coupling::default(), 1e-5).unwrap();
     assert!(m.record.extremes[0].max_penetration < 1e-5, "bounded penetration");
 }
 
 #[test]
 fn gap_element_keeps_penetration_small_and_counts_impacts() {
-    let model = SliderYoke { clearance: 1e-4, ..Default::default() }.build().unwrap();
+    let model = SliderYoke {
+        clearance: 1e-4,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
     let mut s = Settings::new(0.2, 1e-5);
-    s.coupling = Coupling::Gap { stiffness: None, damping: 0.0, max_iter: 20 };
+    s.coupling = Coupling::Gap {
+        stiffness: None,
+        damping: 0.0,
+        max_iter: 20,
+    };
     s.record.histories = false;
     let out = simulate(&model, &s, &mut |_| true).unwrap();
     let e = out.record.extremes[0];
@@ -292,7 +379,12 @@ fn gap_element_keeps_penetration_small_and_counts_impacts() {
 
 #[test]
 fn extremes_only_keep_no_history() {
-    let model = SliderYoke { clearance: 1e-5, ..Default::default() }.build().unwrap();
+    let model = SliderYoke {
+        clearance: 1e-5,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
     let mut s = Settings::new(0.1, 1e-6);
     s.record.histories = false;
     let out = simulate(&model, &s, &mut |_| true).unwrap();
@@ -313,12 +405,33 @@ fn bad_input_names_the_parameter() {
     assert!(matches!(m.validate(), Err(Error::InvalidParameter { .. })));
     let model = SliderYoke::default().build().unwrap();
     let s = Settings::new(0.1, f64::NAN);
-    assert!(matches!(simulate(&model, &s, &mut |_| true).unwrap_err().error, Error::InvalidParameter { .. }));
-    let law = Arc::new(SpringDamper { stiffness: -1.0, damping: 0.0, damping_law: Default::default(), no_tension: false });
+    assert!(matches!(
+        simulate(&model, &s, &mut |_| true).unwrap_err().error,
+        Error::InvalidParameter { .. }
+    ));
+    let law = Arc::new(SpringDamper {
+        stiffness: -1.0,
+        damping: 0.0,
+        damping_law: Default::default(),
+        no_tension: false,
+    });
     let bad = Model {
         links: vec![beam(2)],
-        bodies: vec![RigidBody { name: "g".into(), motion: Motion::Fixed { position: [0.0; 2] } }],
-        joints: vec![ClearanceJoint { name: "j".into(), link: 0, node: 0, target: JointTarget::Body { body: 0, point: [0.0; 2] }, clearance: 0.0, law }],
+        bodies: vec![RigidBody {
+            name: "g".into(),
+            motion: Motion::Fixed { position: [0.0; 2] },
+        }],
+        joints: vec![ClearanceJoint {
+            name: "j".into(),
+            link: 0,
+            node: 0,
+            target: JointTarget::Body {
+                body: 0,
+                point: [0.0; 2],
+            },
+            clearance: 0.0,
+            law,
+        }],
     };
     match bad.validate() {
         Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "joints[0].law.stiffness"),

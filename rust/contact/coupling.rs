@@ -35,7 +35,11 @@ pub enum Coupling {
 
 impl Default for Coupling {
     fn default() -> Self {
-        Coupling::Modified { iterate: false, tol: 1e-10, max_iter: 50 }
+        Coupling::Modified {
+            iterate: false,
+            tol: 1e-10,
+            max_iter: 50,
+        }
     }
 }
 
@@ -51,7 +55,11 @@ impl Coupling {
                 }
                 Ok(())
             }
-            Coupling::Gap { stiffness, damping, max_iter } => {
+            Coupling::Gap {
+                stiffness,
+                damping,
+                max_iter,
+            } => {
                 if let Some(k) = stiffness {
                     check_positive("gap_stiffness", k, "N/m")?;
                 }

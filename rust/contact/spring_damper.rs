@@ -37,17 +37,27 @@ impl ContactLaw for SpringDamper {
         let delta = dr - clearance;
         // delta > 0 implies dr > clearance >= 0, so dr > 0 below: no division by zero.
         if delta <= 0.0 || dr == 0.0 {
-            return ContactTerms { penetration: delta, ..Default::default() };
+            return ContactTerms {
+                penetration: delta,
+                ..Default::default()
+            };
         }
         let kappa = delta / dr;
         let n = [q[0] / dr, q[1] / dr];
         let kk = kappa * self.stiffness;
         let cb = self.damping;
-        let mut t = ContactTerms { penetration: delta, k: [[kk, 0.0], [0.0, kk]], ..Default::default() };
+        let mut t = ContactTerms {
+            penetration: delta,
+            k: [[kk, 0.0], [0.0, kk]],
+            ..Default::default()
+        };
         match self.damping_law {
             DampingLaw::Viscous => t.c = [[cb, 0.0], [0.0, cb]],
             DampingLaw::Radial => {
-                t.c = [[cb * n[0] * n[0], cb * n[0] * n[1]], [cb * n[1] * n[0], cb * n[1] * n[1]]];
+                t.c = [
+                    [cb * n[0] * n[0], cb * n[0] * n[1]],
+                    [cb * n[1] * n[0], cb * n[1] * n[1]],
+                ];
             }
             DampingLaw::Literal => {
                 let s = cb * (qd[0] * qd[0] + qd[1] * qd[1]).sqrt();
@@ -57,7 +67,10 @@ impl ContactLaw for SpringDamper {
         if self.no_tension {
             let f = t.force(q, qd);
             if f[0] * n[0] + f[1] * n[1] > 0.0 {
-                return ContactTerms { penetration: delta, ..Default::default() };
+                return ContactTerms {
+                    penetration: delta,
+                    ..Default::default()
+                };
             }
         }
         t

@@ -74,7 +74,9 @@ where
     T: std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
     F: Fn(&Shape, f64) -> T,
 {
-    GAUSS.iter().fold(zero, |acc, &(xi, w)| acc + f(&shape(xi, l), xi) * (w * l))
+    GAUSS
+        .iter()
+        .fold(zero, |acc, &(xi, w)| acc + f(&shape(xi, l), xi) * (w * l))
 }
 
 /// One beam element: length and section/material data (SI units).
@@ -100,7 +102,11 @@ impl BeamElement {
     /// Consistent mass matrix `M = rho A int N^T N dx` (+ rotary inertia when enabled), kg.
     pub fn mass(&self) -> Mat6 {
         let ra = self.density * self.area;
-        let ri = if self.rotary_inertia { self.density * self.inertia } else { 0.0 };
+        let ri = if self.rotary_inertia {
+            self.density * self.inertia
+        } else {
+            0.0
+        };
         integrate(self.length, Mat6::zeros(), |s, _| {
             (s.nu * s.nu.transpose() + s.nv * s.nv.transpose()) * ra + s.dnv * s.dnv.transpose() * ri
         })
@@ -182,7 +188,12 @@ impl BeamElement {
             let s = shape(xi, l);
             let x = x0 + xi * l;
             let wl = w * l * ra;
-            [acc[0] + s.nu * wl, acc[1] + s.nv * wl, acc[2] + s.nu * (wl * x), acc[3] + s.nv * (wl * x)]
+            [
+                acc[0] + s.nu * wl,
+                acc[1] + s.nv * wl,
+                acc[2] + s.nu * (wl * x),
+                acc[3] + s.nv * (wl * x),
+            ]
         });
         v
     }

@@ -124,11 +124,17 @@ impl<'m> NewmarkRun<'m> {
         let bdt2 = settings.newmark.beta * dt * dt;
         let gdt = settings.newmark.gamma * dt;
         let nnz = sys.pattern.nnz();
-        let a0_values: Vec<f64> = (0..nnz).map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p]).collect();
+        let a0_values: Vec<f64> = (0..nnz)
+            .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
+            .collect();
         let mut chol0 = Cholesky::analyze(&sys.pattern)?;
         chol0.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
         let needs_refactor = nj > 0 && !matches!(settings.coupling, Coupling::Force);
-        let chol_c = if needs_refactor { Some(Cholesky::analyze(&sys.pattern)?) } else { None };
+        let chol_c = if needs_refactor {
+            Some(Cholesky::analyze(&sys.pattern)?)
+        } else {
+            None
+        };
         let joint_pos = sys
             .joints
             .iter()
@@ -161,7 +167,9 @@ impl<'m> NewmarkRun<'m> {
                 wmat[(2 * jr + 1) * m + c] = p[1];
             }
         }
-        let limit = settings.divergence_limit.unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.length).fold(0.0, f64::max));
+        let limit = settings
+            .divergence_limit
+            .unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.length).fold(0.0, f64::max));
         let mut translational = vec![true; n];
         for (i, t) in translational.iter_mut().enumerate() {
             // every link has 3 DOFs per node and starts at a multiple of 3
@@ -188,7 +196,10 @@ impl<'m> NewmarkRun<'m> {
             }
         }
         if nj > 0 {
-            terms_desc.push(format!("clearance contact, {} coupling, on {nj} joint(s)", settings.coupling.name()));
+            terms_desc.push(format!(
+                "clearance contact, {} coupling, on {nj} joint(s)",
+                settings.coupling.name()
+            ));
         }
         let node_dof = |l: usize, node: usize| sys.links[l].offset + 3 * node;
         let rec = Recorder::new(&settings.record, nj, node_dof, settings.steps());
@@ -233,7 +244,10 @@ impl<'m> NewmarkRun<'m> {
             gap_k,
             limit,
             translational,
-            stats: RunStats { terms: terms_desc, ..Default::default() },
+            stats: RunStats {
+                terms: terms_desc,
+                ..Default::default()
+            },
             rec,
             t: 0.0,
             step: 0,
@@ -287,7 +301,8 @@ impl<'m> NewmarkRun<'m> {
         self.a.copy_from_slice(&self.r);
         mchol.solve_in_place(&mut self.a);
         self.check_state()?;
-        self.rec.record(0, 0.0, self.settings.dt, &self.pen, &self.fmag, &self.q, &self.u);
+        self.rec
+            .record(0, 0.0, self.settings.dt, &self.pen, &self.fmag, &self.q, &self.u);
         Ok(())
     }
 
@@ -300,7 +315,10 @@ impl<'m> NewmarkRun<'m> {
             Coupling::Gap { damping, .. } => {
                 let pen = q[0].hypot(q[1]) - j.clearance;
                 if !self.gap_closed[jj] {
-                    return ContactTerms { penetration: pen, ..Default::default() };
+                    return ContactTerms {
+                        penetration: pen,
+                        ..Default::default()
+                    };
                 }
                 let n = self.gap_normal[jj];
                 let k = self.gap_k[jj];
@@ -308,7 +326,10 @@ impl<'m> NewmarkRun<'m> {
                 ContactTerms {
                     penetration: pen,
                     k: [[k * nn[0][0], k * nn[0][1]], [k * nn[1][0], k * nn[1][1]]],
-                    c: [[damping * nn[0][0], damping * nn[0][1]], [damping * nn[1][0], damping * nn[1][1]]],
+                    c: [
+                        [damping * nn[0][0], damping * nn[0][1]],
+                        [damping * nn[1][0], damping * nn[1][1]],
+                    ],
                     f_explicit: [k * j.clearance * n[0], k * j.clearance * n[1]],
                 }
             }
@@ -325,8 +346,11 @@ impl<'m> NewmarkRun<'m> {
             if let Err(e) = self.advance(t1) {
                 return Err(self.fail(e));
             }
-            if self.step % CONTROL_STRIDE == 0 && !control(self.step as f64 / steps as f64) {
-                let e = Error::Interrupted { time: self.t, step: self.step };
+            if self.step.is_multiple_of(CONTROL_STRIDE) && !control(self.step as f64 / steps as f64) {
+                let e = Error::Interrupted {
+                    time: self.t,
+                    step: self.step,
+                };
                 return Err(self.fail(e));
             }
         }
@@ -334,13 +358,21 @@ impl<'m> NewmarkRun<'m> {
     }
 
     fn fail(self, error: Error) -> Box<RunFailure> {
-        Box::new(RunFailure { error, output: self.finish() })
+        Box::new(RunFailure {
+            error,
+            output: self.finish(),
+        })
     }
 
     fn finish(mut self) -> RunOutput {
         self.stats.steps = self.step;
         self.stats.factorizations = self.chol0.factorizations + self.chol_c.as_ref().map_or(0, |c| c.factorizations);
-        RunOutput { record: self.rec, stats: self.stats, state: [self.u, self.v, self.a], time: self.t }
+        RunOutput {
+            record: self.rec,
+            stats: self.stats,
+            state: [self.u, self.v, self.a],
+            time: self.t,
+        }
     }
 
     /// One step to `t1`.
@@ -372,8 +404,12 @@ impl<'m> NewmarkRun<'m> {
                 }
             }
             None => {
-                for (((ut, vt), &u), (&v, &a)) in
-                    self.ut.iter_mut().zip(self.vt.iter_mut()).zip(&self.u).zip(self.v.iter().zip(&self.a))
+                for (((ut, vt), &u), (&v, &a)) in self
+                    .ut
+                    .iter_mut()
+                    .zip(self.vt.iter_mut())
+                    .zip(&self.u)
+                    .zip(self.v.iter().zip(&self.a))
                 {
                     *ut = u + dt * v + c1 * a;
                     *vt = v + c2 * a;
@@ -525,7 +561,7 @@ impl<'m> NewmarkRun<'m> {
             }
         }
         let rcond = solve_dense_in_place(&mut self.cap, &mut self.s, m);
-        if !(rcond >= WOODBURY_RCOND) {
+        if rcond.is_nan() || rcond < WOODBURY_RCOND {
             self.stats.woodbury_fallbacks += 1;
             return false;
         }
@@ -543,7 +579,10 @@ impl<'m> NewmarkRun<'m> {
     /// Full solve with the contact terms in the matrix (numeric refactorization when they
     /// changed); the solution goes to `tmp`, the joints' accelerations to `pa`.
     fn refactor_joint_solve(&mut self) -> Result<()> {
-        let chol = self.chol_c.as_mut().expect("contact factorization exists for implicit couplings");
+        let chol = self
+            .chol_c
+            .as_mut()
+            .expect("contact factorization exists for implicit couplings");
         if self.g != self.g_factored {
             self.ac_values.copy_from_slice(&self.a0_values);
             for (jj, j) in self.sys.joints.iter().enumerate() {
@@ -601,8 +640,14 @@ impl<'m> NewmarkRun<'m> {
             change = change.max((self.pa[r] - self.pa_old[r]).abs());
         }
         for jj in 0..nj {
-            let q1 = [self.qt[jj][0] + self.bdt2 * self.pa[2 * jj], self.qt[jj][1] + self.bdt2 * self.pa[2 * jj + 1]];
-            let qd1 = [self.qdt[jj][0] + self.gdt * self.pa[2 * jj], self.qdt[jj][1] + self.gdt * self.pa[2 * jj + 1]];
+            let q1 = [
+                self.qt[jj][0] + self.bdt2 * self.pa[2 * jj],
+                self.qt[jj][1] + self.bdt2 * self.pa[2 * jj + 1],
+            ];
+            let qd1 = [
+                self.qdt[jj][0] + self.gdt * self.pa[2 * jj],
+                self.qdt[jj][1] + self.gdt * self.pa[2 * jj + 1],
+            ];
             if is_gap {
                 let dr = q1[0].hypot(q1[1]);
                 let closed = dr - self.sys.joints[jj].clearance > 0.0;
@@ -645,8 +690,11 @@ impl<'m> NewmarkRun<'m> {
     #[inline]
     fn complete(&mut self, t1: f64) -> Result<()> {
         let (bdt2, gdt) = (self.bdt2, self.gdt);
-        for ((u, v), ((&ut, &vt), &a)) in
-            self.u.iter_mut().zip(self.v.iter_mut()).zip(self.ut.iter().zip(&self.vt).zip(&self.a))
+        for ((u, v), ((&ut, &vt), &a)) in self
+            .u
+            .iter_mut()
+            .zip(self.v.iter_mut())
+            .zip(self.ut.iter().zip(&self.vt).zip(&self.a))
         {
             *u = ut + bdt2 * a;
             *v = vt + gdt * a;
@@ -657,14 +705,22 @@ impl<'m> NewmarkRun<'m> {
             let pu = System::joint_project(j, &self.a);
             let q = [self.qt[jj][0] + self.bdt2 * pu[0], self.qt[jj][1] + self.bdt2 * pu[1]];
             let qd = [self.qdt[jj][0] + self.gdt * pu[0], self.qdt[jj][1] + self.gdt * pu[1]];
-            let f = if explicit { [self.h[2 * jj], self.h[2 * jj + 1]] } else { self.terms[jj].force(q, qd) };
+            let f = if explicit {
+                [self.h[2 * jj], self.h[2 * jj + 1]]
+            } else {
+                self.terms[jj].force(q, qd)
+            };
             self.q[jj] = q;
             self.qd[jj] = qd;
             self.pen[jj] = q[0].hypot(q[1]) - j.clearance;
             self.fmag[jj] = f[0].hypot(f[1]);
             if !self.pen[jj].is_finite() {
                 let jname = self.model.joints[jj].name.clone();
-                return Err(self.diverged(t1, format!("joint {jname:?} position"), "non-finite joint position".into()));
+                return Err(self.diverged(
+                    t1,
+                    format!("joint {jname:?} position"),
+                    "non-finite joint position".into(),
+                ));
             }
             if let Coupling::Gap { .. } = self.settings.coupling {
                 // the status for the next step follows the state just reached
@@ -677,30 +733,48 @@ impl<'m> NewmarkRun<'m> {
         }
         self.step += 1;
         self.t = t1;
-        if self.step % CHECK_STRIDE == 0 {
+        if self.step.is_multiple_of(CHECK_STRIDE) {
             self.check_state()?;
         }
-        self.rec.record(self.step, t1, self.settings.dt, &self.pen, &self.fmag, &self.q, &self.u);
+        self.rec
+            .record(self.step, t1, self.settings.dt, &self.pen, &self.fmag, &self.q, &self.u);
         Ok(())
     }
 
     fn diverged(&self, t: f64, dof: String, reason: String) -> Error {
-        Error::Diverged { time: t, step: self.step + 1, dof, reason }
+        Error::Diverged {
+            time: t,
+            step: self.step + 1,
+            dof,
+            reason,
+        }
     }
 
     /// Finite and within-limit check of the whole state.
     fn check_state(&self) -> Result<()> {
-        let bad = self.u.iter().zip(&self.v).zip(&self.translational).position(|((&u, &v), &tr)| {
-            !(u.is_finite() && v.is_finite()) || (tr && u.abs() > self.limit)
-        });
+        let bad = self
+            .u
+            .iter()
+            .zip(&self.v)
+            .zip(&self.translational)
+            .position(|((&u, &v), &tr)| !(u.is_finite() && v.is_finite()) || (tr && u.abs() > self.limit));
         if let Some(d) = bad {
             let x = self.u[d];
             let reason = if x.is_finite() && self.v[d].is_finite() {
-                format!("|displacement| = {:.3e} m exceeds the divergence limit {:.3e} m", x.abs(), self.limit)
+                format!(
+                    "|displacement| = {:.3e} m exceeds the divergence limit {:.3e} m",
+                    x.abs(),
+                    self.limit
+                )
             } else {
                 "non-finite displacement or velocity".to_string()
             };
-            return Err(Error::Diverged { time: self.t, step: self.step, dof: self.sys.describe_dof(self.model, d), reason });
+            return Err(Error::Diverged {
+                time: self.t,
+                step: self.step,
+                dof: self.sys.describe_dof(self.model, d),
+                reason,
+            });
         }
         Ok(())
     }

@@ -90,10 +90,17 @@ impl FlexibleLink {
         check_positive(&p("inertia"), self.inertia, "m^4")?;
         check_finite(&p("angle"), self.angle, "rad")?;
         self.motion.validate(&p("motion"))?;
-        for (label, v) in [("initial_displacement", &self.initial_displacement), ("initial_velocity", &self.initial_velocity)] {
+        for (label, v) in [
+            ("initial_displacement", &self.initial_displacement),
+            ("initial_velocity", &self.initial_velocity),
+        ] {
             if let Some(v) = v {
                 if v.len() != self.dofs() {
-                    return Err(Error::param(p(label), format!("{} values", v.len()), format!("{} values (3 per node)", self.dofs())));
+                    return Err(Error::param(
+                        p(label),
+                        format!("{} values", v.len()),
+                        format!("{} values (3 per node)", self.dofs()),
+                    ));
                 }
                 if let Some(k) = v.iter().position(|x| !x.is_finite()) {
                     return Err(Error::param(format!("{}[{k}]", p(label)), v[k], "finite values"));
@@ -165,7 +172,9 @@ fn check_unique<'a>(kind: &str, names: impl Iterator<Item = &'a str>) -> Result<
     let mut seen = std::collections::HashSet::new();
     for n in names {
         if !seen.insert(n) {
-            return Err(Error::InvalidModel { message: format!("two {kind} are named {n:?}") });
+            return Err(Error::InvalidModel {
+                message: format!("two {kind} are named {n:?}"),
+            });
         }
     }
     Ok(())
@@ -176,7 +185,9 @@ impl Model {
     /// parameter and its allowed range, or [`Error::InvalidModel`] for dangling references.
     pub fn validate(&self) -> Result<()> {
         if self.links.is_empty() {
-            return Err(Error::InvalidModel { message: "the model has no flexible link".into() });
+            return Err(Error::InvalidModel {
+                message: "the model has no flexible link".into(),
+            });
         }
         check_unique("links", self.links.iter().map(|l| l.name.as_str()))?;
         check_unique("bodies", self.bodies.iter().map(|b| b.name.as_str()))?;
@@ -194,7 +205,11 @@ impl Model {
                 JointTarget::Body { body, point } => {
                     if body >= self.bodies.len() {
                         return Err(Error::InvalidModel {
-                            message: format!("joint {:?} refers to rigid body #{body}, but the model has {}", j.name, self.bodies.len()),
+                            message: format!(
+                                "joint {:?} refers to rigid body #{body}, but the model has {}",
+                                j.name,
+                                self.bodies.len()
+                            ),
                         });
                     }
                     check_finite(&p("point[0]"), point[0], "m")?;
@@ -203,7 +218,9 @@ impl Model {
                 JointTarget::Node { link, node } => {
                     self.check_node(&p("target_node"), link, node)?;
                     if link == j.link && node == j.node {
-                        return Err(Error::InvalidModel { message: format!("joint {:?} joins a node to itself", j.name) });
+                        return Err(Error::InvalidModel {
+                            message: format!("joint {:?} joins a node to itself", j.name),
+                        });
                     }
                 }
             }
@@ -215,10 +232,19 @@ impl Model {
 
     fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
         let Some(l) = self.links.get(link) else {
-            return Err(Error::InvalidModel { message: format!("{name}: link #{link} does not exist (the model has {})", self.links.len()) });
+            return Err(Error::InvalidModel {
+                message: format!(
+                    "{name}: link #{link} does not exist (the model has {})",
+                    self.links.len()
+                ),
+            });
         };
         if node > l.elements {
-            return Err(Error::param(name, node, format!("a node of link {:?}: 0 ..= {}", l.name, l.elements)));
+            return Err(Error::param(
+                name,
+                node,
+                format!("a node of link {:?}: 0 ..= {}", l.name, l.elements),
+            ));
         }
         Ok(())
     }

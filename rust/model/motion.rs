@@ -78,7 +78,11 @@ impl Table {
     ) -> Result<Self> {
         let n = time.len();
         if n < 2 {
-            return Err(Error::param(format!("{name}.time"), format!("{n} samples"), "at least 2 samples"));
+            return Err(Error::param(
+                format!("{name}.time"),
+                format!("{n} samples"),
+                "at least 2 samples",
+            ));
         }
         for (i, w) in time.windows(2).enumerate() {
             if !(w[0].is_finite() && w[1].is_finite() && w[1] > w[0]) {
@@ -89,7 +93,11 @@ impl Table {
                 ));
             }
         }
-        for (label, arr) in [("position", Some(&pos)), ("velocity", vel.as_ref()), ("acceleration", acc.as_ref())] {
+        for (label, arr) in [
+            ("position", Some(&pos)),
+            ("velocity", vel.as_ref()),
+            ("acceleration", acc.as_ref()),
+        ] {
             if let Some(a) = arr {
                 if a.len() != n {
                     return Err(Error::param(
@@ -99,7 +107,11 @@ impl Table {
                     ));
                 }
                 if let Some(i) = a.iter().position(|p| !(p[0].is_finite() && p[1].is_finite())) {
-                    return Err(Error::param(format!("{name}.{label}[{i}]"), "non-finite", "finite values"));
+                    return Err(Error::param(
+                        format!("{name}.{label}[{i}]"),
+                        "non-finite",
+                        "finite values",
+                    ));
                 }
             }
         }
@@ -126,8 +138,17 @@ impl Table {
             k => k - 1,
         };
         let s = ((t - self.time[i]) / (self.time[i + 1] - self.time[i])).clamp(0.0, 1.0);
-        let lerp = |a: &[[f64; 2]]| [a[i][0] + s * (a[i + 1][0] - a[i][0]), a[i][1] + s * (a[i + 1][1] - a[i][1])];
-        Kinematics { pos: lerp(&self.pos), vel: lerp(&self.vel), acc: lerp(&self.acc) }
+        let lerp = |a: &[[f64; 2]]| {
+            [
+                a[i][0] + s * (a[i + 1][0] - a[i][0]),
+                a[i][1] + s * (a[i + 1][1] - a[i][1]),
+            ]
+        };
+        Kinematics {
+            pos: lerp(&self.pos),
+            vel: lerp(&self.vel),
+            acc: lerp(&self.acc),
+        }
     }
 }
 
@@ -136,8 +157,16 @@ impl Motion {
     #[inline]
     pub fn at(&self, t: f64) -> Kinematics {
         match self {
-            Motion::Fixed { position } => Kinematics { pos: *position, ..Default::default() },
-            Motion::Harmonic { offset, amplitude, frequency, phase } => {
+            Motion::Fixed { position } => Kinematics {
+                pos: *position,
+                ..Default::default()
+            },
+            Motion::Harmonic {
+                offset,
+                amplitude,
+                frequency,
+                phase,
+            } => {
                 let w = 2.0 * std::f64::consts::PI * frequency;
                 let (s, c) = (w * t + phase).sin_cos();
                 Kinematics {
@@ -162,7 +191,12 @@ impl Motion {
                 check_finite(&format!("{name}.position[0]"), position[0], "m")?;
                 check_finite(&format!("{name}.position[1]"), position[1], "m")
             }
-            Motion::Harmonic { offset, amplitude, frequency, phase } => {
+            Motion::Harmonic {
+                offset,
+                amplitude,
+                frequency,
+                phase,
+            } => {
                 for k in 0..2 {
                     check_finite(&format!("{name}.offset[{k}]"), offset[k], "m")?;
                     check_finite(&format!("{name}.amplitude[{k}]"), amplitude[k], "m")?;

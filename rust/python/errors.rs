@@ -36,7 +36,12 @@ pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyDict>>) -
                     ("pivot", index.into_pyobject(py)?.into_any().unbind()),
                 ],
             ),
-            Error::Diverged { time, step, dof, reason } => (
+            Error::Diverged {
+                time,
+                step,
+                dof,
+                reason,
+            } => (
                 "SimulationDivergedError",
                 vec![
                     ("time", time.into_pyobject(py)?.into_any().unbind()),

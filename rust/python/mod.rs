@@ -35,7 +35,11 @@ impl PyMotion {
     /// At rest at `position` (m).
     #[staticmethod]
     fn fixed(position: (f64, f64)) -> Self {
-        PyMotion { inner: Motion::Fixed { position: [position.0, position.1] } }
+        PyMotion {
+            inner: Motion::Fixed {
+                position: [position.0, position.1],
+            },
+        }
     }
 
     /// `offset + amplitude sin(2 pi frequency t + phase)` (m, Hz, rad).
@@ -43,7 +47,12 @@ impl PyMotion {
     #[pyo3(signature = (amplitude, frequency, offset=(0.0, 0.0), phase=0.0))]
     fn harmonic(amplitude: (f64, f64), frequency: f64, offset: (f64, f64), phase: f64) -> Self {
         PyMotion {
-            inner: Motion::Harmonic { offset: [offset.0, offset.1], amplitude: [amplitude.0, amplitude.1], frequency, phase },
+            inner: Motion::Harmonic {
+                offset: [offset.0, offset.1],
+                amplitude: [amplitude.0, amplitude.1],
+                frequency,
+                phase,
+            },
         }
     }
 
@@ -59,8 +68,17 @@ impl PyMotion {
         acceleration: Option<Vec<(f64, f64)>>,
     ) -> PyResult<Self> {
         let conv = |v: Vec<(f64, f64)>| v.into_iter().map(|(a, b)| [a, b]).collect::<Vec<_>>();
-        let table = Table::new("motion", time, conv(position), velocity.map(conv), acceleration.map(conv)).map_err(|e| err(py, e))?;
-        Ok(PyMotion { inner: Motion::Tabulated(table) })
+        let table = Table::new(
+            "motion",
+            time,
+            conv(position),
+            velocity.map(conv),
+            acceleration.map(conv),
+        )
+        .map_err(|e| err(py, e))?;
+        Ok(PyMotion {
+            inner: Motion::Tabulated(table),
+        })
     }
 
     /// Position, velocity and acceleration at time `t` (s).
@@ -83,7 +101,14 @@ fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw> {
         "viscous" => Ok(DampingLaw::Viscous),
         "radial" => Ok(DampingLaw::Radial),
         "literal" => Ok(DampingLaw::Literal),
-        other => Err(err(py, Error::param("damping_law", format!("{other:?}"), "one of \"viscous\", \"radial\", \"literal\""))),
+        other => Err(err(
+            py,
+            Error::param(
+                "damping_law",
+                format!("{other:?}"),
+                "one of \"viscous\", \"radial\", \"literal\"",
+            ),
+        )),
     }
 }
 
@@ -156,7 +181,10 @@ impl PyModel {
     #[pyo3(signature = (name, motion=None))]
     fn add_body(&mut self, py: Python<'_>, name: String, motion: Option<PyRef<'_, PyMotion>>) -> PyResult<usize> {
         let mut m = self.inner.clone();
-        m.bodies.push(RigidBody { name, motion: motion_or_fixed(motion) });
+        m.bodies.push(RigidBody {
+            name,
+            motion: motion_or_fixed(motion),
+        });
         validate_partial(py, &m, "bodies")?;
         self.inner = m;
         Ok(self.inner.bodies.len() - 1)
@@ -187,17 +215,37 @@ impl PyModel {
             usize::try_from(v).map_err(|_| err(py, Error::param(what, v, "an index >= 0")))
         };
         let target = match (body, target_link, target_node) {
-            (Some(b), None, None) => JointTarget::Body { body: idx(b, "body")?, point: [point.0, point.1] },
-            (None, Some(l), Some(n)) => JointTarget::Node { link: idx(l, "target_link")?, node: idx(n, "target_node")? },
+            (Some(b), None, None) => JointTarget::Body {
+                body: idx(b, "body")?,
+                point: [point.0, point.1],
+            },
+            (None, Some(l), Some(n)) => JointTarget::Node {
+                link: idx(l, "target_link")?,
+                node: idx(n, "target_node")?,
+            },
             _ => {
                 return Err(err(
                     py,
-                    Error::InvalidModel { message: "a joint needs either `body` or both `target_link` and `target_node`".into() },
+                    Error::InvalidModel {
+                        message: "a joint needs either `body` or both `target_link` and `target_node`".into(),
+                    },
                 ))
             }
         };
-        let law = SpringDamper { stiffness, damping, damping_law: parse_damping_law(py, damping_law)?, no_tension };
-        let joint = ClearanceJoint { name, link: idx(link, "link")?, node: idx(node, "node")?, target, clearance, law: Arc::new(law) };
+        let law = SpringDamper {
+            stiffness,
+            damping,
+            damping_law: parse_damping_law(py, damping_law)?,
+            no_tension,
+        };
+        let joint = ClearanceJoint {
+            name,
+            link: idx(link, "link")?,
+            node: idx(node, "node")?,
+            target,
+            clearance,
+            law: Arc::new(law),
+        };
         let mut m = self.inner.clone();
         m.joints.push(joint);
         validate_partial(py, &m, "joints")?;
@@ -233,7 +281,9 @@ impl PyModel {
             return Err(err(py, Error::param("count", count, "an integer >= 1")));
         }
         let model = self.inner.clone();
-        let f = py.detach(move || crate::modes::natural_frequencies(&model, count as usize)).map_err(|e| err(py, e))?;
+        let f = py
+            .detach(move || crate::modes::natural_frequencies(&model, count as usize))
+            .map_err(|e| err(py, e))?;
         Ok(PyArray1::from_vec(py, f))
     }
 
@@ -266,18 +316,37 @@ impl PyModel {
         start: f64,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let max_iter = usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
+        let max_iter =
+            usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
         let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
         let coupling = match method {
             "force" => Coupling::Force,
             "modified" => Coupling::Modified { iterate, tol, max_iter },
-            "gap" => Coupling::Gap { stiffness: gap_stiffness, damping: gap_damping, max_iter },
-            other => return Err(err(py, Error::param("method", format!("{other:?}"), "one of \"force\", \"modified\", \"gap\""))),
+            "gap" => Coupling::Gap {
+                stiffness: gap_stiffness,
+                damping: gap_damping,
+                max_iter,
+            },
+            other => {
+                return Err(err(
+                    py,
+                    Error::param(
+                        "method",
+                        format!("{other:?}"),
+                        "one of \"force\", \"modified\", \"gap\"",
+                    ),
+                ))
+            }
         };
         let solver = match solver {
             "woodbury" => SolverMode::Woodbury,
             "refactor" => SolverMode::Refactor,
-            other => return Err(err(py, Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""))),
+            other => {
+                return Err(err(
+                    py,
+                    Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
+                ))
+            }
         };
         let settings = Settings {
             t_end,
@@ -286,7 +355,14 @@ impl PyModel {
             coupling,
             solver,
             divergence_limit,
-            record: RecordSpec { joints, joint_position, nodes, every, histories, start },
+            record: RecordSpec {
+                joints,
+                joint_position,
+                nodes,
+                every,
+                histories,
+                start,
+            },
         };
         let model = &self.inner;
         let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
@@ -319,7 +395,9 @@ fn validate_partial(py: Python<'_>, m: &Model, _what: &str) -> PyResult<()> {
     if m.links.is_empty() {
         // bodies may come before links; check them alone
         for (i, b) in m.bodies.iter().enumerate() {
-            b.motion.validate(&format!("bodies[{i}].motion")).map_err(|e| err(py, e))?;
+            b.motion
+                .validate(&format!("bodies[{i}].motion"))
+                .map_err(|e| err(py, e))?;
         }
         return Ok(());
     }
@@ -375,7 +453,14 @@ fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
     st.set_item("terms", s.terms)?;
     d.set_item("stats", st)?;
     let [u, v, a] = out.state;
-    d.set_item("state", (PyArray1::from_vec(py, u), PyArray1::from_vec(py, v), PyArray1::from_vec(py, a)))?;
+    d.set_item(
+        "state",
+        (
+            PyArray1::from_vec(py, u),
+            PyArray1::from_vec(py, v),
+            PyArray1::from_vec(py, a),
+        ),
+    )?;
     d.set_item("t", out.time)?;
     Ok(d)
 }
@@ -416,7 +501,16 @@ fn slider_yoke<'py>(
         "end" => SliderYokeGeometry::End,
         "both_ends" => SliderYokeGeometry::BothEnds,
         "mid_span" => SliderYokeGeometry::MidSpan,
-        other => return Err(err(py, Error::param("geometry", format!("{other:?}"), "one of \"end\", \"both_ends\", \"mid_span\""))),
+        other => {
+            return Err(err(
+                py,
+                Error::param(
+                    "geometry",
+                    format!("{other:?}"),
+                    "one of \"end\", \"both_ends\", \"mid_span\"",
+                ),
+            ))
+        }
     };
     let scene = SliderYoke {
         clearance,

@@ -135,8 +135,12 @@ impl SliderYoke {
         if self.elements < 1 {
             return Err(Error::param("elements", self.elements, "an integer >= 1"));
         }
-        if self.geometry == SliderYokeGeometry::MidSpan && self.elements % 2 != 0 {
-            return Err(Error::param("elements", self.elements, "an even integer >= 2 for a mid-span bearing"));
+        if self.geometry == SliderYokeGeometry::MidSpan && !self.elements.is_multiple_of(2) {
+            return Err(Error::param(
+                "elements",
+                self.elements,
+                "an even integer >= 2 for a mid-span bearing",
+            ));
         }
         let area = self.side * self.side;
         let inertia = self.side.powi(4) / 12.0;
@@ -150,9 +154,18 @@ impl SliderYoke {
         let end_mass = mass / 4.0;
         let wb = self.stiffness_ratio * 2.0 * PI * self.frequency;
         let bearing_stiffness = self.bearing_stiffness.unwrap_or(end_mass * wb * wb);
-        let bearing_damping =
-            self.bearing_damping.unwrap_or(2.0 * self.bearing_damping_ratio * (bearing_stiffness * end_mass).sqrt());
-        Ok(Derived { area, inertia, mass, youngs_modulus, eta, bearing_stiffness, bearing_damping })
+        let bearing_damping = self
+            .bearing_damping
+            .unwrap_or(2.0 * self.bearing_damping_ratio * (bearing_stiffness * end_mass).sqrt());
+        Ok(Derived {
+            area,
+            inertia,
+            mass,
+            youngs_modulus,
+            eta,
+            bearing_stiffness,
+            bearing_damping,
+        })
     }
 
     /// Builds the model. The slider is link `"slider"`, the yoke body `"yoke"`, the joint
@@ -161,7 +174,12 @@ impl SliderYoke {
     /// rotation rate `-1.5 Y 2 pi f / L`, no deformation.
     pub fn build(&self) -> Result<Model> {
         let d = self.derived()?;
-        let motion = Motion::Harmonic { offset: [0.0, 0.0], amplitude: [0.0, self.amplitude], frequency: self.frequency, phase: 0.0 };
+        let motion = Motion::Harmonic {
+            offset: [0.0, 0.0],
+            amplitude: [0.0, self.amplitude],
+            frequency: self.frequency,
+            phase: 0.0,
+        };
         let n = self.elements;
         let yw = self.amplitude * 2.0 * PI * self.frequency;
         let rate = -1.5 * yw / self.length;
@@ -196,7 +214,10 @@ impl SliderYoke {
             name: name.into(),
             link: 0,
             node,
-            target: JointTarget::Body { body: 0, point: [self.length * node as f64 / n as f64, 0.0] },
+            target: JointTarget::Body {
+                body: 0,
+                point: [self.length * node as f64 / n as f64, 0.0],
+            },
             clearance: self.clearance,
             law: law.clone(),
         };
@@ -205,7 +226,14 @@ impl SliderYoke {
             SliderYokeGeometry::BothEnds => vec![joint("bearing", 0), joint("bearing_2", n)],
             SliderYokeGeometry::MidSpan => vec![joint("bearing", n / 2)],
         };
-        let model = Model { links: vec![slider], bodies: vec![RigidBody { name: "yoke".into(), motion }], joints };
+        let model = Model {
+            links: vec![slider],
+            bodies: vec![RigidBody {
+                name: "yoke".into(),
+                motion,
+            }],
+            joints,
+        };
         model.validate()?;
         Ok(model)
     }

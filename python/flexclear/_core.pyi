@@ -1,0 +1,114 @@
+"""Type stubs of the compiled core ``flexclear._core`` (hand-written; see rust/python/mod.rs)."""
+
+from typing import Any, Callable, Optional
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class Motion:
+    @staticmethod
+    def fixed(position: tuple[float, float]) -> Motion: ...
+    @staticmethod
+    def harmonic(
+        amplitude: tuple[float, float],
+        frequency: float,
+        offset: tuple[float, float] = ...,
+        phase: float = ...,
+    ) -> Motion: ...
+    @staticmethod
+    def tabulated(
+        time: list[float],
+        position: list[tuple[float, float]],
+        velocity: Optional[list[tuple[float, float]]] = ...,
+        acceleration: Optional[list[tuple[float, float]]] = ...,
+    ) -> Motion: ...
+    def at(self, t: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]: ...
+
+class Model:
+    def __init__(self) -> None: ...
+    def add_link(
+        self,
+        name: str,
+        length: float,
+        elements: int,
+        youngs_modulus: float,
+        density: float,
+        area: float,
+        inertia: float,
+        damping: float = ...,
+        angle: float = ...,
+        motion: Optional[Motion] = ...,
+        rotary_inertia: bool = ...,
+        initial_displacement: Optional[npt.NDArray[np.float64]] = ...,
+        initial_velocity: Optional[npt.NDArray[np.float64]] = ...,
+    ) -> int: ...
+    def add_body(self, name: str, motion: Optional[Motion] = ...) -> int: ...
+    def add_joint(
+        self,
+        name: str,
+        link: int,
+        node: int,
+        clearance: float,
+        stiffness: float,
+        damping: float,
+        body: Optional[int] = ...,
+        point: tuple[float, float] = ...,
+        target_link: Optional[int] = ...,
+        target_node: Optional[int] = ...,
+        damping_law: str = ...,
+        no_tension: bool = ...,
+    ) -> int: ...
+    @property
+    def link_names(self) -> list[str]: ...
+    @property
+    def body_names(self) -> list[str]: ...
+    @property
+    def joint_names(self) -> list[str]: ...
+    @property
+    def link_elements(self) -> list[int]: ...
+    def natural_frequencies(self, count: int) -> npt.NDArray[np.float64]: ...
+    def simulate(
+        self,
+        t_end: float,
+        dt: float,
+        method: str = ...,
+        iterate: bool = ...,
+        tol: float = ...,
+        max_iter: int = ...,
+        gap_stiffness: Optional[float] = ...,
+        gap_damping: float = ...,
+        beta: float = ...,
+        gamma: float = ...,
+        solver: str = ...,
+        divergence_limit: Optional[float] = ...,
+        joints: Optional[list[int]] = ...,
+        joint_position: bool = ...,
+        nodes: list[tuple[int, int]] = ...,
+        every: int = ...,
+        histories: bool = ...,
+        start: float = ...,
+        progress: Optional[Callable[[float], Any]] = ...,
+    ) -> dict[str, Any]: ...
+
+def slider_yoke(
+    clearance: float = ...,
+    amplitude: float = ...,
+    frequency: float = ...,
+    length: float = ...,
+    side: float = ...,
+    density: float = ...,
+    youngs_modulus: Optional[float] = ...,
+    first_frequency: float = ...,
+    damping_ratio: float = ...,
+    elements: int = ...,
+    bearing_stiffness: Optional[float] = ...,
+    stiffness_ratio: float = ...,
+    bearing_damping: Optional[float] = ...,
+    bearing_damping_ratio: float = ...,
+    damping_law: str = ...,
+    no_tension: bool = ...,
+    geometry: str = ...,
+    rotary_inertia: bool = ...,
+) -> tuple[Model, dict[str, float]]: ...

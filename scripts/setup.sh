@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Creates .venv (if missing) with the build and test tools, and builds flexclear into it in
+# release mode. Idempotent; used by scripts/test.sh and scripts/paper.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+command -v cargo >/dev/null || { echo "cargo not found: install Rust (https://rustup.rs)" >&2; exit 1; }
+rustup component add rustfmt clippy >/dev/null 2>&1 || true
+if [ ! -x .venv/bin/python ]; then
+  python3 -m venv .venv
+fi
+. .venv/bin/activate
+python -m pip install -q --upgrade pip
+python -m pip install -q "maturin>=1.7,<2" "numpy>=1.22" "matplotlib>=3.5" "tqdm>=4.60" "pytest>=8" "ruff>=0.6"
+maturin develop --release -q
