@@ -169,6 +169,3 @@ pub fn simulate(
     let run = NewmarkRun::new(model, settings).map_err(fail)?;
     run.run(control)
 }
-
-/// The recorder type re-exported for convenience.
-pub type Record = Recorder;

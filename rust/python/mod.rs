@@ -172,7 +172,7 @@ impl PyModel {
         };
         let mut m = self.inner.clone();
         m.links.push(link);
-        validate_partial(py, &m, "links")?;
+        validate_partial(py, &m)?;
         self.inner = m;
         Ok(self.inner.links.len() - 1)
     }
@@ -185,7 +185,7 @@ impl PyModel {
             name,
             motion: motion_or_fixed(motion),
         });
-        validate_partial(py, &m, "bodies")?;
+        validate_partial(py, &m)?;
         self.inner = m;
         Ok(self.inner.bodies.len() - 1)
     }
@@ -248,7 +248,7 @@ impl PyModel {
         };
         let mut m = self.inner.clone();
         m.joints.push(joint);
-        validate_partial(py, &m, "joints")?;
+        validate_partial(py, &m)?;
         self.inner = m;
         Ok(self.inner.joints.len() - 1)
     }
@@ -391,7 +391,7 @@ impl PyModel {
 }
 
 /// Validates a model under construction: only the parts added so far must be consistent.
-fn validate_partial(py: Python<'_>, m: &Model, _what: &str) -> PyResult<()> {
+fn validate_partial(py: Python<'_>, m: &Model) -> PyResult<()> {
     if m.links.is_empty() {
         // bodies may come before links; check them alone
         for (i, b) in m.bodies.iter().enumerate() {
