@@ -1,4 +1,4 @@
-//! Linear solves with faer: a simplicial sparse Cholesky (LL^T) whose symbolic analysis is done
+//! Linear solves with faer: a simplicial sparse Cholesky (LDL^T) whose symbolic analysis is done
 //! once per pattern and whose numeric factorization is redone into persistent buffers, plus the
 //! low-rank (Sherman-Morrison-Woodbury) correction that lets the contact-free factorization serve
 //! a step whose effective matrix differs only on the joints' DOFs (METHOD.md section 5).
@@ -32,11 +32,6 @@ pub struct Cholesky {
     /// Positions of the upper entries in the full pattern's value array.
     src: Vec<usize>,
     upper: Vec<f64>,
-    /// The factor's column pointers and row indices (copied once from faer's symbolic factor).
-    l_col_ptr: Vec<usize>,
-    l_row_idx: Vec<usize>,
-    /// 1 / D, so the per-step solve does not divide.
-    dinv: Vec<f64>,
     values: Vec<f64>,
     mem: MemBuffer,
     /// Number of numeric factorizations done.
@@ -85,9 +80,6 @@ impl Cholesky {
             }
         })?;
         let values = vec![0.0; symbolic.len_val()];
-        let l_col_ptr = symbolic.col_ptr().to_vec();
-        let l_row_idx = symbolic.row_idx().to_vec();
-        let dinv = vec![0.0; n];
         let upper = vec![0.0; src.len()];
         Ok(Cholesky {
             symbolic,
@@ -95,9 +87,6 @@ impl Cholesky {
             row_idx,
             src,
             upper,
-            l_col_ptr,
-            l_row_idx,
-            dinv,
             values,
             mem,
             factorizations: 0,
@@ -137,59 +126,15 @@ impl Cholesky {
                     index: k,
                 });
             }
-            self.dinv[k] = 1.0 / d;
         }
         Ok(())
     }
 
-    /// Solves `A x = b` in place (`x` holds `b` on entry) with the LDL^T factor: a unit-lower
-    /// forward substitution (column axpy form), a scaling by the stored 1/D, and a backward
-    /// substitution (row dot form), as a tight loop over faer's factor.
-    ///
-    /// Measured (`cargo bench --bench core -- linsolve`, 39 DOFs, fat LTO): this loop 578 ns
-    /// median against 490 ns for faer's own [`Self::solve_in_place_faer`], so it is NOT faster;
-    /// the time loop should move back to faer's solve (tracked in the issue notes). Tested equal.
+    /// Solves `A x = b` in place (`x` holds `b` on entry) with faer's
+    /// `SimplicialLdltRef::solve_in_place_with_conj`. The solve needs no scratch memory, so it
+    /// does not allocate.
     #[inline]
-    pub fn solve_in_place(&self, x: &mut [f64]) {
-        let n = self.dinv.len();
-        let (cp, ri, v) = (&self.l_col_ptr[..], &self.l_row_idx[..], &self.values[..]);
-        assert!(x.len() == n && cp.len() == n + 1 && ri.len() == v.len());
-        for j in 0..n {
-            let xj = x[j];
-            if xj != 0.0 {
-                // the first entry of column j is the diagonal
-                for p in cp[j] + 1..cp[j + 1] {
-                    // SAFETY: row indices of the factor are < n (faer invariant) and p < len.
-                    unsafe {
-                        *x.get_unchecked_mut(*ri.get_unchecked(p)) -= v.get_unchecked(p) * xj;
-                    }
-                }
-            }
-        }
-        for (xi, d) in x.iter_mut().zip(&self.dinv) {
-            *xi *= d;
-        }
-        for j in (0..n).rev() {
-            let (lo, hi) = (cp[j] + 1, cp[j + 1]);
-            let (mut s0, mut s1) = (0.0, 0.0);
-            let mut p = lo;
-            while p + 1 < hi {
-                // SAFETY: as above.
-                unsafe {
-                    s0 += v.get_unchecked(p) * x.get_unchecked(*ri.get_unchecked(p));
-                    s1 += v.get_unchecked(p + 1) * x.get_unchecked(*ri.get_unchecked(p + 1));
-                }
-                p += 2;
-            }
-            if p < hi {
-                s0 += v[p] * x[ri[p]];
-            }
-            x[j] -= s0 + s1;
-        }
-    }
-
-    /// The same solve through faer's own `SimplicialLdltRef::solve_in_place_with_conj`.
-    pub fn solve_in_place_faer(&mut self, x: &mut [f64]) {
+    pub fn solve_in_place(&mut self, x: &mut [f64]) {
         let n = x.len();
         let ldlt = SimplicialLdltRef::new(&self.symbolic, &self.values);
         let rhs = MatMut::from_column_major_slice_mut(x, n, 1);

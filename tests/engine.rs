@@ -161,7 +161,7 @@ fn cantilever_tip_deflection_is_pl3_over_3ei() {
 }
 
 #[test]
-fn custom_triangular_solve_matches_faer_solve() {
+fn factorization_solves_to_small_residual() {
     let model = SliderYoke::default().build().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = (0..sys.pattern.nnz())
@@ -170,13 +170,11 @@ fn custom_triangular_solve_matches_faer_solve() {
     let mut ch = Cholesky::analyze(&sys.pattern).unwrap();
     ch.factorize(&a, "test").unwrap();
     let b: Vec<f64> = (0..sys.n()).map(|i| (i as f64 * 0.37).sin()).collect();
-    let (mut x1, mut x2) = (b.clone(), b.clone());
+    let mut x1 = b.clone();
     ch.solve_in_place(&mut x1);
-    ch.solve_in_place_faer(&mut x2);
     let mut r = vec![0.0; sys.n()];
     sys.pattern.mul(&a, &x1, &mut r);
     for i in 0..sys.n() {
-        assert!((x1[i] - x2[i]).abs() <= 1e-12 * x2[i].abs().max(1.0));
         assert!((r[i] - b[i]).abs() <= 1e-10, "residual {}", r[i] - b[i]);
     }
 }
