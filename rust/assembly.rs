@@ -126,6 +126,15 @@ pub enum Bearing {
     Node(usize, [f64; 2]),
 }
 
+/// Kinematics of every link frame and rigid body at one time (see [`System::frames_at`]).
+#[derive(Debug, Clone, Default)]
+pub struct Frames {
+    /// Link frame origins, indexed like the links.
+    pub links: Vec<Kinematics>,
+    /// Rigid bodies' reference points, indexed like the bodies.
+    pub bodies: Vec<Kinematics>,
+}
+
 /// The assembled system: one pattern, values of M, K and C, link and joint plans.
 #[derive(Debug, Clone)]
 pub struct System {
@@ -268,12 +277,32 @@ impl System {
         self.pattern.n
     }
 
-    /// Adds the nominal-motion inertia load `-M_R a_R(t)` to `f`.
+    /// Evaluates every link frame's and rigid body's prescribed motion at time `t` (s) into
+    /// `frames`, once per step; [`Self::add_inertia_load`] and [`Self::joint_offset`] read them.
     #[inline]
-    pub fn add_inertia_load(&self, t: f64, f: &mut [f64]) {
-        for l in &self.links {
+    pub fn frames_at(&self, t: f64, frames: &mut Frames) {
+        for (k, l) in frames.links.iter_mut().zip(&self.links) {
+            *k = l.motion.at(t);
+        }
+        for (k, b) in frames.bodies.iter_mut().zip(&self.bodies) {
+            *k = b.at(t);
+        }
+    }
+
+    /// Buffers for [`Self::frames_at`], sized for this system.
+    pub fn frames(&self) -> Frames {
+        Frames {
+            links: vec![Kinematics::default(); self.links.len()],
+            bodies: vec![Kinematics::default(); self.bodies.len()],
+        }
+    }
+
+    /// Adds the nominal-motion inertia load `-M_R a_R` to `f`, with the frames' accelerations.
+    #[inline]
+    pub fn add_inertia_load(&self, frames: &Frames, f: &mut [f64]) {
+        for (l, k) in self.links.iter().zip(&frames.links) {
             if let Some([bx, by]) = &l.inertia_load {
-                let a = l.motion.at(t).acc;
+                let a = k.acc;
                 let r = &l.rotation;
                 // frame axes: a' = R^T a
                 let ax = r[0][0] * a[0] + r[1][0] * a[1];
@@ -286,14 +315,14 @@ impl System {
         }
     }
 
-    /// Position (m) and velocity (m/s) of `q` for zero elastic displacement at time `t`: the
-    /// journal node's nominal position minus the bearing centre's.
+    /// Position (m) and velocity (m/s) of `q` for zero elastic displacement, from the frames of
+    /// the current time: the journal node's nominal position minus the bearing centre's.
     #[inline]
-    pub fn joint_offset(&self, j: &JointPlan, t: f64) -> ([f64; 2], [f64; 2]) {
-        let a: Kinematics = self.links[j.journal.0].motion.at(t);
+    pub fn joint_offset(&self, j: &JointPlan, frames: &Frames) -> ([f64; 2], [f64; 2]) {
+        let a = &frames.links[j.journal.0];
         let (b, pb) = match j.bearing {
-            Bearing::Body(body, point) => (self.bodies[body].at(t), point),
-            Bearing::Node(link, x) => (self.links[link].motion.at(t), x),
+            Bearing::Body(body, point) => (&frames.bodies[body], point),
+            Bearing::Node(link, x) => (&frames.links[link], x),
         };
         let x = j.journal.1;
         (

@@ -13,7 +13,7 @@
 //! `W = P Z`: an open contact has `G = 0` and costs nothing extra, and iterating the contact within
 //! a step needs no further sparse solve. The loop does not allocate.
 
-use crate::assembly::System;
+use crate::assembly::{Frames, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linsolve::{solve_dense_in_place, Cholesky};
@@ -90,6 +90,7 @@ pub struct NewmarkRun<'m> {
     pa: Vec<f64>,
     pa_old: Vec<f64>,
     cap: Vec<f64>,
+    frames: Frames,
     q: Vec<[f64; 2]>,
     qd: Vec<[f64; 2]>,
     qt: Vec<[f64; 2]>,
@@ -233,6 +234,7 @@ impl<'m> NewmarkRun<'m> {
             pa: vec![0.0; m],
             pa_old: vec![0.0; m],
             cap: vec![0.0; m * m],
+            frames: sys.frames(),
             q: vec![[0.0; 2]; nj],
             qd: vec![[0.0; 2]; nj],
             qt: vec![[0.0; 2]; nj],
@@ -274,10 +276,11 @@ impl<'m> NewmarkRun<'m> {
         for (r, t) in self.r.iter_mut().zip(&self.tmp) {
             *r = -*r - t;
         }
-        self.sys.add_inertia_load(0.0, &mut self.r);
+        self.sys.frames_at(0.0, &mut self.frames);
+        self.sys.add_inertia_load(&self.frames, &mut self.r);
         for jj in 0..self.sys.joints.len() {
             let j = &self.sys.joints[jj];
-            let (qo, qdo) = self.sys.joint_offset(j, 0.0);
+            let (qo, qdo) = self.sys.joint_offset(j, &self.frames);
             let pu = System::joint_project(j, &self.u);
             let pv = System::joint_project(j, &self.v);
             self.q[jj] = [qo[0] + pu[0], qo[1] + pu[1]];
@@ -421,7 +424,8 @@ impl<'m> NewmarkRun<'m> {
                 }
             }
         }
-        self.sys.add_inertia_load(t1, &mut self.r);
+        self.sys.frames_at(t1, &mut self.frames);
+        self.sys.add_inertia_load(&self.frames, &mut self.r);
         let nj = self.sys.joints.len();
         if nj == 0 {
             self.chol0.solve_in_place(&mut self.r);
@@ -430,7 +434,7 @@ impl<'m> NewmarkRun<'m> {
         }
         for jj in 0..nj {
             let j = &self.sys.joints[jj];
-            let (qo, qdo) = self.sys.joint_offset(j, t1);
+            let (qo, qdo) = self.sys.joint_offset(j, &self.frames);
             let pu = System::joint_project(j, &self.ut);
             let pv = System::joint_project(j, &self.vt);
             self.qt[jj] = [qo[0] + pu[0], qo[1] + pu[1]];
