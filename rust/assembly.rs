@@ -79,6 +79,95 @@ impl Pattern {
     }
 }
 
+/// A symmetric matrix stored as a dense band (row `r` holds columns `r - w ..= r + w`), for a
+/// matrix-vector product of contiguous dot products instead of indexed gathers. A chain of beam
+/// elements numbered along the chain has half-bandwidth `w = 5`. Built by [`Band::from_csc`]
+/// only when the band is at most twice the sparse storage.
+#[derive(Debug, Clone)]
+pub struct Band {
+    n: usize,
+    w: usize,
+    vals: Vec<f64>,
+}
+
+impl Band {
+    /// The band of the matrix with values `a` on `pattern`, or `None` when the band would hold
+    /// more than twice the pattern's entries (far-apart couplings: use [`Pattern::mul`]).
+    pub fn from_csc(pattern: &Pattern, a: &[f64]) -> Option<Band> {
+        let n = pattern.n;
+        let mut w = 0;
+        for c in 0..n {
+            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                w = w.max(pattern.row_idx[p].abs_diff(c));
+            }
+        }
+        let width = 2 * w + 1;
+        if n * width > 2 * pattern.nnz().max(1) {
+            return None;
+        }
+        let mut vals = vec![0.0; n * width];
+        for c in 0..n {
+            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                let r = pattern.row_idx[p];
+                vals[r * width + (c + w - r)] = a[p];
+            }
+        }
+        Some(Band { n, w, vals })
+    }
+
+    /// Length of the padded input [`Self::mul`] takes: `n + 2 w`.
+    pub fn padded_len(&self) -> usize {
+        self.n + 2 * self.w
+    }
+
+    /// `y = A x`, where `xpad` holds `x` at `xpad[w .. w + n]` and zeros in the `w` entries at
+    /// each end (see [`Self::padded_len`]). Panics on wrong lengths.
+    #[inline]
+    pub fn mul(&self, xpad: &[f64], y: &mut [f64]) {
+        let width = 2 * self.w + 1;
+        assert!(xpad.len() == self.padded_len() && y.len() >= self.n);
+        if width == 11 {
+            // the width of a chain of beam elements: a fixed-size, fully unrolled dot product
+            return self.mul_fixed::<11>(xpad, y);
+        }
+        for (r, (row, yr)) in self.vals.chunks_exact(width).zip(y.iter_mut()).enumerate() {
+            let x = &xpad[r..r + width];
+            // four accumulators: independent chains the compiler can keep in registers
+            let mut s = [0.0; 4];
+            let (rc, xc) = (row.chunks_exact(4), x.chunks_exact(4));
+            let (rr, xr) = (rc.remainder(), xc.remainder());
+            for (a, b) in rc.zip(xc) {
+                for k in 0..4 {
+                    s[k] += a[k] * b[k];
+                }
+            }
+            let mut t = (s[0] + s[1]) + (s[2] + s[3]);
+            for (a, b) in rr.iter().zip(xr) {
+                t += a * b;
+            }
+            *yr = t;
+        }
+    }
+
+    #[inline]
+    fn mul_fixed<const W: usize>(&self, xpad: &[f64], y: &mut [f64]) {
+        for (r, (row, yr)) in self.vals.chunks_exact(W).zip(y.iter_mut()).enumerate() {
+            let row: &[f64; W] = row.try_into().expect("chunk of width W");
+            let x: &[f64; W] = xpad[r..r + W].try_into().expect("window of width W");
+            let mut s = [0.0; 4];
+            for k in 0..W {
+                s[k % 4] += row[k] * x[k];
+            }
+            *yr = (s[0] + s[1]) + (s[2] + s[3]);
+        }
+    }
+
+    /// Half-bandwidth w.
+    pub fn half_bandwidth(&self) -> usize {
+        self.w
+    }
+}
+
 /// Where a link's DOFs sit, and its nominal-motion load.
 #[derive(Debug, Clone)]
 pub struct LinkPlan {

@@ -180,6 +180,33 @@ fn factorization_solves_to_small_residual() {
 }
 
 #[test]
+fn banded_product_equals_sparse_product() {
+    for elements in [1, 2, 12, 40] {
+        let model = SliderYoke {
+            elements,
+            geometry: Default::default(),
+            ..Default::default()
+        }
+        .build()
+        .unwrap();
+        let sys = System::assemble(&model);
+        let band = flexclear::assembly::Band::from_csc(&sys.pattern, &sys.stiffness).expect("a chain is banded");
+        assert_eq!(band.half_bandwidth(), 5.min(sys.n() - 1));
+        let x: Vec<f64> = (0..sys.n()).map(|i| (i as f64 * 0.71).cos()).collect();
+        let w = band.half_bandwidth();
+        let mut xpad = vec![0.0; band.padded_len()];
+        xpad[w..w + sys.n()].copy_from_slice(&x);
+        let (mut y1, mut y2) = (vec![0.0; sys.n()], vec![0.0; sys.n()]);
+        band.mul(&xpad, &mut y1);
+        sys.pattern.mul(&sys.stiffness, &x, &mut y2);
+        let scale = y2.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (a, b) in y1.iter().zip(&y2) {
+            assert!((a - b).abs() <= 1e-13 * scale, "{elements} elements: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
 fn indefinite_matrix_is_reported_not_solved() {
     let model = SliderYoke::default().build().unwrap();
     let sys = System::assemble(&model);

@@ -13,7 +13,7 @@
 //! `W = P Z`: an open contact has `G = 0` and costs nothing extra, and iterating the contact within
 //! a step needs no further sparse solve. The loop does not allocate.
 
-use crate::assembly::{Frames, System};
+use crate::assembly::{Band, Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linsolve::{solve_dense_in_place, Cholesky};
@@ -101,11 +101,28 @@ pub struct NewmarkRun<'m> {
     gap_normal: Vec<[f64; 2]>,
     gap_k: Vec<f64>,
     limit: f64,
+    /// Banded copies of K and C for the per-step products, when the pattern is banded.
+    k_band: Option<Band>,
+    c_band: Option<Band>,
+    xpad: Vec<f64>,
     translational: Vec<bool>,
     stats: RunStats,
     rec: Recorder,
     t: f64,
     step: u64,
+}
+
+/// `y = A x` through the band when there is one (faster for chains), else the sparse pattern.
+#[inline]
+fn matvec(pattern: &Pattern, band: Option<&Band>, a: &[f64], x: &[f64], xpad: &mut [f64], y: &mut [f64]) {
+    match band {
+        Some(b) => {
+            let w = b.half_bandwidth();
+            xpad[w..w + x.len()].copy_from_slice(x);
+            b.mul(xpad, y);
+        }
+        None => pattern.mul(a, x, y),
+    }
 }
 
 fn mat2_is_zero(m: &Mat2) -> bool {
@@ -204,6 +221,7 @@ impl<'m> NewmarkRun<'m> {
         }
         let node_dof = |l: usize, node: usize| sys.links[l].offset + 3 * node;
         let rec = Recorder::new(&settings.record, nj, node_dof, settings.steps());
+        let k_band = Band::from_csc(&sys.pattern, &sys.stiffness);
         let mut run = NewmarkRun {
             model,
             settings: settings.clone(),
@@ -245,6 +263,13 @@ impl<'m> NewmarkRun<'m> {
             gap_normal: vec![[1.0, 0.0]; nj],
             gap_k,
             limit,
+            xpad: vec![0.0; k_band.as_ref().map_or(0, Band::padded_len)],
+            c_band: if sys.proportional_damping.is_some() {
+                None
+            } else {
+                Band::from_csc(&sys.pattern, &sys.damping)
+            },
+            k_band,
             translational,
             stats: RunStats {
                 terms: terms_desc,
@@ -401,7 +426,14 @@ impl<'m> NewmarkRun<'m> {
                     *vt = v + c2 * a;
                     *w = *ut + c * *vt;
                 }
-                pat.mul(&self.sys.stiffness, &self.tmp, &mut self.r);
+                matvec(
+                    pat,
+                    self.k_band.as_ref(),
+                    &self.sys.stiffness,
+                    &self.tmp,
+                    &mut self.xpad,
+                    &mut self.r,
+                );
                 for x in self.r.iter_mut() {
                     *x = -*x;
                 }
@@ -417,8 +449,22 @@ impl<'m> NewmarkRun<'m> {
                     *ut = u + dt * v + c1 * a;
                     *vt = v + c2 * a;
                 }
-                pat.mul(&self.sys.stiffness, &self.ut, &mut self.r);
-                pat.mul(&self.sys.damping, &self.vt, &mut self.tmp);
+                matvec(
+                    pat,
+                    self.k_band.as_ref(),
+                    &self.sys.stiffness,
+                    &self.ut,
+                    &mut self.xpad,
+                    &mut self.r,
+                );
+                matvec(
+                    pat,
+                    self.c_band.as_ref(),
+                    &self.sys.damping,
+                    &self.vt,
+                    &mut self.xpad,
+                    &mut self.tmp,
+                );
                 for (x, t) in self.r.iter_mut().zip(&self.tmp) {
                     *x = -*x - t;
                 }
@@ -455,7 +501,12 @@ impl<'m> NewmarkRun<'m> {
         } else {
             self.load_implicit_terms();
         }
-        self.rb.copy_from_slice(&self.r);
+        // the right-hand side is kept only where a full solve needs it; a Woodbury fallback
+        // rebuilds it from z (rb = A0 z) instead of copying it every step
+        let mut rb_valid = self.settings.solver == SolverMode::Refactor;
+        if rb_valid {
+            self.rb.copy_from_slice(&self.r);
+        }
         self.chol0.solve_in_place(&mut self.r); // r = z = A0^-1 rhs
         let m = self.m;
         let n = self.u.len();
@@ -476,6 +527,10 @@ impl<'m> NewmarkRun<'m> {
             let closed = self.g.iter().any(|g| !mat2_is_zero(g));
             refactored = closed && (self.settings.solver == SolverMode::Refactor || !self.woodbury_joint_solve());
             if refactored {
+                if !rb_valid {
+                    self.sys.pattern.mul(&self.a0_values, &self.r, &mut self.rb);
+                    rb_valid = true;
+                }
                 self.refactor_joint_solve()?;
             } else if !closed {
                 // pa = yb + W h
@@ -506,8 +561,8 @@ impl<'m> NewmarkRun<'m> {
             if self.g.iter().any(|g| !mat2_is_zero(g)) {
                 self.stats.woodbury_steps += 1;
             }
-            // a = z + Z (h - s)
-            self.a.copy_from_slice(&self.r);
+            // a = z + Z (h - s); z is not needed after this step
+            std::mem::swap(&mut self.a, &mut self.r);
             for c in 0..m {
                 let w = self.h[c] - self.s[c];
                 if w != 0.0 {
