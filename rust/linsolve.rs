@@ -34,8 +34,55 @@ pub struct Cholesky {
     upper: Vec<f64>,
     values: Vec<f64>,
     mem: MemBuffer,
+    /// The factor copied into a dense band after each factorization, when it fits in
+    /// half-bandwidth [`BAND`] (every chain of beam elements does).
+    band: Option<BandedFactor>,
     /// Number of numeric factorizations done.
     pub factorizations: u64,
+}
+
+/// Half-bandwidth of the factors solved by the banded substitution: a chain of 2-node beam
+/// elements with 3 DOFs per node couples DOFs at most 5 apart.
+pub const BAND: usize = 5;
+
+/// faer's LDL^T factor laid out by rows and by columns of the band, for a substitution whose
+/// critical path is one multiply-add per row (the older terms of each row are summed
+/// independently of the newest one). `xp` is a zero-padded work vector.
+struct BandedFactor {
+    /// `lrow[i][k - 1] = L[i, i - k]`, k = 1 ..= BAND.
+    lrow: Vec<[f64; BAND]>,
+    /// `lcol[j][k - 1] = L[j + k, j]`, k = 1 ..= BAND.
+    lcol: Vec<[f64; BAND]>,
+    dinv: Vec<f64>,
+    xp: Vec<f64>,
+}
+
+impl BandedFactor {
+    #[inline]
+    fn solve(&mut self, x: &mut [f64]) {
+        let n = x.len();
+        let xp = &mut self.xp;
+        xp[BAND..BAND + n].copy_from_slice(x);
+        // `prev` carries the newest value in a register: the only serial dependency per row
+        let mut prev = 0.0;
+        for (i, r) in self.lrow.iter().enumerate() {
+            let p = BAND + i;
+            let s = (r[1] * xp[p - 2] + r[2] * xp[p - 3]) + (r[3] * xp[p - 4] + r[4] * xp[p - 5]);
+            prev = (xp[p] - s) - r[0] * prev;
+            xp[p] = prev;
+        }
+        for (v, d) in xp[BAND..BAND + n].iter_mut().zip(&self.dinv) {
+            *v *= d;
+        }
+        let mut next = 0.0;
+        for (i, c) in self.lcol.iter().enumerate().rev() {
+            let p = BAND + i;
+            let s = (c[1] * xp[p + 2] + c[2] * xp[p + 3]) + (c[3] * xp[p + 4] + c[4] * xp[p + 5]);
+            next = (xp[p] - s) - c[0] * next;
+            xp[p] = next;
+        }
+        x.copy_from_slice(&xp[BAND..BAND + n]);
+    }
 }
 
 impl std::fmt::Debug for Cholesky {
@@ -80,6 +127,14 @@ impl Cholesky {
             }
         })?;
         let values = vec![0.0; symbolic.len_val()];
+        let (lcp, lri) = (symbolic.col_ptr(), symbolic.row_idx());
+        let banded = (0..n).all(|j| lri[lcp[j]..lcp[j + 1]].iter().all(|&i| i >= j && i - j <= BAND));
+        let band = banded.then(|| BandedFactor {
+            lrow: vec![[0.0; BAND]; n],
+            lcol: vec![[0.0; BAND]; n],
+            dinv: vec![0.0; n],
+            xp: vec![0.0; n + 2 * BAND],
+        });
         let upper = vec![0.0; src.len()];
         Ok(Cholesky {
             symbolic,
@@ -89,6 +144,7 @@ impl Cholesky {
             upper,
             values,
             mem,
+            band,
             factorizations: 0,
         })
     }
@@ -127,19 +183,45 @@ impl Cholesky {
                 });
             }
         }
+        if let Some(b) = self.band.as_mut() {
+            let ri = self.symbolic.row_idx();
+            for j in 0..n {
+                b.dinv[j] = 1.0 / self.values[cp[j]];
+                for p in cp[j] + 1..cp[j + 1] {
+                    let k = ri[p] - j;
+                    b.lcol[j][k - 1] = self.values[p];
+                    b.lrow[ri[p]][k - 1] = self.values[p];
+                }
+            }
+        }
         Ok(())
     }
 
-    /// Solves `A x = b` in place (`x` holds `b` on entry) with faer's
-    /// `SimplicialLdltRef::solve_in_place_with_conj`. The solve needs no scratch memory, so it
-    /// does not allocate.
+    /// Solves `A x = b` in place (`x` holds `b` on entry); does not allocate. For a factor within
+    /// half-bandwidth [`BAND`] (chains of beam elements) this is a banded substitution on faer's
+    /// factor, else faer's `SimplicialLdltRef::solve_in_place_with_conj`
+    /// ([`Self::solve_in_place_faer`]). The two are tested equal; `cargo bench --bench core --
+    /// linsolve` measures both.
     #[inline]
     pub fn solve_in_place(&mut self, x: &mut [f64]) {
+        match self.band.as_mut() {
+            Some(b) => b.solve(x),
+            None => self.solve_in_place_faer(x),
+        }
+    }
+
+    /// The solve through faer's `SimplicialLdltRef::solve_in_place_with_conj`.
+    pub fn solve_in_place_faer(&mut self, x: &mut [f64]) {
         let n = x.len();
         let ldlt = SimplicialLdltRef::new(&self.symbolic, &self.values);
         let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
         let stack = MemStack::new(&mut self.mem);
         ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack);
+    }
+
+    /// True when [`Self::solve_in_place`] uses the banded substitution.
+    pub fn is_banded(&self) -> bool {
+        self.band.is_some()
     }
 }
 
