@@ -76,8 +76,6 @@ pub struct NewmarkRun<'m> {
     u: Vec<f64>,
     v: Vec<f64>,
     a: Vec<f64>,
-    ut: Vec<f64>,
-    vt: Vec<f64>,
     r: Vec<f64>,
     rb: Vec<f64>,
     tmp: Vec<f64>,
@@ -238,8 +236,6 @@ impl<'m> NewmarkRun<'m> {
             u: vec![0.0; n],
             v: vec![0.0; n],
             a: vec![0.0; n],
-            ut: vec![0.0; n],
-            vt: vec![0.0; n],
             r: vec![0.0; n],
             rb: vec![0.0; n],
             tmp: vec![0.0; n],
@@ -413,18 +409,17 @@ impl<'m> NewmarkRun<'m> {
         let pat = &self.sys.pattern;
         match self.sys.proportional_damping {
             Some(c) => {
-                // predictors and w = u~ + c v~ in one pass, then r = -K w
-                for ((((ut, vt), w), &u), (&v, &a)) in self
-                    .ut
+                // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
+                // in one pass, then r = K w
+                for ((u, v), (&a, w)) in self
+                    .u
                     .iter_mut()
-                    .zip(self.vt.iter_mut())
-                    .zip(self.tmp.iter_mut())
-                    .zip(&self.u)
-                    .zip(self.v.iter().zip(&self.a))
+                    .zip(self.v.iter_mut())
+                    .zip(self.a.iter().zip(self.tmp.iter_mut()))
                 {
-                    *ut = u + dt * v + c1 * a;
-                    *vt = v + c2 * a;
-                    *w = *ut + c * *vt;
+                    *u += dt * *v + c1 * a;
+                    *v += c2 * a;
+                    *w = -(*u + c * *v); // negated here so that r = K w needs no extra pass
                 }
                 matvec(
                     pat,
@@ -434,26 +429,17 @@ impl<'m> NewmarkRun<'m> {
                     &mut self.xpad,
                     &mut self.r,
                 );
-                for x in self.r.iter_mut() {
-                    *x = -*x;
-                }
             }
             None => {
-                for (((ut, vt), &u), (&v, &a)) in self
-                    .ut
-                    .iter_mut()
-                    .zip(self.vt.iter_mut())
-                    .zip(&self.u)
-                    .zip(self.v.iter().zip(&self.a))
-                {
-                    *ut = u + dt * v + c1 * a;
-                    *vt = v + c2 * a;
+                for ((u, v), &a) in self.u.iter_mut().zip(self.v.iter_mut()).zip(&self.a) {
+                    *u += dt * *v + c1 * a;
+                    *v += c2 * a;
                 }
                 matvec(
                     pat,
                     self.k_band.as_ref(),
                     &self.sys.stiffness,
-                    &self.ut,
+                    &self.u,
                     &mut self.xpad,
                     &mut self.r,
                 );
@@ -461,7 +447,7 @@ impl<'m> NewmarkRun<'m> {
                     pat,
                     self.c_band.as_ref(),
                     &self.sys.damping,
-                    &self.vt,
+                    &self.v,
                     &mut self.xpad,
                     &mut self.tmp,
                 );
@@ -481,8 +467,8 @@ impl<'m> NewmarkRun<'m> {
         for jj in 0..nj {
             let j = &self.sys.joints[jj];
             let (qo, qdo) = self.sys.joint_offset(j, &self.frames);
-            let pu = System::joint_project(j, &self.ut);
-            let pv = System::joint_project(j, &self.vt);
+            let pu = System::joint_project(j, &self.u);
+            let pv = System::joint_project(j, &self.v);
             self.qt[jj] = [qo[0] + pu[0], qo[1] + pu[1]];
             self.qdt[jj] = [qdo[0] + pv[0], qdo[1] + pv[1]];
         }
@@ -749,14 +735,9 @@ impl<'m> NewmarkRun<'m> {
     #[inline]
     fn complete(&mut self, t1: f64) -> Result<()> {
         let (bdt2, gdt) = (self.bdt2, self.gdt);
-        for ((u, v), ((&ut, &vt), &a)) in self
-            .u
-            .iter_mut()
-            .zip(self.v.iter_mut())
-            .zip(self.ut.iter().zip(&self.vt).zip(&self.a))
-        {
-            *u = ut + bdt2 * a;
-            *v = vt + gdt * a;
+        for ((u, v), &a) in self.u.iter_mut().zip(self.v.iter_mut()).zip(&self.a) {
+            *u += bdt2 * a;
+            *v += gdt * a;
         }
         let explicit = matches!(self.settings.coupling, Coupling::Force);
         for jj in 0..self.sys.joints.len() {
