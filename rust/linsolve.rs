@@ -47,41 +47,37 @@ pub const BAND: usize = 5;
 
 /// faer's LDL^T factor laid out by rows and by columns of the band, for a substitution whose
 /// critical path is one multiply-add per row (the older terms of each row are summed
-/// independently of the newest one). `xp` is a zero-padded work vector.
+/// independently of the newest one).
 struct BandedFactor {
     /// `lrow[i][k - 1] = L[i, i - k]`, k = 1 ..= BAND.
     lrow: Vec<[f64; BAND]>,
     /// `lcol[j][k - 1] = L[j + k, j]`, k = 1 ..= BAND.
     lcol: Vec<[f64; BAND]>,
     dinv: Vec<f64>,
-    xp: Vec<f64>,
 }
 
 impl BandedFactor {
     #[inline]
-    fn solve(&mut self, x: &mut [f64]) {
-        let n = x.len();
-        let xp = &mut self.xp;
-        xp[BAND..BAND + n].copy_from_slice(x);
-        // `prev` carries the newest value in a register: the only serial dependency per row
-        let mut prev = 0.0;
-        for (i, r) in self.lrow.iter().enumerate() {
-            let p = BAND + i;
-            let s = (r[1] * xp[p - 2] + r[2] * xp[p - 3]) + (r[3] * xp[p - 4] + r[4] * xp[p - 5]);
-            prev = (xp[p] - s) - r[0] * prev;
-            xp[p] = prev;
+    fn solve(&self, x: &mut [f64]) {
+        assert_eq!(x.len(), self.dinv.len());
+        // Forward L y = b: the last BAND values of y ride in registers (p1 newest), so only
+        // `r[0] * p1` is on the serial path of each row; x receives y / D directly, which is
+        // what the backward pass needs.
+        let (mut p1, mut p2, mut p3, mut p4, mut p5) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for ((r, xi), d) in self.lrow.iter().zip(x.iter_mut()).zip(&self.dinv) {
+            let s = (r[1] * p2 + r[2] * p3) + (r[3] * p4 + r[4] * p5);
+            let y = (*xi - s) - r[0] * p1;
+            *xi = y * d;
+            (p5, p4, p3, p2, p1) = (p4, p3, p2, p1, y);
         }
-        for (v, d) in xp[BAND..BAND + n].iter_mut().zip(&self.dinv) {
-            *v *= d;
+        // Backward L^T x = y / D, same register scheme from the last row up.
+        let (mut p1, mut p2, mut p3, mut p4, mut p5) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (c, xi) in self.lcol.iter().zip(x.iter_mut()).rev() {
+            let s = (c[1] * p2 + c[2] * p3) + (c[3] * p4 + c[4] * p5);
+            let y = (*xi - s) - c[0] * p1;
+            *xi = y;
+            (p5, p4, p3, p2, p1) = (p4, p3, p2, p1, y);
         }
-        let mut next = 0.0;
-        for (i, c) in self.lcol.iter().enumerate().rev() {
-            let p = BAND + i;
-            let s = (c[1] * xp[p + 2] + c[2] * xp[p + 3]) + (c[3] * xp[p + 4] + c[4] * xp[p + 5]);
-            next = (xp[p] - s) - c[0] * next;
-            xp[p] = next;
-        }
-        x.copy_from_slice(&xp[BAND..BAND + n]);
     }
 }
 
@@ -133,7 +129,6 @@ impl Cholesky {
             lrow: vec![[0.0; BAND]; n],
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
-            xp: vec![0.0; n + 2 * BAND],
         });
         let upper = vec![0.0; src.len()];
         Ok(Cholesky {
@@ -204,7 +199,7 @@ impl Cholesky {
     /// linsolve` measures both.
     #[inline]
     pub fn solve_in_place(&mut self, x: &mut [f64]) {
-        match self.band.as_mut() {
+        match self.band.as_ref() {
             Some(b) => b.solve(x),
             None => self.solve_in_place_faer(x),
         }
