@@ -154,11 +154,26 @@ impl Band {
         for (r, (row, yr)) in self.vals.chunks_exact(W).zip(y.iter_mut()).enumerate() {
             let row: &[f64; W] = row.try_into().expect("chunk of width W");
             let x: &[f64; W] = xpad[r..r + W].try_into().expect("window of width W");
-            let mut s = [0.0; 4];
-            for k in 0..W {
-                s[k % 4] += row[k] * x[k];
+            // two 2-lane accumulators: the shape packed SSE2 multiply/add instructions take
+            let (mut a, mut b) = ([0.0f64; 2], [0.0f64; 2]);
+            let mut k = 0;
+            while k + 4 <= W {
+                a[0] += row[k] * x[k];
+                a[1] += row[k + 1] * x[k + 1];
+                b[0] += row[k + 2] * x[k + 2];
+                b[1] += row[k + 3] * x[k + 3];
+                k += 4;
             }
-            *yr = (s[0] + s[1]) + (s[2] + s[3]);
+            while k + 2 <= W {
+                a[0] += row[k] * x[k];
+                a[1] += row[k + 1] * x[k + 1];
+                k += 2;
+            }
+            let mut t = (a[0] + b[0]) + (a[1] + b[1]);
+            if k < W {
+                t += row[k] * x[k];
+            }
+            *yr = t;
         }
     }
 
@@ -243,6 +258,8 @@ pub struct System {
     pub joints: Vec<JointPlan>,
     /// Rigid bodies' motions.
     pub bodies: Vec<Motion>,
+    /// For each body, a link whose frame has the very same motion (evaluated once per step).
+    pub body_as_link: Vec<Option<usize>>,
 }
 
 fn rot(r: &[[f64; 2]; 2], v: [f64; 2]) -> [f64; 2] {
@@ -358,6 +375,11 @@ impl System {
             links,
             joints,
             bodies: model.bodies.iter().map(|b| b.motion.clone()).collect(),
+            body_as_link: model
+                .bodies
+                .iter()
+                .map(|b| model.links.iter().position(|l| l.motion == b.motion))
+                .collect(),
         }
     }
 
@@ -373,8 +395,11 @@ impl System {
         for (k, l) in frames.links.iter_mut().zip(&self.links) {
             *k = l.motion.at(t);
         }
-        for (k, b) in frames.bodies.iter_mut().zip(&self.bodies) {
-            *k = b.at(t);
+        for ((k, b), same) in frames.bodies.iter_mut().zip(&self.bodies).zip(&self.body_as_link) {
+            *k = match same {
+                Some(l) => frames.links[*l],
+                None => b.at(t),
+            };
         }
     }
 

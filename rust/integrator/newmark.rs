@@ -123,6 +123,14 @@ fn matvec(pattern: &Pattern, band: Option<&Band>, a: &[f64], x: &[f64], xpad: &m
     }
 }
 
+/// Euclidean length of a 2-vector. Plain `sqrt(x^2 + y^2)`: `f64::hypot` is a slow library call,
+/// and the overflow it guards against (|v| > 1e154 m) only happens in a divergence, which the
+/// finite checks report.
+#[inline]
+fn norm2(v: [f64; 2]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1]).sqrt()
+}
+
 fn mat2_is_zero(m: &Mat2) -> bool {
     m[0][0] == 0.0 && m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][1] == 0.0
 }
@@ -307,7 +315,7 @@ impl<'m> NewmarkRun<'m> {
             self.q[jj] = [qo[0] + pu[0], qo[1] + pu[1]];
             self.qd[jj] = [qdo[0] + pv[0], qdo[1] + pv[1]];
             let q = self.q[jj];
-            let dr = q[0].hypot(q[1]);
+            let dr = norm2(q);
             self.pen[jj] = dr - j.clearance;
             self.gap_closed[jj] = self.pen[jj] > 0.0;
             if dr > 0.0 {
@@ -315,7 +323,7 @@ impl<'m> NewmarkRun<'m> {
             }
             let terms = self.contact_terms(jj, q, self.qd[jj]);
             let f = terms.force(q, self.qd[jj]);
-            self.fmag[jj] = f[0].hypot(f[1]);
+            self.fmag[jj] = norm2(f);
             for k in 0..j.ndof {
                 self.r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
             }
@@ -337,7 +345,7 @@ impl<'m> NewmarkRun<'m> {
         let j = &self.sys.joints[jj];
         match self.settings.coupling {
             Coupling::Gap { damping, .. } => {
-                let pen = q[0].hypot(q[1]) - j.clearance;
+                let pen = norm2(q) - j.clearance;
                 if !self.gap_closed[jj] {
                     return ContactTerms {
                         penetration: pen,
@@ -694,7 +702,7 @@ impl<'m> NewmarkRun<'m> {
                 self.qdt[jj][1] + self.gdt * self.pa[2 * jj + 1],
             ];
             if is_gap {
-                let dr = q1[0].hypot(q1[1]);
+                let dr = norm2(q1);
                 let closed = dr - self.sys.joints[jj].clearance > 0.0;
                 if closed != self.gap_closed[jj] {
                     converged = false;
@@ -752,8 +760,8 @@ impl<'m> NewmarkRun<'m> {
             };
             self.q[jj] = q;
             self.qd[jj] = qd;
-            self.pen[jj] = q[0].hypot(q[1]) - j.clearance;
-            self.fmag[jj] = f[0].hypot(f[1]);
+            self.pen[jj] = norm2(q) - j.clearance;
+            self.fmag[jj] = norm2(f);
             if !self.pen[jj].is_finite() {
                 let jname = self.model.joints[jj].name.clone();
                 return Err(self.diverged(
@@ -764,7 +772,7 @@ impl<'m> NewmarkRun<'m> {
             }
             if let Coupling::Gap { .. } = self.settings.coupling {
                 // the status for the next step follows the state just reached
-                let dr = q[0].hypot(q[1]);
+                let dr = norm2(q);
                 self.gap_closed[jj] = self.pen[jj] > 0.0;
                 if dr > 0.0 {
                     self.gap_normal[jj] = [q[0] / dr, q[1] / dr];
