@@ -133,7 +133,9 @@ pub struct RunOutput {
     pub record: Recorder,
     /// Counters.
     pub stats: RunStats,
-    /// Final displacement, velocity and acceleration (global DOFs).
+    /// Final displacement, velocity and acceleration (global DOFs). After a failure inside a
+    /// step (a contact matrix that is not positive definite), displacement and velocity are that
+    /// step's Newmark predictors.
     pub state: [Vec<f64>; 3],
     /// Time reached, s.
     pub time: f64,
