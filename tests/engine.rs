@@ -480,3 +480,44 @@ fn interrupt_stops_with_partial_output() {
     assert!(matches!(fail.error, Error::Interrupted { .. }));
     assert!(fail.output.record.time.len() > 1000);
 }
+
+/// Two unconnected links with different damping ratios take the general damping path (separate
+/// C product); each must move exactly as it does alone (proportional path).
+#[test]
+fn general_damping_path_matches_proportional_path_link_by_link() {
+    let mk = |name: &str, eta: f64| {
+        let mut l = beam(6);
+        l.name = name.into();
+        l.damping = eta;
+        let n = l.elements + 1;
+        l.initial_velocity = Some(
+            (0..3 * n)
+                .map(|i| if i % 3 == 1 { (i as f64 * 0.4).sin() } else { 0.0 })
+                .collect(),
+        );
+        l
+    };
+    let (a, b) = (mk("a", 2e5), mk("b", 7e5));
+    let run = |links: Vec<FlexibleLink>, nodes: Vec<(usize, usize)>| {
+        let model = Model {
+            links,
+            ..Default::default()
+        };
+        let mut s = Settings::new(2e-3, 1e-6);
+        s.record.nodes = nodes;
+        simulate(&model, &s, &mut |_| true).unwrap()
+    };
+    let both = run(vec![a.clone(), b.clone()], vec![(0, 6), (1, 6)]);
+    let alone_a = run(vec![a], vec![(0, 6)]);
+    let alone_b = run(vec![b], vec![(0, 6)]);
+    for (h, r) in [
+        (&both.record.nodes[0], &alone_a.record.nodes[0]),
+        (&both.record.nodes[1], &alone_b.record.nodes[0]),
+    ] {
+        let scale = r.v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(scale > 0.0);
+        for (x, y) in h.v.iter().zip(&r.v) {
+            assert!((x - y).abs() <= 1e-9 * scale, "{x} vs {y}");
+        }
+    }
+}
