@@ -28,6 +28,7 @@ pub mod modes;
 pub mod recorder;
 pub mod scenes;
 pub mod simulation;
+pub mod study;
 
 #[cfg(feature = "python")]
 mod python;

@@ -15,6 +15,7 @@ use faer::sparse::linalg::cholesky::simplicial::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
+use std::sync::Arc;
 
 use crate::assembly::Pattern;
 use crate::error::{Error, Result};
@@ -25,12 +26,7 @@ use crate::error::{Error, Result};
 /// Natural ordering: a chain of beam elements numbered along the chain is banded, so it has no
 /// fill outside the band.
 pub struct Cholesky {
-    symbolic: SymbolicSimplicialCholesky<usize>,
-    /// Upper-triangle pattern (faer reads every stored entry of a column).
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    /// Positions of the upper entries in the full pattern's value array.
-    src: Vec<usize>,
+    analysis: Arc<Analysis>,
     upper: Vec<f64>,
     values: Vec<f64>,
     mem: MemBuffer,
@@ -39,6 +35,88 @@ pub struct Cholesky {
     band: Option<BandedFactor>,
     /// Number of numeric factorizations done.
     pub factorizations: u64,
+}
+
+/// The symbolic analysis of one pattern: faer's elimination tree and factor structure, and the
+/// pattern's upper triangle. Immutable, so one analysis serves every factorization of matrices on
+/// that pattern, in one run (effective, contact and mass matrices) and across the samples of a
+/// study (shared through an `Arc`).
+pub struct Analysis {
+    symbolic: SymbolicSimplicialCholesky<usize>,
+    /// Upper-triangle pattern (faer reads every stored entry of a column).
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    /// Positions of the upper entries in the full pattern's value array.
+    src: Vec<usize>,
+    /// The full pattern this was built from (to check that a shared analysis fits a model).
+    full_col_ptr: Vec<usize>,
+    full_row_idx: Vec<usize>,
+    banded: bool,
+}
+
+impl std::fmt::Debug for Analysis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Analysis")
+            .field("n", &self.symbolic.nrows())
+            .field("nnz_l", &self.symbolic.len_val())
+            .field("banded", &self.banded)
+            .finish()
+    }
+}
+
+impl Analysis {
+    /// Symbolic analysis of `pattern` (its upper triangle; natural ordering).
+    pub fn new(pattern: &Pattern) -> Result<Arc<Self>> {
+        let n = pattern.n;
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let mut row_idx = Vec::new();
+        let mut src = Vec::new();
+        col_ptr.push(0);
+        for c in 0..n {
+            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                if pattern.row_idx[p] <= c {
+                    row_idx.push(pattern.row_idx[p]);
+                    src.push(p);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let mut etree = vec![0isize; n];
+        let mut counts = vec![0usize; n];
+        let mut mem = MemBuffer::new(StackReq::any_of(&[
+            prefactorize_symbolic_cholesky_scratch::<usize>(n, pattern.nnz()),
+            factorize_simplicial_symbolic_cholesky_scratch::<usize>(n),
+        ]));
+        let stack = MemStack::new(&mut mem);
+        let etree_ref = prefactorize_symbolic_cholesky(&mut etree, &mut counts, sym, stack);
+        let symbolic = factorize_simplicial_symbolic_cholesky(sym, etree_ref, &counts, stack).map_err(|e| {
+            Error::InvalidModel {
+                message: format!("symbolic factorization failed: {e:?}"),
+            }
+        })?;
+        let (lcp, lri) = (symbolic.col_ptr(), symbolic.row_idx());
+        let banded = (0..n).all(|j| lri[lcp[j]..lcp[j + 1]].iter().all(|&i| i >= j && i - j <= BAND));
+        Ok(Arc::new(Analysis {
+            symbolic,
+            col_ptr,
+            row_idx,
+            src,
+            full_col_ptr: pattern.col_ptr.clone(),
+            full_row_idx: pattern.row_idx.clone(),
+            banded,
+        }))
+    }
+
+    /// True when this analysis was made for exactly `pattern`.
+    pub fn fits(&self, pattern: &Pattern) -> bool {
+        self.full_col_ptr == pattern.col_ptr && self.full_row_idx == pattern.row_idx
+    }
+
+    /// Matrix dimension.
+    pub fn n(&self) -> usize {
+        self.col_ptr.len() - 1
+    }
 }
 
 /// Half-bandwidth of the factors solved by the banded substitution: a chain of 2-node beam
@@ -84,75 +162,52 @@ impl BandedFactor {
 impl std::fmt::Debug for Cholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Cholesky")
-            .field("n", &self.symbolic.nrows())
+            .field("n", &self.analysis.n())
             .field("nnz_l", &self.values.len())
             .finish()
     }
 }
 
 impl Cholesky {
-    /// Symbolic analysis of `pattern` (upper triangle). Done once per run.
+    /// Symbolic analysis of `pattern` followed by [`Self::with_analysis`].
     pub fn analyze(pattern: &Pattern) -> Result<Self> {
-        let n = pattern.n;
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::new();
-        let mut src = Vec::new();
-        col_ptr.push(0);
-        for c in 0..n {
-            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
-                if pattern.row_idx[p] <= c {
-                    row_idx.push(pattern.row_idx[p]);
-                    src.push(p);
-                }
-            }
-            col_ptr.push(row_idx.len());
-        }
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let mut etree = vec![0isize; n];
-        let mut counts = vec![0usize; n];
-        let mut mem = MemBuffer::new(StackReq::any_of(&[
-            prefactorize_symbolic_cholesky_scratch::<usize>(n, pattern.nnz()),
-            factorize_simplicial_symbolic_cholesky_scratch::<usize>(n),
-            factorize_simplicial_numeric_ldlt_scratch::<usize, f64>(n),
-        ]));
-        let stack = MemStack::new(&mut mem);
-        let etree_ref = prefactorize_symbolic_cholesky(&mut etree, &mut counts, sym, stack);
-        let symbolic = factorize_simplicial_symbolic_cholesky(sym, etree_ref, &counts, stack).map_err(|e| {
-            Error::InvalidModel {
-                message: format!("symbolic factorization failed: {e:?}"),
-            }
-        })?;
-        let values = vec![0.0; symbolic.len_val()];
-        let (lcp, lri) = (symbolic.col_ptr(), symbolic.row_idx());
-        let banded = (0..n).all(|j| lri[lcp[j]..lcp[j + 1]].iter().all(|&i| i >= j && i - j <= BAND));
-        let band = banded.then(|| BandedFactor {
+        Ok(Self::with_analysis(Analysis::new(pattern)?))
+    }
+
+    /// A factorization on a (possibly shared) symbolic analysis; allocates the numeric buffers.
+    pub fn with_analysis(analysis: Arc<Analysis>) -> Self {
+        let n = analysis.n();
+        let mem = MemBuffer::new(factorize_simplicial_numeric_ldlt_scratch::<usize, f64>(n));
+        let band = analysis.banded.then(|| BandedFactor {
             lrow: vec![[0.0; BAND]; n],
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
         });
-        let upper = vec![0.0; src.len()];
-        Ok(Cholesky {
-            symbolic,
-            col_ptr,
-            row_idx,
-            src,
-            upper,
-            values,
+        Cholesky {
+            upper: vec![0.0; analysis.src.len()],
+            values: vec![0.0; analysis.symbolic.len_val()],
+            analysis,
             mem,
             band,
             factorizations: 0,
-        })
+        }
+    }
+
+    /// The symbolic analysis this factorization uses.
+    pub fn analysis(&self) -> &Arc<Analysis> {
+        &self.analysis
     }
 
     /// Numeric factorization of the matrix with values `a` on the full pattern that was
     /// analyzed (only its upper triangle is read). Fails with [`Error::Singular`] naming `what`
     /// if the matrix is not positive definite.
     pub fn factorize(&mut self, a: &[f64], what: &str) -> Result<()> {
-        let n = self.col_ptr.len() - 1;
-        for (u, &p) in self.upper.iter_mut().zip(&self.src) {
+        let an = &*self.analysis;
+        let n = an.n();
+        for (u, &p) in self.upper.iter_mut().zip(&an.src) {
             *u = a[p];
         }
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &an.col_ptr, None, &an.row_idx);
         let mat = SparseColMatRef::new(sym, &self.upper);
         let stack = MemStack::new(&mut self.mem);
         self.factorizations += 1;
@@ -160,7 +215,7 @@ impl Cholesky {
             &mut self.values,
             mat,
             LdltRegularization::default(),
-            &self.symbolic,
+            &an.symbolic,
             stack,
         )
         .map_err(|_| Error::Singular {
@@ -168,7 +223,7 @@ impl Cholesky {
             index: 0,
         })?;
         // D sits first in each column of the factor; every pivot must be positive and finite.
-        let cp = self.symbolic.col_ptr();
+        let cp = an.symbolic.col_ptr();
         for k in 0..n {
             let d = self.values[cp[k]];
             if !(d > 0.0 && d.is_finite()) {
@@ -179,7 +234,7 @@ impl Cholesky {
             }
         }
         if let Some(b) = self.band.as_mut() {
-            let ri = self.symbolic.row_idx();
+            let ri = an.symbolic.row_idx();
             for j in 0..n {
                 b.dinv[j] = 1.0 / self.values[cp[j]];
                 for p in cp[j] + 1..cp[j + 1] {
@@ -208,7 +263,7 @@ impl Cholesky {
     /// The solve through faer's `SimplicialLdltRef::solve_in_place_with_conj`.
     pub fn solve_in_place_faer(&mut self, x: &mut [f64]) {
         let n = x.len();
-        let ldlt = SimplicialLdltRef::new(&self.symbolic, &self.values);
+        let ldlt = SimplicialLdltRef::new(&self.analysis.symbolic, &self.values);
         let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
         let stack = MemStack::new(&mut self.mem);
         ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack);
@@ -266,5 +321,41 @@ pub fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
         pmin / pmax
     } else {
         0.0
+    }
+}
+
+/// Symbolic analyses shared among runs whose models have the same sparsity pattern (the samples
+/// of a study that differ only in values share one; a sample that changes the element count gets
+/// its own). Thread-safe; the lock is taken once per run, before the time loop.
+#[derive(Debug, Default)]
+pub struct AnalysisCache {
+    analyses: std::sync::Mutex<Vec<Arc<Analysis>>>,
+}
+
+impl AnalysisCache {
+    /// An empty cache.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The analysis of `pattern`, made on first request.
+    pub fn get(&self, pattern: &Pattern) -> Result<Arc<Analysis>> {
+        let mut list = self.analyses.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(a) = list.iter().find(|a| a.fits(pattern)) {
+            return Ok(Arc::clone(a));
+        }
+        let a = Analysis::new(pattern)?;
+        list.push(Arc::clone(&a));
+        Ok(a)
+    }
+
+    /// Number of distinct patterns analyzed so far.
+    pub fn len(&self) -> usize {
+        self.analyses.lock().unwrap_or_else(|p| p.into_inner()).len()
+    }
+
+    /// True when nothing has been analyzed yet.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }

@@ -114,6 +114,28 @@ pub struct JointExtremes {
     pub impacts: u64,
     /// Total time in contact, s.
     pub contact_time: f64,
+    /// Largest magnitude of the journal's velocity relative to the bearing, `|q'|`, m/s.
+    pub max_velocity: f64,
+    /// Largest normal approach speed `q' . q / |q|` at an impact (the step that closes), m/s.
+    pub max_impact_velocity: f64,
+    /// Sum of squared penetrations over the recorded steps, m^2 (for the RMS).
+    pub sum_sq_penetration: f64,
+    /// Sum of squared force magnitudes over the recorded steps, N^2 (for the RMS).
+    pub sum_sq_force: f64,
+    /// Steps that entered the sums (from `RecordSpec::start` on).
+    pub samples: u64,
+}
+
+impl JointExtremes {
+    /// Root mean square of the penetration over the recorded steps, m (NaN before any step).
+    pub fn rms_penetration(&self) -> f64 {
+        (self.sum_sq_penetration / self.samples as f64).sqrt()
+    }
+
+    /// Root mean square of the contact force magnitude over the recorded steps, N.
+    pub fn rms_force(&self) -> f64 {
+        (self.sum_sq_force / self.samples as f64).sqrt()
+    }
 }
 
 impl Default for JointExtremes {
@@ -124,6 +146,11 @@ impl Default for JointExtremes {
             max_force: 0.0,
             impacts: 0,
             contact_time: 0.0,
+            max_velocity: 0.0,
+            max_impact_velocity: 0.0,
+            sum_sq_penetration: 0.0,
+            sum_sq_force: 0.0,
+            samples: 0,
         }
     }
 }
@@ -197,12 +224,22 @@ impl Recorder {
         }
     }
 
-    /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]` and
-    /// `q[j]` are every joint's penetration (m), force magnitude (N) and position (m); `u` the
-    /// global displacement vector.
+    /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]`, `q[j]`
+    /// and `qd[j]` are every joint's penetration (m), force magnitude (N), position (m) and
+    /// velocity (m/s); `u` the global displacement vector.
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    pub fn record(&mut self, step: u64, t: f64, dt: f64, pen: &[f64], force: &[f64], q: &[[f64; 2]], u: &[f64]) {
+    pub fn record(
+        &mut self,
+        step: u64,
+        t: f64,
+        dt: f64,
+        pen: &[f64],
+        force: &[f64],
+        q: &[[f64; 2]],
+        qd: &[[f64; 2]],
+        u: &[f64],
+    ) {
         if t < self.spec_start {
             for (c, &p) in self.was_closed.iter_mut().zip(pen) {
                 *c = p > 0.0;
@@ -215,11 +252,25 @@ impl Recorder {
                 e.max_penetration = p;
                 e.time_of_max_penetration = t;
             }
-            e.max_force = e.max_force.max(force[j]);
+            let f = force[j];
+            e.max_force = e.max_force.max(f);
+            e.sum_sq_penetration += p * p;
+            e.sum_sq_force += f * f;
+            e.samples += 1;
+            let [vx, vy] = qd[j];
+            let v2 = vx * vx + vy * vy;
+            if v2 > e.max_velocity * e.max_velocity {
+                e.max_velocity = v2.sqrt();
+            }
             let closed = p > 0.0;
             if closed {
                 if !self.was_closed[j] && step > 0 {
                     e.impacts += 1;
+                    let [x, y] = q[j];
+                    let r = (x * x + y * y).sqrt();
+                    if r > 0.0 {
+                        e.max_impact_velocity = e.max_impact_velocity.max((vx * x + vy * y) / r);
+                    }
                 }
                 if step > 0 {
                     e.contact_time += dt;

@@ -3,6 +3,7 @@
 use crate::contact::Coupling;
 use crate::error::{check_positive, Error, Result};
 use crate::integrator::{Newmark, NewmarkRun};
+use crate::linsolve::AnalysisCache;
 use crate::model::Model;
 use crate::recorder::{RecordSpec, Recorder};
 
@@ -160,6 +161,17 @@ pub fn simulate(
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
+    simulate_shared(model, settings, None, control)
+}
+
+/// As [`simulate`], taking the symbolic factorization from `cache` (shared among runs of models
+/// with the same sparsity pattern, as in [`crate::study::run_batch`]).
+pub fn simulate_shared(
+    model: &Model,
+    settings: &Settings,
+    cache: Option<&AnalysisCache>,
+    control: &mut dyn FnMut(f64) -> bool,
+) -> std::result::Result<RunOutput, Box<RunFailure>> {
     let fail = |error| {
         Box::new(RunFailure {
             error,
@@ -168,6 +180,6 @@ pub fn simulate(
     };
     model.validate().map_err(fail)?;
     settings.validate(model).map_err(fail)?;
-    let run = NewmarkRun::new(model, settings).map_err(fail)?;
+    let run = NewmarkRun::with_analysis(model, settings, cache).map_err(fail)?;
     run.run(control)
 }

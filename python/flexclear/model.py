@@ -66,6 +66,13 @@ class JointResult:
         Open-to-closed transitions.
     contact_time : float
         Time spent in contact, s.
+    max_velocity : float
+        Largest speed of the journal relative to the bearing, m/s.
+    max_impact_velocity : float
+        Largest normal approach speed at an impact (the step that closes the gap), m/s.
+    rms_penetration, rms_force : float
+        Root mean square of the penetration (m) and of the force magnitude (N) over the
+        recorded steps (every step from ``Record.start``, whatever ``Record.every``).
     """
 
     name: str
@@ -78,6 +85,10 @@ class JointResult:
     max_force: float
     impacts: int
     contact_time: float
+    max_velocity: float
+    max_impact_velocity: float
+    rms_penetration: float
+    rms_force: float
 
 
 @dataclasses.dataclass
@@ -147,6 +158,10 @@ class Result:
             max_force=ext["max_force"],
             impacts=ext["impacts"],
             contact_time=ext["contact_time"],
+            max_velocity=ext["max_velocity"],
+            max_impact_velocity=ext["max_impact_velocity"],
+            rms_penetration=ext["rms_penetration"],
+            rms_force=ext["rms_force"],
         )
 
     def node(self, link: str, node: int) -> NodeResult:

@@ -3,6 +3,7 @@ can be overridden by keyword; SI units (``clearance`` in metres, not a ratio).""
 
 from __future__ import annotations
 
+import inspect
 from typing import Optional
 
 from . import _core
@@ -118,5 +119,21 @@ def slider_yoke_stiff(**overrides) -> Model:
     kw.update(overrides)
     return slider_yoke(**kw)
 
+
+def _stiff_signature() -> inspect.Signature:
+    sig = inspect.signature(slider_yoke)
+    params = [
+        p.replace(default=1e-5)
+        if p.name == "clearance"
+        else p.replace(default=1e10)
+        if p.name == "bearing_stiffness"
+        else p
+        for p in sig.parameters.values()
+    ]
+    return sig.replace(parameters=params)
+
+
+# The keywords (and their defaults) of the stiff variant, for introspection (flexclear.study).
+slider_yoke_stiff.__signature__ = _stiff_signature()  # type: ignore[attr-defined]
 
 __all__ = ["slider_yoke", "slider_yoke_stiff"]

@@ -16,10 +16,11 @@
 use crate::assembly::{Band, Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
-use crate::linsolve::{solve_dense_in_place, Cholesky};
+use crate::linsolve::{solve_dense_in_place, Analysis, AnalysisCache, Cholesky};
 use crate::model::Model;
 use crate::recorder::Recorder;
 use crate::simulation::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
+use std::sync::Arc;
 
 /// Newmark parameters. Default: average acceleration (beta 1/4, gamma 1/2), unconditionally
 /// stable for linear systems and without numerical damping.
@@ -140,6 +141,13 @@ impl<'m> NewmarkRun<'m> {
     /// be validated. Fails with [`Error::Singular`] if the mass or effective matrix is not
     /// positive definite.
     pub fn new(model: &'m Model, settings: &Settings) -> Result<Self> {
+        Self::with_analysis(model, settings, None)
+    }
+
+    /// As [`Self::new`], taking the symbolic factorization of the model's pattern from `cache`
+    /// (shared among the samples of a study) when given; otherwise the analysis is done here.
+    /// One analysis serves all of the run's factorizations.
+    pub fn with_analysis(model: &'m Model, settings: &Settings, cache: Option<&AnalysisCache>) -> Result<Self> {
         let sys = System::assemble(model);
         let n = sys.n();
         let nj = sys.joints.len();
@@ -151,11 +159,15 @@ impl<'m> NewmarkRun<'m> {
         let a0_values: Vec<f64> = (0..nnz)
             .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
             .collect();
-        let mut chol0 = Cholesky::analyze(&sys.pattern)?;
+        let analysis = match cache {
+            Some(c) => c.get(&sys.pattern)?,
+            None => Analysis::new(&sys.pattern)?,
+        };
+        let mut chol0 = Cholesky::with_analysis(Arc::clone(&analysis));
         chol0.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
         let needs_refactor = nj > 0 && !matches!(settings.coupling, Coupling::Force);
         let chol_c = if needs_refactor {
-            Some(Cholesky::analyze(&sys.pattern)?)
+            Some(Cholesky::with_analysis(Arc::clone(&analysis)))
         } else {
             None
         };
@@ -328,13 +340,21 @@ impl<'m> NewmarkRun<'m> {
                 self.r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
             }
         }
-        let mut mchol = Cholesky::analyze(&self.sys.pattern)?;
+        let mut mchol = Cholesky::with_analysis(Arc::clone(self.chol0.analysis()));
         mchol.factorize(&self.sys.mass, "the mass matrix")?;
         self.a.copy_from_slice(&self.r);
         mchol.solve_in_place(&mut self.a);
         self.check_state()?;
-        self.rec
-            .record(0, 0.0, self.settings.dt, &self.pen, &self.fmag, &self.q, &self.u);
+        self.rec.record(
+            0,
+            0.0,
+            self.settings.dt,
+            &self.pen,
+            &self.fmag,
+            &self.q,
+            &self.qd,
+            &self.u,
+        );
         Ok(())
     }
 
@@ -784,8 +804,16 @@ impl<'m> NewmarkRun<'m> {
         if self.step.is_multiple_of(CHECK_STRIDE) {
             self.check_state()?;
         }
-        self.rec
-            .record(self.step, t1, self.settings.dt, &self.pen, &self.fmag, &self.q, &self.u);
+        self.rec.record(
+            self.step,
+            t1,
+            self.settings.dt,
+            &self.pen,
+            &self.fmag,
+            &self.q,
+            &self.qd,
+            &self.u,
+        );
         Ok(())
     }
 

@@ -3,7 +3,9 @@
 
 mod errors;
 
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
+use std::time::Duration;
 
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -13,9 +15,10 @@ use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
 use crate::integrator::Newmark;
 use crate::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
-use crate::recorder::RecordSpec;
+use crate::recorder::{JointExtremes, RecordSpec};
 use crate::scenes::{SliderYoke, SliderYokeGeometry};
 use crate::simulation::{simulate, RunOutput, Settings, SolverMode};
+use crate::study::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 
 use errors::{run_detached, to_pyerr};
 
@@ -316,54 +319,30 @@ impl PyModel {
         start: f64,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let max_iter =
-            usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
-        let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
-        let coupling = match method {
-            "force" => Coupling::Force,
-            "modified" => Coupling::Modified { iterate, tol, max_iter },
-            "gap" => Coupling::Gap {
-                stiffness: gap_stiffness,
-                damping: gap_damping,
-                max_iter,
-            },
-            other => {
-                return Err(err(
-                    py,
-                    Error::param(
-                        "method",
-                        format!("{other:?}"),
-                        "one of \"force\", \"modified\", \"gap\"",
-                    ),
-                ))
-            }
-        };
-        let solver = match solver {
-            "woodbury" => SolverMode::Woodbury,
-            "refactor" => SolverMode::Refactor,
-            other => {
-                return Err(err(
-                    py,
-                    Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
-                ))
-            }
-        };
-        let settings = Settings {
+        let settings = build_settings(
+            py,
             t_end,
             dt,
-            newmark: Newmark { beta, gamma },
-            coupling,
+            method,
+            iterate,
+            tol,
+            max_iter,
+            gap_stiffness,
+            gap_damping,
+            beta,
+            gamma,
             solver,
             divergence_limit,
-            record: RecordSpec {
+            RecordSpec {
                 joints,
                 joint_position,
                 nodes,
-                every,
+                every: 1,
                 histories,
                 start,
             },
-        };
+            every,
+        )?;
         let model = &self.inner;
         let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
         match res {
@@ -390,6 +369,70 @@ impl PyModel {
     }
 }
 
+/// Settings of a run from the keyword arguments shared by `Model.simulate` and `run_batch`.
+#[allow(clippy::too_many_arguments)]
+fn build_settings(
+    py: Python<'_>,
+    t_end: f64,
+    dt: f64,
+    method: &str,
+    iterate: bool,
+    tol: f64,
+    max_iter: i64,
+    gap_stiffness: Option<f64>,
+    gap_damping: f64,
+    beta: f64,
+    gamma: f64,
+    solver: &str,
+    divergence_limit: Option<f64>,
+    mut record: RecordSpec,
+    every: i64,
+) -> PyResult<Settings> {
+    let max_iter =
+        usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
+    let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
+    let coupling = match method {
+        "force" => Coupling::Force,
+        "modified" => Coupling::Modified { iterate, tol, max_iter },
+        "gap" => Coupling::Gap {
+            stiffness: gap_stiffness,
+            damping: gap_damping,
+            max_iter,
+        },
+        other => {
+            return Err(err(
+                py,
+                Error::param(
+                    "method",
+                    format!("{other:?}"),
+                    "one of \"force\", \"modified\", \"gap\"",
+                ),
+            ))
+        }
+    };
+    let solver = match solver {
+        "woodbury" => SolverMode::Woodbury,
+        "refactor" => SolverMode::Refactor,
+        other => {
+            return Err(err(
+                py,
+                Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
+            ))
+        }
+    };
+    record.every = every;
+    let settings = Settings {
+        t_end,
+        dt,
+        newmark: Newmark { beta, gamma },
+        coupling,
+        solver,
+        divergence_limit,
+        record,
+    };
+    Ok(settings)
+}
+
 /// Validates a model under construction: only the parts added so far must be consistent.
 fn validate_partial(py: Python<'_>, m: &Model) -> PyResult<()> {
     if m.links.is_empty() {
@@ -402,6 +445,24 @@ fn validate_partial(py: Python<'_>, m: &Model) -> PyResult<()> {
         return Ok(());
     }
     m.validate().map_err(|e| err(py, e))
+}
+
+fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {
+    let ext = PyList::empty(py);
+    for e in extremes {
+        let x = PyDict::new(py);
+        x.set_item("max_penetration", e.max_penetration)?;
+        x.set_item("time_of_max_penetration", e.time_of_max_penetration)?;
+        x.set_item("max_force", e.max_force)?;
+        x.set_item("impacts", e.impacts)?;
+        x.set_item("contact_time", e.contact_time)?;
+        x.set_item("max_velocity", e.max_velocity)?;
+        x.set_item("max_impact_velocity", e.max_impact_velocity)?;
+        x.set_item("rms_penetration", e.rms_penetration())?;
+        x.set_item("rms_force", e.rms_force())?;
+        ext.append(x)?;
+    }
+    Ok(ext)
 }
 
 fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
@@ -430,17 +491,7 @@ fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
         nodes.append(n)?;
     }
     d.set_item("nodes", nodes)?;
-    let ext = PyList::empty(py);
-    for e in rec.extremes {
-        let x = PyDict::new(py);
-        x.set_item("max_penetration", e.max_penetration)?;
-        x.set_item("time_of_max_penetration", e.time_of_max_penetration)?;
-        x.set_item("max_force", e.max_force)?;
-        x.set_item("impacts", e.impacts)?;
-        x.set_item("contact_time", e.contact_time)?;
-        ext.append(x)?;
-    }
-    d.set_item("extremes", ext)?;
+    d.set_item("extremes", extremes_list(py, &rec.extremes)?)?;
     let s = out.stats;
     let st = PyDict::new(py);
     st.set_item("steps", s.steps)?;
@@ -545,12 +596,196 @@ fn slider_yoke<'py>(
     Ok((PyModel { inner: model }, info))
 }
 
+/// One sample's outcome as a dict: `status` ("ok", "diverged", "invalid", "singular",
+/// "interrupted", "not_run"), `message`, `dt`, `retries`, `wall_time`, `steps`, `t`,
+/// `extremes` (per joint) and `joints` (histories, when recorded).
+fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("dt", o.dt)?;
+    d.set_item("retries", o.retries)?;
+    d.set_item("wall_time", o.wall_time)?;
+    let (status, message, out) = match o.result {
+        None => (
+            "not_run",
+            String::from("the batch was stopped before this sample started"),
+            None,
+        ),
+        Some(Ok(out)) => ("ok", String::new(), Some(out)),
+        Some(Err(f)) => {
+            let status = match f.error {
+                Error::InvalidParameter { .. } | Error::InvalidModel { .. } => "invalid",
+                Error::Diverged { .. } => "diverged",
+                Error::Singular { .. } => "singular",
+                Error::Interrupted { .. } => "interrupted",
+            };
+            (status, f.error.to_string(), Some(f.output))
+        }
+    };
+    d.set_item("status", status)?;
+    d.set_item("message", message)?;
+    let out = out.unwrap_or_default();
+    d.set_item("steps", out.stats.steps)?;
+    d.set_item("t", out.time)?;
+    d.set_item("extremes", extremes_list(py, &out.record.extremes)?)?;
+    let rec = out.record;
+    d.set_item("time", PyArray1::from_vec(py, rec.time))?;
+    let joints = PyList::empty(py);
+    for h in rec.joints {
+        let j = PyDict::new(py);
+        j.set_item("joint", h.joint)?;
+        j.set_item("penetration", PyArray1::from_vec(py, h.penetration))?;
+        j.set_item("force", PyArray1::from_vec(py, h.force))?;
+        joints.append(j)?;
+    }
+    d.set_item("joints", joints)?;
+    Ok(d)
+}
+
+/// Runs many samples in parallel (see `flexclear.study`). `models[i]` runs to `t_end[i]` with
+/// step `dt[i]`; the other settings are shared. Returns `(outcomes, stats, pending)`: one dict
+/// per sample in input order, the batch counters, and the exception that stopped the batch
+/// (KeyboardInterrupt or one raised by `progress`), else None. The GIL is released throughout;
+/// `progress(done)` is called from the calling thread as samples finish.
+#[pyfunction]
+#[pyo3(signature = (models, t_end, dt, *, threads=0, retries=0, retry_factor=0.5, method="modified", iterate=false,
+                    tol=1e-10, max_iter=50, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
+                    solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
+                    progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn run_batch<'py>(
+    py: Python<'py>,
+    models: Vec<PyRef<'py, PyModel>>,
+    t_end: Vec<f64>,
+    dt: Vec<f64>,
+    threads: i64,
+    retries: i64,
+    retry_factor: f64,
+    method: &str,
+    iterate: bool,
+    tol: f64,
+    max_iter: i64,
+    gap_stiffness: Option<f64>,
+    gap_damping: f64,
+    beta: f64,
+    gamma: f64,
+    solver: &str,
+    divergence_limit: Option<f64>,
+    joints: Option<Vec<usize>>,
+    every: i64,
+    histories: bool,
+    start: f64,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyList>, Bound<'py, PyDict>, Option<PyErr>)> {
+    let n = models.len();
+    if t_end.len() != n || dt.len() != n {
+        return Err(err(
+            py,
+            Error::param(
+                "t_end, dt",
+                format!("lengths {} and {}", t_end.len(), dt.len()),
+                format!("one value per model ({n})"),
+            ),
+        ));
+    }
+    let threads = usize::try_from(threads).map_err(|_| {
+        err(
+            py,
+            Error::param("threads", threads, "an integer >= 0 (0 = one per core)"),
+        )
+    })?;
+    let attempts = u32::try_from(retries).map_err(|_| err(py, Error::param("retries", retries, "an integer >= 0")))?;
+    let record = RecordSpec {
+        joints,
+        joint_position: false,
+        nodes: Vec::new(),
+        every: 1,
+        histories,
+        start,
+    };
+    let mut samples = Vec::with_capacity(n);
+    for (i, m) in models.iter().enumerate() {
+        let settings = build_settings(
+            py,
+            t_end[i],
+            dt[i],
+            method,
+            iterate,
+            tol,
+            max_iter,
+            gap_stiffness,
+            gap_damping,
+            beta,
+            gamma,
+            solver,
+            divergence_limit,
+            record.clone(),
+            every,
+        )?;
+        samples.push((m.inner.clone(), settings));
+    }
+    drop(models);
+    let options = BatchOptions {
+        threads,
+        retry: Retry {
+            attempts,
+            factor: retry_factor,
+        },
+    };
+    let stop = AtomicBool::new(false);
+    let done = AtomicUsize::new(0);
+    let (result, pending) = py.detach(|| {
+        let caller = std::thread::current();
+        std::thread::scope(|scope| {
+            let worker = scope.spawn(|| {
+                let r = run_batch_core(&samples, &options, &stop, &done);
+                caller.unpark();
+                r
+            });
+            let mut pending: Option<PyErr> = None;
+            let mut reported = usize::MAX;
+            while !worker.is_finished() {
+                std::thread::park_timeout(Duration::from_millis(50));
+                if pending.is_some() {
+                    continue;
+                }
+                Python::attach(|py| {
+                    if let Err(e) = py.check_signals() {
+                        stop.store(true, Ordering::Relaxed);
+                        pending = Some(e);
+                        return;
+                    }
+                    let d = done.load(Ordering::Relaxed);
+                    if let (Some(cb), true) = (&progress, d != reported) {
+                        reported = d;
+                        if let Err(e) = cb.call1(py, (d,)) {
+                            stop.store(true, Ordering::Relaxed);
+                            pending = Some(e);
+                        }
+                    }
+                });
+            }
+            let result = worker.join().expect("the batch thread does not panic");
+            (result, pending)
+        })
+    });
+    let (outcomes, stats) = result.map_err(|e| err(py, e))?;
+    let list = PyList::empty(py);
+    for o in outcomes {
+        list.append(outcome_dict(py, o)?)?;
+    }
+    let st = PyDict::new(py);
+    st.set_item("analyses", stats.analyses)?;
+    st.set_item("threads", stats.threads)?;
+    Ok((list, st, pending))
+}
+
 /// The compiled core of flexclear.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyModel>()?;
     m.add_class::<PyMotion>()?;
     m.add_function(wrap_pyfunction!(slider_yoke, m)?)?;
+    m.add_function(wrap_pyfunction!(run_batch, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

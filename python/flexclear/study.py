@@ -1,0 +1,1009 @@
+"""Monte Carlo studies: many variants of a scene, run in parallel, with results that survive a kill.
+
+A :class:`Study` is a base scene (a function of :mod:`flexclear.scenes`), the parameters to vary
+(each a fixed list of values or a distribution), a sampling design and the run settings. Running
+it gives a :class:`StudyResult`: a pandas DataFrame with one row per sample (its inputs, its
+outputs and its status), summaries, exceedance probabilities with confidence intervals, and plots.
+
+>>> from flexclear.study import Study, Uniform
+>>> study = Study("slider_yoke", vary={"clearance": Uniform(0.0, 1e-3)}, samples=1000, seed=1,
+...               t_end=0.5, dt=1e-5)
+>>> result = study.run(store="clearance-study")   # resumable; Ctrl-C keeps finished samples
+>>> result.summary()
+>>> result.exceedance("max_force", 50.0)            # P(max force > 50 N) with a 95 % interval
+
+The samples run in one process on a Rust thread pool (``threads=``), or on a Dask cluster when a
+``dask.distributed.Client`` is passed (``client=``): chunks of samples per task, each chunk one
+Rust batch. A sample's result does not depend on where or with how many threads it ran, so the
+same study gives identical results serially, threaded and on Dask.
+
+Needs pandas, pyarrow (for ``store=``) and scipy (for the Latin hypercube and Sobol designs and the
+normal-family distributions); ``pip install flexclear[study]``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import inspect
+import json
+import math
+import os
+import time
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Callable, Optional, Union
+
+import numpy as np
+
+from . import _core, scenes
+from .errors import FlexclearError, InvalidParameterError, SimulationInterrupted
+
+# --------------------------------------------------------------------------------------------
+# Distributions
+# --------------------------------------------------------------------------------------------
+
+
+def _check_finite(name: str, **values: float) -> None:
+    for k, v in values.items():
+        if not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise InvalidParameterError(f"{name}: {k} = {v!r} is not allowed; allowed: a finite number")
+
+
+@dataclasses.dataclass(frozen=True)
+class Uniform:
+    """Uniform on ``[low, high]`` (``low < high``)."""
+
+    low: float
+    high: float
+
+    def __post_init__(self) -> None:
+        _check_finite("Uniform", low=self.low, high=self.high)
+        if not self.low < self.high:
+            raise InvalidParameterError(f"Uniform: low = {self.low} must be < high = {self.high}")
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        return self.low + u * (self.high - self.low)
+
+
+@dataclasses.dataclass(frozen=True)
+class Normal:
+    """Normal with ``mean`` and standard deviation ``std`` (> 0)."""
+
+    mean: float
+    std: float
+
+    def __post_init__(self) -> None:
+        _check_finite("Normal", mean=self.mean, std=self.std)
+        if not self.std > 0:
+            raise InvalidParameterError(f"Normal: std = {self.std} is not allowed; allowed: std > 0")
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        from scipy import stats
+
+        return stats.norm.ppf(u, loc=self.mean, scale=self.std)
+
+
+@dataclasses.dataclass(frozen=True)
+class TruncatedNormal:
+    """Normal(``mean``, ``std``) truncated to ``[low, high]`` (a tolerance band)."""
+
+    mean: float
+    std: float
+    low: float
+    high: float
+
+    def __post_init__(self) -> None:
+        _check_finite("TruncatedNormal", mean=self.mean, std=self.std, low=self.low, high=self.high)
+        if not self.std > 0:
+            raise InvalidParameterError(f"TruncatedNormal: std = {self.std} is not allowed; allowed: std > 0")
+        if not self.low < self.high:
+            raise InvalidParameterError(f"TruncatedNormal: low = {self.low} must be < high = {self.high}")
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        from scipy import stats
+
+        a, b = (self.low - self.mean) / self.std, (self.high - self.mean) / self.std
+        return stats.truncnorm.ppf(u, a, b, loc=self.mean, scale=self.std)
+
+
+@dataclasses.dataclass(frozen=True)
+class LogNormal:
+    """Lognormal: ``log(x)`` is normal with mean ``log(median)`` and std ``sigma`` (> 0).
+
+    Natural for stiffnesses and damping known within a factor (``sigma = log(2)/2`` puts 95 % of
+    the draws within a factor 2 of the median).
+    """
+
+    median: float
+    sigma: float
+
+    def __post_init__(self) -> None:
+        _check_finite("LogNormal", median=self.median, sigma=self.sigma)
+        if not self.median > 0:
+            raise InvalidParameterError(f"LogNormal: median = {self.median} is not allowed; allowed: > 0")
+        if not self.sigma > 0:
+            raise InvalidParameterError(f"LogNormal: sigma = {self.sigma} is not allowed; allowed: > 0")
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        from scipy import stats
+
+        return self.median * np.exp(self.sigma * stats.norm.ppf(u))
+
+
+@dataclasses.dataclass(frozen=True)
+class Values:
+    """A fixed list of values: every value once in a grid; drawn with equal probability otherwise."""
+
+    values: tuple
+
+    def __init__(self, values: Sequence[float]) -> None:
+        vals = tuple(values)
+        if not vals:
+            raise InvalidParameterError("Values: the list is empty; allowed: at least one value")
+        for v in vals:
+            _check_finite("Values", value=v)
+        object.__setattr__(self, "values", vals)
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        idx = np.minimum((u * len(self.values)).astype(np.int64), len(self.values) - 1)
+        return np.asarray(self.values, dtype=float)[idx]
+
+
+Distribution = Union[Uniform, Normal, TruncatedNormal, LogNormal, Values]
+_DISTRIBUTIONS = {
+    "uniform": Uniform,
+    "normal": Normal,
+    "truncated_normal": TruncatedNormal,
+    "lognormal": LogNormal,
+    "values": Values,
+}
+
+
+def distribution_from_dict(name: str, spec: Any) -> Distribution:
+    """A distribution from its description in a study file.
+
+    ``spec`` is a list of values, or a table ``{distribution = "uniform", low = .., high = ..}``
+    (``"normal"``: mean, std; ``"truncated_normal"``: mean, std, low, high; ``"lognormal"``:
+    median, sigma; ``"values"``: values).
+    """
+    if isinstance(spec, (list, tuple)):
+        return Values(spec)
+    if isinstance(spec, (int, float)):
+        return Values([spec])
+    if not isinstance(spec, Mapping):
+        raise InvalidParameterError(f"vary.{name}: {spec!r} is not allowed; allowed: a list or a table")
+    spec = dict(spec)
+    kind = spec.pop("distribution", None)
+    if kind not in _DISTRIBUTIONS:
+        raise InvalidParameterError(
+            f"vary.{name}.distribution = {kind!r} is not allowed; allowed: one of {sorted(_DISTRIBUTIONS)}"
+        )
+    cls = _DISTRIBUTIONS[kind]
+    fields = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(spec) - set(fields))
+    missing = sorted(set(fields) - set(spec))
+    if unknown or missing:
+        raise InvalidParameterError(
+            f"vary.{name}: a {kind} distribution takes exactly {fields}"
+            + (f"; unknown {unknown}" if unknown else "")
+            + (f"; missing {missing}" if missing else "")
+        )
+    try:
+        return cls(**spec)
+    except InvalidParameterError as e:
+        raise InvalidParameterError(f"vary.{name}: {e}") from None
+
+
+def _as_distribution(name: str, d: Any) -> Distribution:
+    if isinstance(d, (Uniform, Normal, TruncatedNormal, LogNormal, Values)):
+        return d
+    return distribution_from_dict(name, d)
+
+
+def _dist_to_dict(d: Distribution) -> dict:
+    kind = next(k for k, c in _DISTRIBUTIONS.items() if isinstance(d, c))
+    out = {"distribution": kind}
+    out.update(
+        {
+            f.name: (list(v) if isinstance(v, tuple) else v)
+            for f in dataclasses.fields(d)
+            for v in [getattr(d, f.name)]
+        }
+    )
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The study
+# --------------------------------------------------------------------------------------------
+
+#: Parameters that belong to the run rather than to the scene.
+RUN_PARAMETERS = ("dt", "t_end")
+
+#: Per-sample outputs, all from running reductions (no history needed), with units.
+OUTPUTS = {
+    "max_penetration": "largest penetration delta_r - delta_c, m (negative: never touched)",
+    "time_of_max_penetration": "when it happened, s",
+    "max_force": "largest contact force magnitude, N",
+    "impacts": "open-to-closed transitions",
+    "contact_time": "time in contact, s",
+    "max_velocity": "peak speed of the journal relative to the bearing, m/s",
+    "max_impact_velocity": "peak normal approach speed at an impact, m/s",
+    "rms_penetration": "RMS of the penetration, m",
+    "rms_force": "RMS of the contact force magnitude, N",
+}
+
+DESIGNS = ("random", "lhs", "sobol", "grid")
+_STATUS = ("ok", "diverged", "invalid", "singular", "interrupted", "not_run")
+
+
+def _scene_function(scene: Union[str, Callable]) -> tuple[str, Callable]:
+    if callable(scene):
+        name = getattr(scene, "__name__", "")
+        if getattr(scenes, name, None) is not scene:
+            raise InvalidParameterError(
+                f"scene: {scene!r} is not allowed; allowed: a function of flexclear.scenes or its name"
+            )
+        return name, scene
+    fn = getattr(scenes, str(scene), None)
+    names = [n for n in dir(scenes) if not n.startswith("_") and inspect.isfunction(getattr(scenes, n))]
+    names = [n for n in names if getattr(scenes, n).__module__ == scenes.__name__]
+    if fn is None or str(scene) not in names:
+        raise InvalidParameterError(f"scene = {scene!r} is not allowed; allowed: one of {names}")
+    return str(scene), fn
+
+
+class Study:
+    """A Monte Carlo (or grid) study of a scene.
+
+    Parameters
+    ----------
+    scene : str or callable
+        A scene of :mod:`flexclear.scenes` (``"slider_yoke"``, ``"slider_yoke_stiff"``) or the
+        function itself.
+    vary : dict
+        Parameter name -> :class:`Uniform`, :class:`Normal`, :class:`TruncatedNormal`,
+        :class:`LogNormal`, :class:`Values` or a plain list of values. Names are the scene's
+        keywords (SI units: ``clearance`` in m, ``bearing_stiffness`` in N/m,
+        ``bearing_damping`` in N s/m, ``amplitude`` in m, ``frequency`` in Hz,
+        ``youngs_modulus`` in Pa, ``damping_ratio``, ``elements``, ...) or the run parameters
+        ``dt`` and ``t_end`` (s). Integer parameters (``elements``) are rounded.
+    fixed : dict, optional
+        Scene keywords held fixed for every sample.
+    samples : int
+        Number of samples (ignored by the ``"grid"`` design, whose size is the product of the
+        levels).
+    design : {"random", "lhs", "sobol", "grid"}
+        Plain random draws, Latin hypercube, scrambled Sobol (best balanced at a power of two),
+        or the full grid (lists as given; a distribution contributes ``levels`` quantiles).
+    seed : int
+        Seed of the design: the same seed gives the same samples and, the runs being
+        deterministic, the same results.
+    levels : int
+        Quantile levels per distribution in a grid design.
+    t_end, dt : float
+        Simulated time and step, s (unless varied).
+    method : {"modified", "force", "gap"}
+        Clearance coupling; ``run_options`` passes any other :meth:`flexclear.Model.simulate`
+        setting (``iterate``, ``beta``, ``gamma``, ``solver``, ...).
+    joint : str, optional
+        The joint whose outputs are reported (default the scene's first joint, ``"bearing"``).
+    outputs : sequence of str
+        Which of :data:`OUTPUTS` to keep (default all).
+    start : float
+        Outputs are reduced from this time on, s (to skip a start-up transient).
+    history_every : int, optional
+        Also keep the joint's penetration and force histories, decimated to every k-th step
+        (memory grows with the run length: off by default).
+    retries : int
+        Retry a diverged sample this many times with the step times ``retry_factor``; the
+        retried samples are flagged (column ``retries``) and the step used is in ``dt_used``.
+    """
+
+    def __init__(
+        self,
+        scene: Union[str, Callable] = "slider_yoke",
+        vary: Optional[Mapping[str, Any]] = None,
+        *,
+        fixed: Optional[Mapping[str, Any]] = None,
+        samples: int = 100,
+        design: str = "random",
+        seed: int = 0,
+        levels: int = 5,
+        t_end: float = 0.5,
+        dt: float = 1e-5,
+        method: str = "modified",
+        joint: Optional[str] = None,
+        outputs: Optional[Sequence[str]] = None,
+        start: float = 0.0,
+        history_every: Optional[int] = None,
+        retries: int = 0,
+        retry_factor: float = 0.5,
+        run_options: Optional[Mapping[str, Any]] = None,
+    ) -> None:
+        self.scene, self._scene_fn = _scene_function(scene)
+        sig = inspect.signature(self._scene_fn)
+        self._scene_defaults = {k: p.default for k, p in sig.parameters.items()}
+        allowed = sorted(self._scene_defaults) + list(RUN_PARAMETERS)
+        vary = dict(vary or {})
+        fixed = dict(fixed or {})
+        for k in list(vary) + list(fixed):
+            if k not in allowed:
+                raise InvalidParameterError(
+                    f"unknown parameter {k!r} for scene {self.scene!r}; allowed: {allowed}"
+                )
+        both = sorted(set(vary) & set(fixed))
+        if both:
+            raise InvalidParameterError(f"parameters {both} are both varied and fixed")
+        for k in fixed:
+            if k in RUN_PARAMETERS:
+                raise InvalidParameterError(f"fixed: {k!r} is a run parameter; pass {k}= to Study instead")
+        self.vary: dict[str, Distribution] = {k: _as_distribution(k, v) for k, v in vary.items()}
+        self.fixed = fixed
+        if design not in DESIGNS:
+            raise InvalidParameterError(
+                f"design = {design!r} is not allowed; allowed: one of {list(DESIGNS)}"
+            )
+        self.design = design
+        if not isinstance(samples, (int, np.integer)) or samples < 1:
+            raise InvalidParameterError(f"samples = {samples!r} is not allowed; allowed: an integer >= 1")
+        if not isinstance(levels, (int, np.integer)) or levels < 1:
+            raise InvalidParameterError(f"levels = {levels!r} is not allowed; allowed: an integer >= 1")
+        if not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise InvalidParameterError(f"seed = {seed!r} is not allowed; allowed: an integer >= 0")
+        self.samples, self.levels, self.seed = int(samples), int(levels), int(seed)
+        for name, v in (("t_end", t_end), ("dt", dt)):
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
+        self.t_end, self.dt = float(t_end), float(dt)
+        self.method = method
+        self.joint = joint
+        outputs = list(OUTPUTS) if outputs is None else list(outputs)
+        bad = [o for o in outputs if o not in OUTPUTS]
+        if bad or not outputs:
+            raise InvalidParameterError(
+                f"outputs = {bad or outputs} is not allowed; allowed: a non-empty subset of {list(OUTPUTS)}"
+            )
+        self.outputs = outputs
+        if not (math.isfinite(start) and start >= 0):
+            raise InvalidParameterError(f"start = {start!r} is not allowed; allowed: finite and >= 0 s")
+        self.start = float(start)
+        if history_every is not None and (
+            not isinstance(history_every, (int, np.integer)) or history_every < 1
+        ):
+            raise InvalidParameterError(
+                f"history_every = {history_every!r} is not allowed; allowed: None or an integer >= 1"
+            )
+        self.history_every = None if history_every is None else int(history_every)
+        if not isinstance(retries, (int, np.integer)) or retries < 0:
+            raise InvalidParameterError(f"retries = {retries!r} is not allowed; allowed: an integer >= 0")
+        if not (0 < retry_factor < 1):
+            raise InvalidParameterError(f"retry_factor = {retry_factor!r} is not allowed; allowed: 0 < f < 1")
+        self.retries, self.retry_factor = int(retries), float(retry_factor)
+        self.run_options = dict(run_options or {})
+        reserved = {"t_end", "dt", "method", "record", "progress", "raise_on_failure"}
+        clash = sorted(set(self.run_options) & reserved)
+        if clash:
+            raise InvalidParameterError(f"run_options may not set {clash}; they are Study arguments")
+        # Check the base model builds and the joint exists, so a typo fails now, not per sample.
+        probe = self._scene_fn(**self._scene_kwargs({}))
+        names = probe.joint_names
+        if not names:
+            raise InvalidParameterError(f"scene {self.scene!r} has no clearance joint to report on")
+        if joint is not None and joint not in names:
+            raise InvalidParameterError(f"joint = {joint!r} is not allowed; allowed: one of {names}")
+        self._joint_index = names.index(joint) if joint is not None else 0
+        self._inputs: Optional[Any] = None
+
+    # -- definition ---------------------------------------------------------------------------
+
+    def to_dict(self) -> dict:
+        """The study's definition as plain data (what is stored beside the results)."""
+        return {
+            "scene": self.scene,
+            "vary": {k: _dist_to_dict(v) for k, v in self.vary.items()},
+            "fixed": self.fixed,
+            "samples": self.samples,
+            "design": self.design,
+            "seed": self.seed,
+            "levels": self.levels,
+            "t_end": self.t_end,
+            "dt": self.dt,
+            "method": self.method,
+            "joint": self.joint,
+            "outputs": self.outputs,
+            "start": self.start,
+            "history_every": self.history_every,
+            "retries": self.retries,
+            "retry_factor": self.retry_factor,
+            "run_options": self.run_options,
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Study:
+        """The inverse of :meth:`to_dict` (also what a study file holds, see :func:`load`)."""
+        d = dict(d)
+        known = set(inspect.signature(cls.__init__).parameters) - {"self"}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise InvalidParameterError(f"unknown study keys {unknown}; allowed: {sorted(known)}")
+        vary = {k: distribution_from_dict(k, v) for k, v in (d.pop("vary", None) or {}).items()}
+        return cls(vary=vary, **d)
+
+    def fingerprint(self) -> str:
+        """A hash of the definition; a store only resumes a study with the same fingerprint."""
+        blob = json.dumps(self.to_dict(), sort_keys=True, default=float).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+    def _scene_kwargs(self, params: Mapping[str, Any]) -> dict:
+        kw = dict(self.fixed)
+        for k, v in params.items():
+            if k in RUN_PARAMETERS:
+                continue
+            if isinstance(self._scene_defaults.get(k), (bool, int)) and not isinstance(
+                self._scene_defaults.get(k), bool
+            ):
+                v = int(round(float(v)))
+            kw[k] = v
+        return kw
+
+    # -- design ------------------------------------------------------------------------------
+
+    def inputs(self):
+        """The samples' inputs as a DataFrame (index ``sample``, one column per varied parameter)."""
+        import pandas as pd
+
+        if self._inputs is not None:
+            return self._inputs
+        names = list(self.vary)
+        if self.design == "grid":
+            axes = []
+            for k in names:
+                dist = self.vary[k]
+                if isinstance(dist, Values):
+                    axes.append(np.asarray(dist.values, dtype=float))
+                else:
+                    q = (np.arange(self.levels) + 0.5) / self.levels
+                    axes.append(np.asarray(dist.ppf(q), dtype=float))
+            if names:
+                mesh = np.meshgrid(*axes, indexing="ij")
+                table = np.column_stack([m.ravel() for m in mesh])
+            else:
+                table = np.empty((1, 0))
+        else:
+            n, d = self.samples, len(names)
+            u = self._unit_samples(n, d)
+            table = (
+                np.column_stack(
+                    [np.asarray(self.vary[k].ppf(u[:, i]), dtype=float) for i, k in enumerate(names)]
+                )
+                if d
+                else np.empty((n, 0))
+            )
+        frame = pd.DataFrame(table, columns=names)
+        for k in names:
+            if k == "elements" or (
+                isinstance(self._scene_defaults.get(k), int)
+                and not isinstance(self._scene_defaults.get(k), bool)
+            ):
+                frame[k] = np.round(frame[k]).astype(np.int64)
+        frame.index.name = "sample"
+        self._inputs = frame
+        return frame
+
+    def _unit_samples(self, n: int, d: int) -> np.ndarray:
+        if d == 0:
+            return np.empty((n, 0))
+        if self.design == "random":
+            return np.random.default_rng(self.seed).random((n, d))
+        from scipy.stats import qmc
+
+        cls = qmc.LatinHypercube if self.design == "lhs" else qmc.Sobol
+        try:
+            engine = cls(d, rng=np.random.default_rng(self.seed))
+        except TypeError:  # scipy < 1.15 names it seed
+            engine = cls(d, seed=np.random.default_rng(self.seed))
+        with warnings.catch_warnings():
+            # Sobol warns when n is not a power of two (its balance is best there); documented.
+            warnings.simplefilter("ignore", UserWarning)
+            return engine.random(n)
+
+    # -- running ------------------------------------------------------------------------------
+
+    def run(
+        self,
+        store: Union[str, os.PathLike, None] = None,
+        *,
+        threads: int = 0,
+        chunk_size: Optional[int] = None,
+        client: Any = None,
+        progress: Union[bool, Callable[[int, int], None]] = True,
+    ) -> StudyResult:
+        """Runs the study (or what is left of it in ``store``).
+
+        Parameters
+        ----------
+        store : path, optional
+            A folder for the results: the definition (``study.json``), the inputs, and the
+            results written in Parquet parts as samples finish. Running again with the same
+            store resumes: finished samples are read back, not recomputed. A store holding a
+            different study is refused.
+        threads : int
+            Worker threads of the local Rust pool (0 = one per core). On Dask, threads per task.
+        chunk_size : int, optional
+            Samples per part (and per Dask task). Default: about 2 s of work per chunk locally,
+            and enough chunks to keep a cluster busy.
+        client : dask.distributed.Client, optional
+            Run the chunks on this cluster.
+        progress : bool or callable
+            A tqdm bar (samples/s and ETA) when True; or ``progress(done, total)``.
+
+        Returns
+        -------
+        StudyResult
+
+        Raises
+        ------
+        SimulationInterrupted
+            On Ctrl-C. The samples finished so far are in the store (when given) and in
+            ``exc.partial`` (a :class:`StudyResult`).
+        """
+        inputs = self.inputs()
+        total = len(inputs)
+        store_ = _Store(Path(store), self) if store is not None else None
+        parts = store_.read() if store_ else []
+        done_ids = set()
+        for p in parts:
+            done_ids.update(int(i) for i in p.index)
+        todo = [i for i in range(total) if i not in done_ids]
+        if chunk_size is None:
+            chunk_size = self._default_chunk(total, client)
+        if not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
+            raise InvalidParameterError(
+                f"chunk_size = {chunk_size!r} is not allowed; allowed: an integer >= 1"
+            )
+        chunks = [todo[i : i + chunk_size] for i in range(0, len(todo), chunk_size)]
+        bar = _Progress(progress, total, initial=total - len(todo))
+        frames = list(parts)
+        t0 = time.perf_counter()
+        try:
+            if client is not None:
+                self._run_dask(client, inputs, chunks, threads, store_, frames, bar)
+            else:
+                self._run_local(inputs, chunks, threads, store_, frames, bar)
+        except SimulationInterrupted as exc:
+            exc.partial = StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
+            raise
+        finally:
+            bar.close()
+        return StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
+
+    def _default_chunk(self, total: int, client: Any) -> int:
+        steps = self.t_end / self.dt
+        per_sample = max(steps * 1e-6, 1e-3)  # about 1 us per step
+        chunk = int(max(8, min(1024, 4.0 / per_sample)))
+        if client is not None:
+            chunk = max(1, min(chunk, math.ceil(total / 32)))
+        return chunk
+
+    def _run_local(self, inputs, chunks, threads, store_, frames, bar) -> None:
+        for ids in chunks:
+            rows = inputs.loc[ids].to_dict("records")
+            base = bar.n
+            frame, pending = _run_rows(
+                self.to_dict(), ids, rows, threads, lambda d, b=base: bar.update_to(b + d)
+            )
+            if len(frame):
+                frames.append(frame)
+                if store_:
+                    store_.write(frame)
+            bar.update_to(base + len(frame))
+            if pending is not None:
+                if isinstance(pending, KeyboardInterrupt):
+                    raise SimulationInterrupted(
+                        f"study interrupted: {sum(len(f) for f in frames)} of {len(inputs)} samples finished"
+                        + (f" and saved in {store_.path}" if store_ else "")
+                    )
+                raise pending
+
+    def _run_dask(self, client, inputs, chunks, threads, store_, frames, bar) -> None:
+        from dask.distributed import as_completed
+
+        definition = self.to_dict()
+        futures = [
+            client.submit(
+                _run_rows_task,
+                definition,
+                ids,
+                inputs.loc[ids].to_dict("records"),
+                max(threads, 1),
+                pure=False,
+            )
+            for ids in chunks
+        ]
+        try:
+            for fut in as_completed(futures):
+                frame = fut.result()
+                frames.append(frame)
+                if store_:
+                    store_.write(frame)
+                bar.update_to(bar.n + len(frame))
+        except KeyboardInterrupt:
+            client.cancel(futures)
+            raise SimulationInterrupted(
+                f"study interrupted: {sum(len(f) for f in frames)} of {len(inputs)} samples finished"
+            ) from None
+
+
+# --------------------------------------------------------------------------------------------
+# One chunk: models built, one Rust batch, rows out. Shared by the local and Dask paths.
+# --------------------------------------------------------------------------------------------
+
+
+def _run_rows(definition: dict, ids: list, rows: list, threads: int, progress=None):
+    """Runs the samples ``ids`` with inputs ``rows``; returns (DataFrame, pending exception)."""
+    import pandas as pd
+
+    study = Study.from_dict(definition)
+    models, t_end, dt, runnable = [], [], [], []
+    records = []
+    for i, row in zip(ids, rows):
+        rec: dict[str, Any] = {"sample": int(i)}
+        rec.update(row)
+        try:
+            model = study._scene_fn(**study._scene_kwargs(row))
+        except FlexclearError as e:
+            rec.update(status="invalid", message=str(e), dt_used=float("nan"), retries=0, wall_time=0.0)
+            records.append(rec)
+            continue
+        models.append(model._core)
+        t_end.append(float(row.get("t_end", study.t_end)))
+        dt.append(float(row.get("dt", study.dt)))
+        runnable.append(len(records))
+        records.append(rec)
+    hist = study.history_every is not None
+    opts = dict(study.run_options)
+    outcomes, _stats, pending = (
+        _core.run_batch(
+            models,
+            t_end,
+            dt,
+            threads=threads,
+            retries=study.retries,
+            retry_factor=study.retry_factor,
+            method=study.method,
+            joints=[study._joint_index],
+            every=study.history_every or 1,
+            histories=hist,
+            start=study.start,
+            progress=progress,
+            **opts,
+        )
+        if models
+        else ([], {}, None)
+    )
+    for k, out in zip(runnable, outcomes):
+        rec = records[k]
+        status = out["status"]
+        rec.update(
+            status=status,
+            message=out["message"],
+            dt_used=out["dt"],
+            retries=out["retries"],
+            wall_time=out["wall_time"],
+        )
+        ext = out["extremes"][study._joint_index] if out["extremes"] else None
+        for o in study.outputs:
+            rec[o] = float(ext[o]) if ext is not None and status == "ok" else float("nan")
+        if hist:
+            h = out["joints"][0] if out["joints"] else None
+            ok = h is not None and status == "ok"
+            rec["penetration_history"] = h["penetration"] if ok else np.empty(0)
+            rec["force_history"] = h["force"] if ok else np.empty(0)
+    keep = [r for r in records if r.get("status") not in ("interrupted", "not_run")]
+    for r in keep:
+        for o in study.outputs:
+            r.setdefault(o, float("nan"))
+        if hist:
+            r.setdefault("penetration_history", np.empty(0))
+            r.setdefault("force_history", np.empty(0))
+    frame = pd.DataFrame.from_records(keep, columns=_columns(study))
+    frame = frame.set_index("sample")
+    return frame, pending
+
+
+def _run_rows_task(definition: dict, ids: list, rows: list, threads: int):
+    """A Dask task: one chunk of samples as one Rust batch."""
+    frame, pending = _run_rows(definition, ids, rows, threads)
+    if pending is not None:
+        raise pending
+    return frame
+
+
+def _columns(study: Study) -> list[str]:
+    cols = ["sample", *study.vary, "status", "message", "dt_used", "retries", "wall_time", *study.outputs]
+    if study.history_every is not None:
+        cols += ["penetration_history", "force_history"]
+    return cols
+
+
+def _concat(frames: list, study: Study):
+    import pandas as pd
+
+    if not frames:
+        return pd.DataFrame(columns=_columns(study)).set_index("sample")
+    return pd.concat(frames).sort_index()
+
+
+# --------------------------------------------------------------------------------------------
+# Store: Parquet parts written atomically, the definition beside them
+# --------------------------------------------------------------------------------------------
+
+
+class _Store:
+    def __init__(self, path: Path, study: Study) -> None:
+        self.path = path
+        self.study = study
+        path.mkdir(parents=True, exist_ok=True)
+        meta = path / "study.json"
+        fp = study.fingerprint()
+        if meta.exists():
+            stored = json.loads(meta.read_text())
+            if stored.get("fingerprint") != fp:
+                raise InvalidParameterError(
+                    f"store {str(path)!r} holds a different study (fingerprint {stored.get('fingerprint')}, "
+                    f"this one {fp}); use another folder or delete it"
+                )
+        else:
+            tmp = meta.with_suffix(".json.tmp")
+            tmp.write_text(json.dumps({"fingerprint": fp, "study": study.to_dict()}, indent=2, default=float))
+            os.replace(tmp, meta)
+            inputs = study.inputs()
+            _write_parquet(inputs, path / "inputs.parquet")
+        for stale in path.glob("*.tmp"):
+            stale.unlink()
+
+    def read(self) -> list:
+        import pandas as pd
+
+        parts = []
+        for p in sorted(self.path.glob("part-*.parquet")):
+            parts.append(pd.read_parquet(p))
+        return parts
+
+    def write(self, frame) -> None:
+        existing = sorted(self.path.glob("part-*.parquet"))
+        seq = int(existing[-1].stem.split("-")[1]) + 1 if existing else 0
+        _write_parquet(frame, self.path / f"part-{seq:06d}.parquet")
+
+
+def _write_parquet(frame, path: Path) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    frame.to_parquet(tmp)
+    os.replace(tmp, path)
+
+
+class _Progress:
+    def __init__(self, progress, total: int, initial: int) -> None:
+        self.n = initial
+        self.total = total
+        self._cb = progress if callable(progress) else None
+        self._bar = None
+        if progress is True:
+            from tqdm.auto import tqdm
+
+            self._bar = tqdm(total=total, initial=initial, unit="sample", smoothing=0.1)
+
+    def update_to(self, n: int) -> None:
+        if n == self.n:
+            return
+        if self._bar is not None:
+            self._bar.update(n - self.n)
+        self.n = n
+        if self._cb is not None:
+            self._cb(n, self.total)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+# --------------------------------------------------------------------------------------------
+# Results
+# --------------------------------------------------------------------------------------------
+
+
+class StudyResult:
+    """The outcome of a study.
+
+    Attributes
+    ----------
+    frame : pandas.DataFrame
+        One row per sample (index ``sample``): the varied inputs, ``status`` ("ok",
+        "diverged", "invalid", "singular"), ``message``, ``dt_used`` (s), ``retries``,
+        ``wall_time`` (s) and the outputs (NaN for a failed sample).
+    wall_time : float
+        Wall-clock time of this call, s.
+    """
+
+    def __init__(self, study: Study, frame, wall_time: float) -> None:
+        self.study = study
+        self.frame = frame
+        self.wall_time = wall_time
+
+    @property
+    def ok(self):
+        """The rows of the samples that completed."""
+        return self.frame[self.frame["status"] == "ok"]
+
+    @property
+    def failed(self):
+        """The rows of the samples that did not complete, with their status and message."""
+        return self.frame[self.frame["status"] != "ok"]
+
+    def array(self, column: str) -> np.ndarray:
+        """One column as a numpy array (all samples, in sample order)."""
+        return self.frame[column].to_numpy()
+
+    def summary(self, quantiles: Sequence[float] = (0.05, 0.5, 0.95)):
+        """Mean, std, min, quantiles and max of every output over the completed samples."""
+        import pandas as pd
+
+        ok = self.ok
+        rows = {}
+        for o in self.study.outputs:
+            x = ok[o].to_numpy(dtype=float)
+            row = {"count": x.size, "mean": np.mean(x) if x.size else np.nan}
+            row["std"] = np.std(x, ddof=1) if x.size > 1 else np.nan
+            row["min"] = np.min(x) if x.size else np.nan
+            for q in quantiles:
+                row[f"q{q:g}"] = np.quantile(x, q) if x.size else np.nan
+            row["max"] = np.max(x) if x.size else np.nan
+            rows[o] = row
+        return pd.DataFrame.from_dict(rows, orient="index")
+
+    def exceedance(self, output: str, threshold: float, confidence: float = 0.95) -> dict:
+        """Probability that ``output`` exceeds ``threshold``, with a Clopper-Pearson interval.
+
+        Returns a dict ``{"probability", "low", "high", "exceed", "n"}`` over the completed
+        samples (exact binomial interval at ``confidence``, valid for any n and for 0 or n
+        exceedances).
+        """
+        from scipy import stats
+
+        if output not in self.study.outputs:
+            raise InvalidParameterError(f"output = {output!r} is not allowed; allowed: {self.study.outputs}")
+        if not 0 < confidence < 1:
+            raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: 0 < c < 1")
+        x = self.ok[output].to_numpy(dtype=float)
+        n, k = x.size, int(np.sum(x > threshold))
+        a = 1 - confidence
+        low = stats.beta.ppf(a / 2, k, n - k + 1) if k > 0 else 0.0
+        high = stats.beta.ppf(1 - a / 2, k + 1, n - k) if k < n else 1.0
+        return {
+            "probability": k / n if n else float("nan"),
+            "low": float(low),
+            "high": float(high),
+            "exceed": k,
+            "n": n,
+        }
+
+    def plot(self, folder: Union[str, os.PathLike], exceedance: Optional[Sequence[str]] = None) -> list[Path]:
+        """Saves histograms of the outputs, outputs against each varied input, and exceedance
+        curves (``1 - ECDF`` with 95 % pointwise intervals) as PNG files; returns their paths."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        ok = self.ok
+        outs = self.study.outputs
+        paths = []
+        ncol = min(3, len(outs))
+        nrow = math.ceil(len(outs) / ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
+        for ax, o in zip(axes.flat, outs):
+            ax.hist(ok[o].to_numpy(dtype=float), bins=40, color="C0")
+            ax.set_xlabel(f"{o}")
+            ax.set_ylabel("samples")
+        for ax in list(axes.flat)[len(outs) :]:
+            ax.set_visible(False)
+        fig.suptitle(f"{self.study.scene}: {len(ok)} samples ({len(self.failed)} failed)")
+        fig.tight_layout()
+        paths.append(folder / "histograms.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+        for k in self.study.vary:
+            fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
+            for ax, o in zip(axes.flat, outs):
+                ax.plot(ok[k], ok[o], ".", ms=2, alpha=0.6)
+                bad = self.failed
+                if len(bad):
+                    ax.plot(bad[k], np.zeros(len(bad)), "x", color="C3", ms=4, label="failed")
+                ax.set_xlabel(k)
+                ax.set_ylabel(o)
+            for ax in list(axes.flat)[len(outs) :]:
+                ax.set_visible(False)
+            fig.tight_layout()
+            paths.append(folder / f"outputs_vs_{k}.png")
+            fig.savefig(paths[-1], dpi=110)
+            plt.close(fig)
+        for o in exceedance or [o for o in ("max_force", "max_penetration") if o in outs]:
+            x = np.sort(ok[o].to_numpy(dtype=float))
+            n = x.size
+            if n == 0:
+                continue
+            p = 1.0 - np.arange(1, n + 1) / n
+            half = 1.96 * np.sqrt(np.maximum(p * (1 - p), 1.0 / n) / n)
+            fig, ax = plt.subplots(figsize=(5.5, 4))
+            ax.step(x, p, where="post", label="P(output > x)")
+            ax.fill_between(
+                x, np.clip(p - half, 0, 1), np.clip(p + half, 0, 1), step="post", alpha=0.25, label="95 %"
+            )
+            ax.set_yscale("log")
+            ax.set_ylim(max(0.5 / n, 1e-6), 1.05)
+            ax.set_xlabel(o)
+            ax.set_ylabel("exceedance probability")
+            ax.legend()
+            ax.grid(True, which="both", alpha=0.3)
+            fig.tight_layout()
+            paths.append(folder / f"exceedance_{o}.png")
+            fig.savefig(paths[-1], dpi=110)
+            plt.close(fig)
+        return paths
+
+    def __repr__(self) -> str:
+        counts = self.frame["status"].value_counts().to_dict() if len(self.frame) else {}
+        return (
+            f"StudyResult({self.study.scene!r}, samples={len(self.frame)}, status={counts}, "
+            f"wall_time={self.wall_time:.2f} s)"
+        )
+
+
+def load(path: Union[str, os.PathLike]) -> Study:
+    """A study from a TOML file (see ``flexclear montecarlo --help``) or a store's ``study.json``."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "study.json"
+    if path.suffix == ".json":
+        return Study.from_dict(json.loads(path.read_text())["study"])
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python < 3.11
+        import tomli as tomllib
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise InvalidParameterError(f"{path}: not valid TOML: {e}") from None
+    run = data.pop("run", {}) or {}
+    if not isinstance(run, Mapping):
+        raise InvalidParameterError(f"{path}: [run] must be a table")
+    merged = {**data, **run}
+    return Study.from_dict(merged)
+
+
+def open_store(path: Union[str, os.PathLike]) -> StudyResult:
+    """The results stored in ``path`` so far (finished or not), without running anything."""
+    study = load(path)
+    store = _Store(Path(path), study)
+    return StudyResult(study, _concat(store.read(), study), 0.0)
+
+
+__all__ = [
+    "DESIGNS",
+    "OUTPUTS",
+    "LogNormal",
+    "Normal",
+    "Study",
+    "StudyResult",
+    "TruncatedNormal",
+    "Uniform",
+    "Values",
+    "distribution_from_dict",
+    "load",
+    "open_store",
+]
