@@ -396,6 +396,8 @@ class Study:
             raise InvalidParameterError(f"joint = {joint!r} is not allowed; allowed: one of {names}")
         self._joint_index = names.index(joint) if joint is not None else 0
         self._inputs: Optional[Any] = None
+        #: Thresholds for the report's exceedance table (output -> value), from a study file.
+        self.report_thresholds: dict[str, float] = {}
 
     # -- definition ---------------------------------------------------------------------------
 
@@ -758,7 +760,12 @@ class _Store:
                 )
         else:
             tmp = meta.with_suffix(".json.tmp")
-            tmp.write_text(json.dumps({"fingerprint": fp, "study": study.to_dict()}, indent=2, default=float))
+            meta_data = {
+                "fingerprint": fp,
+                "study": study.to_dict(),
+                "report_thresholds": getattr(study, "report_thresholds", {}),
+            }
+            tmp.write_text(json.dumps(meta_data, indent=2, default=float))
             os.replace(tmp, meta)
             inputs = study.inputs()
             _write_parquet(inputs, path / "inputs.parquet")
@@ -965,12 +972,26 @@ class StudyResult:
 
 
 def load(path: Union[str, os.PathLike]) -> Study:
-    """A study from a TOML file (see ``flexclear montecarlo --help``) or a store's ``study.json``."""
+    """A study from a TOML file or a store's ``study.json``.
+
+    A study file holds :class:`Study`'s arguments at top level (``scene``, ``samples``,
+    ``design``, ``seed``, ``outputs``, ...), the run settings in ``[run]`` (``t_end``, ``dt``,
+    ``method``, ``start``, ``retries``, ...), fixed scene keywords in ``[fixed]``, one entry per
+    varied parameter in ``[vary]`` (a list, or a table with ``distribution`` and its
+    parameters), and optionally ``[report] thresholds = {max_force = 40.0}`` for the exceedance
+    table of the report (kept in ``study.report_thresholds``). Unknown keys, parameters or
+    distributions raise :class:`~flexclear.InvalidParameterError`.
+    """
     path = Path(path)
     if path.is_dir():
         path = path / "study.json"
+    if not path.exists():
+        raise InvalidParameterError(f"study file {str(path)!r} does not exist")
     if path.suffix == ".json":
-        return Study.from_dict(json.loads(path.read_text())["study"])
+        stored = json.loads(path.read_text())
+        study = Study.from_dict(stored["study"])
+        study.report_thresholds = dict(stored.get("report_thresholds", {}))
+        return study
     try:
         import tomllib
     except ModuleNotFoundError:  # Python < 3.11
@@ -980,10 +1001,77 @@ def load(path: Union[str, os.PathLike]) -> Study:
     except tomllib.TOMLDecodeError as e:
         raise InvalidParameterError(f"{path}: not valid TOML: {e}") from None
     run = data.pop("run", {}) or {}
-    if not isinstance(run, Mapping):
-        raise InvalidParameterError(f"{path}: [run] must be a table")
-    merged = {**data, **run}
-    return Study.from_dict(merged)
+    report = data.pop("report", {}) or {}
+    if not isinstance(run, Mapping) or not isinstance(report, Mapping):
+        raise InvalidParameterError(f"{path}: [run] and [report] must be tables")
+    unknown = sorted(set(report) - {"thresholds"})
+    if unknown:
+        raise InvalidParameterError(f"{path}: unknown [report] keys {unknown}; allowed: ['thresholds']")
+    both = sorted(set(data) & set(run))
+    if both:
+        raise InvalidParameterError(f"{path}: {both} given both at top level and in [run]")
+    study = Study.from_dict({**data, **run})
+    thresholds = dict(report.get("thresholds", {}))
+    for k, v in thresholds.items():
+        if k not in study.outputs:
+            raise InvalidParameterError(
+                f"{path}: [report.thresholds] {k!r} is not an output of the study; allowed: {study.outputs}"
+            )
+        _check_finite(f"report.thresholds.{k}", value=v)
+    study.report_thresholds = thresholds
+    return study
+
+
+def write_report(
+    result: StudyResult, folder: Union[str, os.PathLike], thresholds: Optional[Mapping] = None
+) -> Path:
+    """Writes ``report.md`` (definition, status counts, throughput, summary, exceedance table,
+    failures) and the plots of :meth:`StudyResult.plot` into ``folder``; returns the report path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    study = result.study
+    thresholds = dict(thresholds or {})
+    pngs = result.plot(folder, exceedance=list(thresholds) or None)
+    frame = result.frame
+    counts = frame["status"].value_counts().to_dict() if len(frame) else {}
+    lines = [f"# Monte Carlo study: {study.scene}", ""]
+    lines += ["## Definition", "", "```json", json.dumps(study.to_dict(), indent=2, default=float), "```", ""]
+    lines += ["## Samples", ""]
+    lines += [f"- {len(frame)} samples: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))]
+    retried = int((frame["retries"] > 0).sum()) if len(frame) else 0
+    lines += [f"- {retried} retried with a smaller step"]
+    if len(frame):
+        cpu = float(frame["wall_time"].sum())
+        lines += [
+            f"- CPU time in the runs: {cpu:.2f} s ({len(frame) / max(cpu, 1e-12):.1f} samples/s per thread)"
+        ]
+    if result.wall_time > 0:
+        lines += [f"- wall time of this call: {result.wall_time:.2f} s"]
+    lines += ["", "## Outputs over the completed samples", ""]
+    summ = result.summary()
+    cols = list(summ.columns)
+    lines += ["| output | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+    for name, row in summ.iterrows():
+        lines += [f"| {name} | " + " | ".join(f"{row[c]:.4g}" for c in cols) + " |"]
+    lines += ["", "Units: " + "; ".join(f"{k}: {OUTPUTS[k]}" for k in study.outputs), ""]
+    if thresholds:
+        lines += ["## Exceedance (Clopper-Pearson 95 % interval)", ""]
+        lines += ["| output | threshold | P(exceed) | 95 % interval | exceed / n |", "|---|---|---|---|---|"]
+        for k, v in thresholds.items():
+            e = result.exceedance(k, v)
+            interval = f"[{e['low']:.4g}, {e['high']:.4g}]"
+            lines += [f"| {k} | {v:g} | {e['probability']:.4g} | {interval} | {e['exceed']} / {e['n']} |"]
+        lines += [""]
+    bad = result.failed
+    if len(bad):
+        lines += ["## Failed samples (first 20)", "", "| sample | status | message |", "|---|---|---|"]
+        for i, row in bad.head(20).iterrows():
+            lines += [f"| {i} | {row['status']} | {str(row['message']).replace('|', '/')} |"]
+        lines += [""]
+    lines += ["## Figures", ""] + [f"![{p.stem}]({p.name})" for p in pngs] + [""]
+    path = folder / "report.md"
+    path.write_text("\n".join(lines))
+    return path
 
 
 def open_store(path: Union[str, os.PathLike]) -> StudyResult:
@@ -1006,4 +1094,5 @@ __all__ = [
     "distribution_from_dict",
     "load",
     "open_store",
+    "write_report",
 ]
