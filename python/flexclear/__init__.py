@@ -10,7 +10,7 @@ method of Hong & Kim 1993) or as gap elements. SI units throughout.
 >>> res.joint("bearing").max_penetration  # m
 """
 
-from . import motion, scenes
+from . import motion, scenes, study
 from ._core import __version__
 from .errors import (
     FlexclearError,
@@ -37,4 +37,5 @@ __all__ = [
     "__version__",
     "motion",
     "scenes",
+    "study",
 ]

@@ -112,3 +112,33 @@ def slider_yoke(
     geometry: str = ...,
     rotary_inertia: bool = ...,
 ) -> tuple[Model, dict[str, float]]: ...
+def run_batch(
+    models: list[Model],
+    t_end: list[float],
+    dt: list[float],
+    *,
+    threads: int = ...,
+    retries: int = ...,
+    retry_factor: float = ...,
+    method: str = ...,
+    iterate: bool = ...,
+    tol: float = ...,
+    max_iter: int = ...,
+    gap_stiffness: Optional[float] = ...,
+    gap_damping: float = ...,
+    beta: float = ...,
+    gamma: float = ...,
+    solver: str = ...,
+    divergence_limit: Optional[float] = ...,
+    joints: Optional[list[int]] = ...,
+    every: int = ...,
+    histories: bool = ...,
+    start: float = ...,
+    progress: Optional[Callable[[int], Any]] = ...,
+) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
+    """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
+
+    Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes,
+    time, joints), the batch counters (analyses, threads) and the exception that stopped the
+    batch (KeyboardInterrupt, or one raised by `progress(done)`), else None.
+    """

@@ -235,6 +235,35 @@ OUTPUTS = {
     "rms_force": "RMS of the contact force magnitude, N",
 }
 
+_UNITS = {
+    "max_penetration": "m",
+    "time_of_max_penetration": "s",
+    "max_force": "N",
+    "impacts": "count",
+    "contact_time": "s",
+    "max_velocity": "m/s",
+    "max_impact_velocity": "m/s",
+    "rms_penetration": "m",
+    "rms_force": "N",
+    "clearance": "m",
+    "amplitude": "m",
+    "frequency": "Hz",
+    "bearing_stiffness": "N/m",
+    "bearing_damping": "N s/m",
+    "youngs_modulus": "Pa",
+    "density": "kg/m^3",
+    "length": "m",
+    "side": "m",
+    "dt": "s",
+    "t_end": "s",
+}
+
+
+def _label(name: str) -> str:
+    unit = _UNITS.get(name)
+    return f"{name} [{unit}]" if unit else name
+
+
 DESIGNS = ("random", "lhs", "sobol", "grid")
 _STATUS = ("ok", "diverged", "invalid", "singular", "interrupted", "not_run")
 
@@ -915,7 +944,7 @@ class StudyResult:
         fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
         for ax, o in zip(axes.flat, outs):
             ax.hist(ok[o].to_numpy(dtype=float), bins=40, color="C0")
-            ax.set_xlabel(f"{o}")
+            ax.set_xlabel(_label(o))
             ax.set_ylabel("samples")
         for ax in list(axes.flat)[len(outs) :]:
             ax.set_visible(False)
@@ -931,8 +960,8 @@ class StudyResult:
                 bad = self.failed
                 if len(bad):
                     ax.plot(bad[k], np.zeros(len(bad)), "x", color="C3", ms=4, label="failed")
-                ax.set_xlabel(k)
-                ax.set_ylabel(o)
+                ax.set_xlabel(_label(k))
+                ax.set_ylabel(_label(o))
             for ax in list(axes.flat)[len(outs) :]:
                 ax.set_visible(False)
             fig.tight_layout()
@@ -953,7 +982,7 @@ class StudyResult:
             )
             ax.set_yscale("log")
             ax.set_ylim(max(0.5 / n, 1e-6), 1.05)
-            ax.set_xlabel(o)
+            ax.set_xlabel(_label(o))
             ax.set_ylabel("exceedance probability")
             ax.legend()
             ax.grid(True, which="both", alpha=0.3)

@@ -1,0 +1,389 @@
+"""Monte Carlo studies: determinism (serial, threaded, Dask), kill-and-resume, failures as data,
+the designs' marginals, study files and the command line.
+
+Studies here are small (tens of samples, tens of ms simulated); the large runs live in
+``benches/montecarlo.py``.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import flexclear
+import numpy as np
+import pandas as pd
+import pytest
+from flexclear.study import (
+    LogNormal,
+    Normal,
+    Study,
+    TruncatedNormal,
+    Uniform,
+    Values,
+    load,
+    open_store,
+)
+from scipy import stats
+
+
+def small_study(**kw) -> Study:
+    args = dict(
+        vary={"clearance": Uniform(0.0, 1e-3), "bearing_stiffness": LogNormal(1.2e6, 0.3)},
+        samples=24,
+        seed=7,
+        t_end=0.03,
+        dt=1e-5,
+    )
+    args.update(kw)
+    return Study("slider_yoke", **args)
+
+
+def same(a: pd.DataFrame, b: pd.DataFrame) -> None:
+    """Identical results: every column but the wall-clock time, bit for bit."""
+    pd.testing.assert_frame_equal(a.drop(columns="wall_time"), b.drop(columns="wall_time"), check_exact=True)
+
+
+# -- determinism --------------------------------------------------------------------------------
+
+
+def test_same_seed_same_results_serial_and_threaded():
+    s = small_study()
+    serial = s.run(threads=1, progress=False)
+    threaded = s.run(threads=2, progress=False, chunk_size=5)
+    again = small_study().run(threads=2, progress=False)
+    assert (serial.frame["status"] == "ok").all()
+    same(serial.frame, threaded.frame)
+    same(serial.frame, again.frame)
+    # a different seed draws different samples
+    other = small_study(seed=8).inputs()
+    assert not np.allclose(other["clearance"], s.inputs()["clearance"])
+
+
+def test_batch_equals_model_simulate():
+    """A study's outputs are those of Model.simulate with the same parameters."""
+    s = small_study(samples=3)
+    res = s.run(threads=2, progress=False)
+    for i, row in res.frame.iterrows():
+        model = flexclear.scenes.slider_yoke(
+            clearance=row["clearance"], bearing_stiffness=row["bearing_stiffness"]
+        )
+        j = model.simulate(0.03, 1e-5, record=flexclear.Record(histories=False), progress=False).joint(
+            "bearing"
+        )
+        for o in ("max_penetration", "max_force", "impacts", "contact_time", "max_velocity", "rms_force"):
+            assert row[o] == getattr(j, o), (i, o)
+        # the impact speed is a speed at an impact, so never above the peak speed
+        assert 0 <= row["max_impact_velocity"] <= row["max_velocity"]
+        assert row["rms_force"] <= row["max_force"]
+
+
+def test_dask_local_cluster_gives_identical_results():
+    distributed = pytest.importorskip("distributed")
+    s = small_study()
+    local = s.run(threads=2, progress=False)
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        remote = s.run(client=client, chunk_size=5, progress=False)
+    same(local.frame, remote.frame)
+
+
+# -- nothing lost ---------------------------------------------------------------------------------
+
+STUDY_FILE = textwrap.dedent(
+    """
+    scene = "slider_yoke"
+    samples = {samples}
+    seed = 11
+    outputs = ["max_penetration", "max_force", "impacts"]
+
+    [run]
+    t_end = {t_end}
+    dt = 1e-5
+
+    [vary.clearance]
+    distribution = "uniform"
+    low = 0.0
+    high = 1e-3
+
+    [report]
+    thresholds = {{ max_force = 20.0 }}
+    """
+)
+
+
+def write_study(tmp_path: Path, samples: int, t_end: float) -> Path:
+    p = tmp_path / "study.toml"
+    p.write_text(STUDY_FILE.format(samples=samples, t_end=t_end))
+    return p
+
+
+def start_cli(study: Path, out: Path) -> subprocess.Popen:
+    cmd = [sys.executable, "-m", "flexclear.cli", "montecarlo", str(study), "--out", str(out)]
+    cmd += ["--threads", "1", "--chunk-size", "2", "--no-progress"]
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_parts(out: Path, proc: subprocess.Popen, count: int, timeout: float = 120.0) -> None:
+    t0 = time.monotonic()
+    while len(list(out.glob("part-*.parquet"))) < count:
+        assert proc.poll() is None, "the study finished before it could be stopped; make it longer"
+        assert time.monotonic() - t0 < timeout, "no parts written"
+        time.sleep(0.02)
+
+
+@pytest.mark.parametrize("how", ["kill", "ctrl-c"])
+def test_killed_or_interrupted_study_resumes_to_the_uninterrupted_result(tmp_path, how):
+    study_file = write_study(tmp_path, samples=40, t_end=0.1)
+    out = tmp_path / "run"
+    proc = start_cli(study_file, out)
+    wait_for_parts(out, proc, 3)
+    if how == "kill":
+        proc.kill()  # SIGKILL: no chance to clean up
+    else:
+        proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    if how == "ctrl-c":
+        assert proc.returncode == 130, err
+        assert "resume" in err
+    else:
+        assert proc.returncode == -signal.SIGKILL
+    partial = open_store(out)
+    assert 0 < len(partial.frame) < 40
+    finished_before = set(partial.frame.index)
+
+    study = load(study_file)
+    resumed = study.run(store=out, threads=2, progress=False)
+    assert len(resumed.frame) == 40
+    # the samples finished before the stop were read back, not recomputed
+    for i in finished_before:
+        assert resumed.frame.loc[i, "wall_time"] == partial.frame.loc[i, "wall_time"]
+    uninterrupted = load(study_file).run(threads=2, progress=False)
+    same(resumed.frame, uninterrupted.frame)
+    assert not list(out.glob("*.tmp"))
+
+
+def test_cli_writes_results_and_report(tmp_path):
+    study_file = write_study(tmp_path, samples=8, t_end=0.02)
+    out = tmp_path / "res"
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "flexclear.cli",
+            "montecarlo",
+            str(study_file),
+            "--out",
+            str(out),
+            "--no-progress",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr
+    report = (out / "report.md").read_text()
+    assert "Exceedance" in report and "| max_force | 20 |" in report
+    for png in ("histograms.png", "outputs_vs_clearance.png", "exceedance_max_force.png"):
+        assert (out / png).stat().st_size > 1000
+    assert len(open_store(out).frame) == 8
+
+
+def test_store_refuses_a_different_study(tmp_path):
+    small_study(samples=2, t_end=0.005).run(store=tmp_path, progress=False)
+    with pytest.raises(flexclear.InvalidParameterError, match="different study"):
+        small_study(samples=3, t_end=0.005).run(store=tmp_path, progress=False)
+
+
+# -- failures are data ------------------------------------------------------------------------------
+
+
+def test_diverging_and_invalid_samples_are_flagged_and_the_batch_goes_on():
+    # Stiff bearing, force method at dt 1e-5: the lagged contact force is unstable (Fig. 5(b)).
+    s = Study(
+        "slider_yoke_stiff",
+        vary={"bearing_stiffness": Values([1.2e6, 1e10]), "clearance": Values([-1e-5, 1e-5])},
+        design="grid",
+        method="force",
+        t_end=0.01,
+        dt=1e-5,
+    )
+    res = s.run(threads=2, progress=False)
+    f = res.frame
+    assert len(f) == 4
+    invalid = f[f["clearance"] < 0]
+    assert (invalid["status"] == "invalid").all()
+    assert invalid["message"].str.contains("clearance").all()
+    ok = f[(f["clearance"] > 0) & (f["bearing_stiffness"] < 1e9)]
+    assert (ok["status"] == "ok").all() and ok["max_force"].notna().all()
+    bad = f[(f["clearance"] > 0) & (f["bearing_stiffness"] > 1e9)]
+    assert (bad["status"] == "diverged").all()
+    assert bad["message"].str.contains("step").all()
+    assert bad["max_force"].isna().all()
+    assert len(res.ok) == 1 and len(res.failed) == 3
+
+    # retried with dt / 10 = 1e-6, where the force method is stable: recorded as such
+    retried = Study(
+        "slider_yoke_stiff",
+        vary={"bearing_stiffness": Values([1e10])},
+        design="grid",
+        method="force",
+        t_end=0.01,
+        dt=1e-5,
+        retries=2,
+        retry_factor=0.1,
+    ).run(progress=False)
+    row = retried.frame.iloc[0]
+    assert row["status"] == "ok" and row["retries"] == 1 and row["dt_used"] == pytest.approx(1e-6)
+
+
+# -- designs and marginals -------------------------------------------------------------------------
+
+
+def test_latin_hypercube_puts_one_sample_in_each_stratum():
+    n = 50
+    s = Study(
+        "slider_yoke",
+        vary={"clearance": Uniform(0.0, 1.0), "amplitude": Uniform(0.005, 0.015)},
+        samples=n,
+        design="lhs",
+    )
+    x = s.inputs()
+    assert sorted(np.floor(x["clearance"] * n).astype(int)) == list(range(n))
+    assert sorted(np.floor((x["amplitude"] - 0.005) / 0.01 * n).astype(int)) == list(range(n))
+
+
+@pytest.mark.parametrize("design", ["random", "lhs", "sobol"])
+def test_designs_have_the_stated_marginals(design):
+    # Kolmogorov-Smirnov against each stated distribution. The draws are fixed by the seed, so
+    # this cannot flake; p > 0.01 is the usual acceptance for a correct sampler.
+    n = 1024
+    dists = {
+        "clearance": Uniform(0.0, 1e-3),
+        "bearing_stiffness": LogNormal(1.2e6, 0.5),
+        "frequency": Normal(6.0, 0.3),
+        "amplitude": TruncatedNormal(0.01, 0.002, 0.008, 0.011),
+    }
+    x = Study("slider_yoke", vary=dists, samples=n, design=design, seed=3).inputs()
+    refs = {
+        "clearance": stats.uniform(0.0, 1e-3),
+        "bearing_stiffness": stats.lognorm(0.5, scale=1.2e6),
+        "frequency": stats.norm(6.0, 0.3),
+        "amplitude": stats.truncnorm((0.008 - 0.01) / 0.002, (0.011 - 0.01) / 0.002, loc=0.01, scale=0.002),
+    }
+    for k, ref in refs.items():
+        assert stats.kstest(x[k], ref.cdf).pvalue > 0.01, k
+    assert x["amplitude"].between(0.008, 0.011).all()
+
+
+def test_grid_is_the_full_product_and_lists_are_drawn_uniformly():
+    g = Study(
+        "slider_yoke",
+        vary={"clearance": [0.0, 1e-5, 1e-4], "elements": Values([8, 12]), "frequency": Uniform(5.0, 7.0)},
+        design="grid",
+        levels=4,
+    ).inputs()
+    assert len(g) == 3 * 2 * 4
+    assert len(g.drop_duplicates()) == len(g)
+    assert set(g["frequency"]) == {5.25, 5.75, 6.25, 6.75}  # quantile midpoints of the levels
+    assert g["elements"].dtype.kind == "i"
+    r = Study("slider_yoke", vary={"elements": [8, 10, 12, 14]}, samples=4000, seed=1).inputs()
+    counts = r["elements"].value_counts()
+    assert set(counts.index) == {8, 10, 12, 14}
+    # each of 4 values has probability 1/4: within 4 binomial standard deviations
+    assert (abs(counts - 1000) < 4 * np.sqrt(4000 * 0.25 * 0.75)).all()
+
+
+# -- bad input -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"vary": {"clearence": Uniform(0, 1)}}, "unknown parameter 'clearence'"),
+        ({"vary": {"clearance": {"distribution": "beta", "a": 1}}}, "distribution = 'beta'"),
+        ({"vary": {"clearance": {"distribution": "uniform", "low": 0.0}}}, "missing \\['high'\\]"),
+        ({"vary": {"clearance": Uniform(0, 1)}, "design": "halton"}, "design"),
+        ({"samples": 0}, "samples"),
+        ({"dt": -1.0}, "dt"),
+        ({"outputs": ["max_stress"]}, "outputs"),
+        ({"joint": "hinge"}, "joint"),
+        ({"fixed": {"clearance": 1e-5}, "vary": {"clearance": [0.0]}}, "both varied and fixed"),
+    ],
+)
+def test_bad_study_definitions_raise_naming_the_problem(kwargs, match):
+    with pytest.raises(flexclear.InvalidParameterError, match=match):
+        Study("slider_yoke", **kwargs)
+
+
+def test_bad_distributions_raise():
+    with pytest.raises(ValueError, match="low"):
+        Uniform(1.0, 0.0)
+    with pytest.raises(ValueError, match="std"):
+        Normal(0.0, -1.0)
+    with pytest.raises(ValueError, match="median"):
+        LogNormal(0.0, 0.1)
+    with pytest.raises(ValueError, match="empty"):
+        Values([])
+    with pytest.raises(ValueError, match="finite"):
+        Uniform(0.0, float("inf"))
+
+
+def test_study_file_errors_are_clear(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text('scene = "slider_yoke"\nsampels = 10\n')
+    r = subprocess.run(
+        [sys.executable, "-m", "flexclear.cli", "montecarlo", str(p)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode == 2
+    assert "sampels" in r.stderr
+    p.write_text(
+        'scene = "slider_yoke"\n[vary.clearance]\ndistribution = "uniform"\nlow = 0.0\nhigh = -1.0\n'
+    )
+    with pytest.raises(flexclear.InvalidParameterError, match="vary.clearance"):
+        load(p)
+
+
+# -- outputs ---------------------------------------------------------------------------------------
+
+
+def test_summary_exceedance_and_histories():
+    res = small_study(samples=12, history_every=10).run(progress=False)
+    summ = res.summary()
+    assert list(summ.index) == res.study.outputs
+    assert (summ["min"] <= summ["q0.5"]).all() and (summ["q0.5"] <= summ["max"]).all()
+    e = res.exceedance("max_force", float(np.median(res.array("max_force"))))
+    assert e["n"] == 12 and e["exceed"] == 6
+    assert e["low"] < 0.5 < e["high"]
+    # a decimated history: every 10th step of 3000, plus the initial state
+    h = res.frame["penetration_history"].iloc[0]
+    assert len(h) == 301
+    assert np.max(h) == pytest.approx(res.frame["max_penetration"].iloc[0], abs=2e-6)
+    all_out = res.exceedance("max_force", -1.0)
+    assert all_out["probability"] == 1.0 and all_out["high"] == 1.0 and all_out["low"] > 0.7
+
+
+def test_progress_callback_counts_every_sample():
+    seen = []
+    small_study(samples=10).run(progress=lambda done, total: seen.append((done, total)), chunk_size=3)
+    assert seen[-1] == (10, 10)
+    assert all(b >= a for (a, _), (b, _) in zip(seen, seen[1:]))
+
+
+@pytest.fixture(autouse=True)
+def _in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    yield
+    assert os.getcwd() == str(tmp_path)
