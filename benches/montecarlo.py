@@ -1,0 +1,166 @@
+"""Monte Carlo benchmark: the reference clearance study on 1 and 2 threads, memory, and Exudyn.
+
+The reference study (benches/studies/table1_clearance.toml): the Table 1 slider-yoke with the
+radial clearance uniform in [0, 1e-3] m, 0.5 s at dt 1e-5 s, 1000 samples, modified method.
+
+1. Throughput: the same study on 1 and on 2 threads, alternating (``--repeats``), samples/s
+   medians and their ratio.
+2. Memory: peak RSS of fresh processes running the study with 10x more steps per sample (must not
+   grow), and with 10x more samples (bytes per sample).
+3. Exudyn: ``exudyn.processing.ParameterVariation`` on the first ``--exudyn-samples`` clearances
+   of the same study (2 processes, same scene and outputs; Exudyn may cut its step where its
+   Newton fails), samples/s against flexclear's 2-thread samples/s, and the outputs of both side
+   by side.
+
+    python benches/montecarlo.py [--samples 1000] [--repeats 3] [--exudyn-samples 8]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+STUDY_FILE = os.path.join(HERE, "studies", "table1_clearance.toml")
+
+
+def reference_study(samples: int, t_end: float = 0.5, dt: float = 1e-5):
+    from flexclear.study import Study, load
+
+    base = load(STUDY_FILE)
+    d = base.to_dict()
+    d.update(samples=samples, t_end=t_end, dt=dt)
+    return Study.from_dict(d)
+
+
+def throughput(samples: int, repeats: int) -> dict:
+    study = reference_study(samples)
+    times = {1: [], 2: []}
+    result = None
+    for r in range(repeats):
+        order = (1, 2) if r % 2 == 0 else (2, 1)
+        for th in order:
+            t0 = time.perf_counter()
+            result = study.run(threads=th, progress=False)
+            times[th].append(time.perf_counter() - t0)
+            print(f"  threads={th}: {samples / times[th][-1]:.1f} samples/s", flush=True)
+    med = {th: statistics.median(v) for th, v in times.items()}
+    return {
+        "samples": samples,
+        "seconds_1": med[1],
+        "seconds_2": med[2],
+        "rate_1": samples / med[1],
+        "rate_2": samples / med[2],
+        "scaling": med[1] / med[2],
+        "cpu_per_sample_ms": 1e3 * float(result.frame["wall_time"].mean()),
+        "frame": result.frame,
+    }
+
+
+MEMORY_CHILD = """
+import json, resource, sys
+sys.path.insert(0, {here!r})
+from montecarlo import reference_study
+s = reference_study({samples}, t_end={t_end})
+r = s.run(threads=2, progress=False)
+assert (r.frame["status"] == "ok").all()
+print(json.dumps({{"maxrss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}}))
+"""
+
+
+def peak_rss(samples: int, t_end: float) -> float:
+    code = MEMORY_CHILD.format(here=HERE, samples=samples, t_end=t_end)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])["maxrss_kib"] * 1024.0
+
+
+def memory() -> dict:
+    short = peak_rss(200, 0.05)
+    long = peak_rss(200, 0.5)
+    few = peak_rss(1000, 0.002)
+    many = peak_rss(10000, 0.002)
+    return {
+        "rss_200_samples_5e3_steps": short,
+        "rss_200_samples_5e4_steps": long,
+        "rss_1000_samples": few,
+        "rss_10000_samples": many,
+        "bytes_per_sample": (many - few) / 9000,
+    }
+
+
+def exudyn_subset(frame, count: int) -> dict:
+    sys.path.insert(0, HERE)
+    import exudyn_scene  # noqa: F401  (selects Exudyn's fast build first)
+    from exudyn.processing import ParameterVariation
+    from exudyn_scene import parameter_function
+
+    clearances = [float(c) for c in frame["clearance"].iloc[:count]]
+    t0 = time.perf_counter()
+    _params, values = ParameterVariation(
+        parameter_function,
+        {"clearance": clearances},
+        useMultiProcessing=True,
+        numberOfThreads=2,
+        showProgress=False,
+        parameterFunctionData={"dt": 1e-5, "t_end": 0.5, "elements": 12},
+    )
+    seconds = time.perf_counter() - t0
+    return {"clearances": clearances, "values": values, "seconds": seconds, "rate": count / seconds}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=1000)
+    ap.add_argument("--repeats", type=int, default=3, help="alternating 1- and 2-thread runs")
+    ap.add_argument("--exudyn-samples", type=int, default=8, help="0 skips Exudyn")
+    ap.add_argument("--skip-memory", action="store_true")
+    args = ap.parse_args(argv)
+    import flexclear
+
+    print(f"flexclear {flexclear.__version__}; reference study {STUDY_FILE}")
+    print(f"== throughput: {args.samples} samples, T = 0.5 s, dt = 1e-5 s (5e4 steps each)")
+    tp = throughput(args.samples, args.repeats)
+    print(
+        f"median: 1 thread {tp['rate_1']:.1f} samples/s ({tp['seconds_1']:.2f} s), "
+        f"2 threads {tp['rate_2']:.1f} samples/s ({tp['seconds_2']:.2f} s); "
+        f"scaling 2/1 = {tp['scaling']:.2f}x; CPU per sample {tp['cpu_per_sample_ms']:.1f} ms"
+    )
+    if not args.skip_memory:
+        print("== memory (peak RSS of fresh processes, 2 threads)")
+        m = memory()
+        print(
+            f"200 samples x 5e3 steps: {m['rss_200_samples_5e3_steps'] / 2**20:.1f} MiB; "
+            f"200 samples x 5e4 steps: {m['rss_200_samples_5e4_steps'] / 2**20:.1f} MiB"
+        )
+        print(
+            f"1000 samples: {m['rss_1000_samples'] / 2**20:.1f} MiB; 10000 samples: "
+            f"{m['rss_10000_samples'] / 2**20:.1f} MiB; {m['bytes_per_sample']:.0f} bytes per sample"
+        )
+    if args.exudyn_samples > 0:
+        n = args.exudyn_samples
+        print(f"== Exudyn ParameterVariation, first {n} clearances, 2 processes")
+        ex = exudyn_subset(tp["frame"], n)
+        print(f"Exudyn: {ex['rate']:.3f} samples/s ({ex['seconds']:.1f} s for {n})")
+        print(f"flexclear (2 threads, whole study): {tp['rate_2']:.1f} samples/s")
+        print(f"ratio flexclear / Exudyn: {tp['rate_2'] / ex['rate']:.1f}x")
+        print(
+            "clearance [m] | max penetration [m] flexclear / Exudyn | "
+            "max force [N] flexclear / Exudyn | impacts"
+        )
+        for i, (c, v) in enumerate(zip(ex["clearances"], ex["values"])):
+            row = tp["frame"].iloc[i]
+            print(
+                f"{c:.4e} | {row['max_penetration']:.4e} / {v[0]:.4e} | "
+                f"{row['max_force']:.3f} / {v[1]:.3f} | "
+                f"{int(row['impacts'])} / {int(v[2])}  (Exudyn steps {int(v[3])})"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
