@@ -132,12 +132,25 @@ struct BandedFactor {
     /// `lcol[j][k - 1] = L[j + k, j]`, k = 1 ..= BAND.
     lcol: Vec<[f64; BAND]>,
     dinv: Vec<f64>,
+    /// The CPU has fused multiply-add (x86_64): use [`BandedFactor::solve_fma`].
+    fma: bool,
 }
 
 impl BandedFactor {
     #[inline]
     fn solve(&self, x: &mut [f64]) {
         assert_eq!(x.len(), self.dinv.len());
+        #[cfg(target_arch = "x86_64")]
+        if self.fma {
+            // SAFETY: `fma` is set only when the CPU reports the FMA extension.
+            unsafe { self.solve_fma(x) };
+            return;
+        }
+        self.solve_plain(x);
+    }
+
+    #[inline]
+    fn solve_plain(&self, x: &mut [f64]) {
         // Forward L y = b: the last BAND values of y ride in registers (p1 newest), so only
         // `r[0] * p1` is on the serial path of each row; x receives y / D directly, which is
         // what the backward pass needs.
@@ -153,6 +166,32 @@ impl BandedFactor {
         for (c, xi) in self.lcol.iter().zip(x.iter_mut()).rev() {
             let s = (c[1] * p2 + c[2] * p3) + (c[3] * p4 + c[4] * p5);
             let y = (*xi - s) - c[0] * p1;
+            *xi = y;
+            (p5, p4, p3, p2, p1) = (p4, p3, p2, p1, y);
+        }
+    }
+
+    /// The same substitution as a chain of fused multiply-adds, oldest term first: each row adds
+    /// one FMA latency (about 4 cycles) to the critical path instead of a multiply and a
+    /// subtraction. Rounding differs from [`Self::solve_plain`] in the last bits (tested close).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma")]
+    unsafe fn solve_fma(&self, x: &mut [f64]) {
+        let (mut p1, mut p2, mut p3, mut p4, mut p5) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for ((r, xi), d) in self.lrow.iter().zip(x.iter_mut()).zip(&self.dinv) {
+            let y = (-r[0]).mul_add(
+                p1,
+                (-r[1]).mul_add(p2, (-r[2]).mul_add(p3, (-r[3]).mul_add(p4, (-r[4]).mul_add(p5, *xi)))),
+            );
+            *xi = y * d;
+            (p5, p4, p3, p2, p1) = (p4, p3, p2, p1, y);
+        }
+        let (mut p1, mut p2, mut p3, mut p4, mut p5) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for (c, xi) in self.lcol.iter().zip(x.iter_mut()).rev() {
+            let y = (-c[0]).mul_add(
+                p1,
+                (-c[1]).mul_add(p2, (-c[2]).mul_add(p3, (-c[3]).mul_add(p4, (-c[4]).mul_add(p5, *xi)))),
+            );
             *xi = y;
             (p5, p4, p3, p2, p1) = (p4, p3, p2, p1, y);
         }
@@ -182,6 +221,7 @@ impl Cholesky {
             lrow: vec![[0.0; BAND]; n],
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
+            fma: fma_available(),
         });
         Cholesky {
             upper: vec![0.0; analysis.src.len()],
@@ -321,6 +361,18 @@ pub fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
         pmin / pmax
     } else {
         0.0
+    }
+}
+
+/// True when the CPU has fused multiply-add (detected once per factorization object).
+fn fma_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
