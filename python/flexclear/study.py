@@ -473,12 +473,14 @@ class Study:
         for k, v in params.items():
             if k in RUN_PARAMETERS:
                 continue
-            if isinstance(self._scene_defaults.get(k), (bool, int)) and not isinstance(
-                self._scene_defaults.get(k), bool
-            ):
+            if self._is_integer(k):
                 v = int(round(float(v)))
             kw[k] = v
         return kw
+
+    def _is_integer(self, name: str) -> bool:
+        """True for a scene keyword whose default is an int (``elements``): draws are rounded."""
+        return type(self._scene_defaults.get(name)) is int
 
     # -- design ------------------------------------------------------------------------------
 
@@ -515,10 +517,7 @@ class Study:
             )
         frame = pd.DataFrame(table, columns=names)
         for k in names:
-            if k == "elements" or (
-                isinstance(self._scene_defaults.get(k), int)
-                and not isinstance(self._scene_defaults.get(k), bool)
-            ):
+            if self._is_integer(k):
                 frame[k] = np.round(frame[k]).astype(np.int64)
         frame.index.name = "sample"
         self._inputs = frame
@@ -623,9 +622,7 @@ class Study:
         for ids in chunks:
             rows = inputs.loc[ids].to_dict("records")
             base = bar.n
-            frame, pending = _run_rows(
-                self.to_dict(), ids, rows, threads, lambda d, b=base: bar.update_to(b + d)
-            )
+            frame, pending = _run_rows(self, ids, rows, threads, lambda d, b=base: bar.update_to(b + d))
             if len(frame):
                 frames.append(frame)
                 if store_:
@@ -673,11 +670,10 @@ class Study:
 # --------------------------------------------------------------------------------------------
 
 
-def _run_rows(definition: dict, ids: list, rows: list, threads: int, progress=None):
+def _run_rows(study: Study, ids: list, rows: list, threads: int, progress=None):
     """Runs the samples ``ids`` with inputs ``rows``; returns (DataFrame, pending exception)."""
     import pandas as pd
 
-    study = Study.from_dict(definition)
     models, t_end, dt, runnable = [], [], [], []
     records = []
     for i, row in zip(ids, rows):
@@ -746,8 +742,8 @@ def _run_rows(definition: dict, ids: list, rows: list, threads: int, progress=No
 
 
 def _run_rows_task(definition: dict, ids: list, rows: list, threads: int):
-    """A Dask task: one chunk of samples as one Rust batch."""
-    frame, pending = _run_rows(definition, ids, rows, threads)
+    """A Dask task: one chunk of samples as one Rust batch (the study travels as plain data)."""
+    frame, pending = _run_rows(Study.from_dict(definition), ids, rows, threads)
     if pending is not None:
         raise pending
     return frame
@@ -792,7 +788,7 @@ class _Store:
             meta_data = {
                 "fingerprint": fp,
                 "study": study.to_dict(),
-                "report_thresholds": getattr(study, "report_thresholds", {}),
+                "report_thresholds": study.report_thresholds,
             }
             tmp.write_text(json.dumps(meta_data, indent=2, default=float))
             os.replace(tmp, meta)
@@ -800,6 +796,8 @@ class _Store:
             _write_parquet(inputs, path / "inputs.parquet")
         for stale in path.glob("*.tmp"):
             stale.unlink()
+        existing = sorted(path.glob("part-*.parquet"))
+        self._next_part = int(existing[-1].stem.split("-")[1]) + 1 if existing else 0
 
     def read(self) -> list:
         import pandas as pd
@@ -810,9 +808,8 @@ class _Store:
         return parts
 
     def write(self, frame) -> None:
-        existing = sorted(self.path.glob("part-*.parquet"))
-        seq = int(existing[-1].stem.split("-")[1]) + 1 if existing else 0
-        _write_parquet(frame, self.path / f"part-{seq:06d}.parquet")
+        _write_parquet(frame, self.path / f"part-{self._next_part:06d}.parquet")
+        self._next_part += 1
 
 
 def _write_parquet(frame, path: Path) -> None:

@@ -345,9 +345,16 @@ impl<'m> NewmarkRun<'m> {
         self.a.copy_from_slice(&self.r);
         mchol.solve_in_place(&mut self.a);
         self.check_state()?;
+        self.record(0, 0.0);
+        Ok(())
+    }
+
+    /// Hands the current joint and node state of step `step` (time `t`, s) to the recorder.
+    #[inline]
+    fn record(&mut self, step: u64, t: f64) {
         self.rec.record(
-            0,
-            0.0,
+            step,
+            t,
             self.settings.dt,
             &self.pen,
             &self.fmag,
@@ -355,7 +362,6 @@ impl<'m> NewmarkRun<'m> {
             &self.qd,
             &self.u,
         );
-        Ok(())
     }
 
     /// Contact terms of joint `jj` at state `(q, qd)` under the run's coupling (the gap coupling
@@ -804,16 +810,7 @@ impl<'m> NewmarkRun<'m> {
         if self.step.is_multiple_of(CHECK_STRIDE) {
             self.check_state()?;
         }
-        self.rec.record(
-            self.step,
-            t1,
-            self.settings.dt,
-            &self.pen,
-            &self.fmag,
-            &self.q,
-            &self.qd,
-            &self.u,
-        );
+        self.record(self.step, t1);
         Ok(())
     }
 

@@ -337,11 +337,10 @@ impl PyModel {
                 joints,
                 joint_position,
                 nodes,
-                every: 1,
+                every: count_at_least_1(py, "every", every)?,
                 histories,
                 start,
             },
-            every,
         )?;
         let model = &self.inner;
         let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
@@ -369,6 +368,12 @@ impl PyModel {
     }
 }
 
+/// A count given from Python as `i64`. Only negative values are refused here; zero is reported by
+/// the engine's own validation, which names the same range.
+fn count_at_least_1(py: Python<'_>, name: &str, v: i64) -> PyResult<usize> {
+    usize::try_from(v).map_err(|_| err(py, Error::param(name, v, "an integer >= 1")))
+}
+
 /// Settings of a run from the keyword arguments shared by `Model.simulate` and `run_batch`.
 #[allow(clippy::too_many_arguments)]
 fn build_settings(
@@ -385,12 +390,9 @@ fn build_settings(
     gamma: f64,
     solver: &str,
     divergence_limit: Option<f64>,
-    mut record: RecordSpec,
-    every: i64,
+    record: RecordSpec,
 ) -> PyResult<Settings> {
-    let max_iter =
-        usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
-    let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
+    let max_iter = count_at_least_1(py, "max_iter", max_iter)?;
     let coupling = match method {
         "force" => Coupling::Force,
         "modified" => Coupling::Modified { iterate, tol, max_iter },
@@ -420,7 +422,6 @@ fn build_settings(
             ))
         }
     };
-    record.every = every;
     let settings = Settings {
         t_end,
         dt,
@@ -698,7 +699,7 @@ fn run_batch<'py>(
         joints,
         joint_position: false,
         nodes: Vec::new(),
-        every: 1,
+        every: count_at_least_1(py, "every", every)?,
         histories,
         start,
     };
@@ -719,7 +720,6 @@ fn run_batch<'py>(
             solver,
             divergence_limit,
             record.clone(),
-            every,
         )?;
         samples.push((m.inner.clone(), settings));
     }
