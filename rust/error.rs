@@ -41,6 +41,20 @@ pub enum Error {
         /// Pivot index where the factorization failed.
         index: usize,
     },
+    /// The nonlinear iterations of a step (geometric stiffness, iterated contact) did not converge
+    /// within the iteration cap, and step halving was not asked for or did not help.
+    NotConverged {
+        /// Simulated time at the start of the step, s.
+        time: f64,
+        /// Index of the step (1-based).
+        step: u64,
+        /// Iterations done.
+        iterations: usize,
+        /// Infinity norm of the last residual, N (or N m).
+        residual: f64,
+        /// Last displacement correction relative to the displacement scale.
+        correction: f64,
+    },
     /// The caller asked the run to stop (Ctrl-C from Python).
     Interrupted {
         /// Simulated time reached, s.
@@ -80,6 +94,16 @@ impl fmt::Display for Error {
             Error::Singular { what, index } => {
                 write!(f, "{what} is not positive definite (pivot {index})")
             }
+            Error::NotConverged {
+                time,
+                step,
+                iterations,
+                residual,
+                correction,
+            } => write!(
+                f,
+                "iterations did not converge in step {step} at t = {time:.6e} s: {iterations} iterations, residual {residual:.3e}, relative correction {correction:.3e} (raise max_iter, lower dt or allow step halving)"
+            ),
             Error::Interrupted { time, step } => {
                 write!(f, "interrupted at t = {time:.6e} s (step {step})")
             }

@@ -22,6 +22,7 @@ pub mod contact;
 pub mod element;
 pub mod error;
 pub mod integrator;
+pub mod kinematics;
 pub mod linsolve;
 pub mod model;
 pub mod modes;

@@ -76,6 +76,35 @@ class SimulationDivergedError(FlexclearError, ArithmeticError):
     result: Any = None
 
 
+class ConvergenceError(FlexclearError, ArithmeticError):
+    """The nonlinear iterations of one step (geometric stiffness, iterated contact) did not
+    converge within ``max_iter``, and step halving was not asked for (``step_halving=0``) or did
+    not help. What was recorded until then is in :attr:`result`.
+
+    Attributes
+    ----------
+    time : float
+        Simulated time at the start of the failing step, s.
+    step : int
+        Index of that step.
+    iterations : int
+        Iterations done.
+    residual : float
+        Infinity norm of the last residual, N.
+    correction : float
+        Last displacement correction relative to the displacement scale.
+    result : Any
+        Everything recorded until the failure.
+    """
+
+    time: float = float("nan")
+    step: int = 0
+    iterations: int = 0
+    residual: float = float("nan")
+    correction: float = float("nan")
+    result: Any = None
+
+
 class SimulationInterrupted(FlexclearError, KeyboardInterrupt):
     """The run was interrupted (Ctrl-C). What it had recorded is in :attr:`result`."""
 
@@ -90,5 +119,6 @@ __all__ = [
     "ModelError",
     "SingularMatrixError",
     "SimulationDivergedError",
+    "ConvergenceError",
     "SimulationInterrupted",
 ]

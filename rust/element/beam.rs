@@ -197,4 +197,29 @@ impl BeamElement {
         });
         v
     }
+    /// Transverse displacement `v(xi l)` inside the element for nodal vector `q`, m.
+    pub fn transverse_at(&self, xi: f64, q: &Vec6) -> f64 {
+        shape(xi, self.length).nv.dot(q)
+    }
+
+    /// Kinetic energy (J) and angular momentum about the frame origin (kg m^2/s) of the element's
+    /// distributed mass for an element whose first node sits at `x0` (m) in a frame moving with
+    /// origin velocity `v0` (m/s, link-frame components) and rate `rate` (rad/s), with elastic
+    /// displacement `q` and velocity `qd` (link frame). The absolute velocity of the point at
+    /// `x` is `v0 + rate S (r0 + w) + wd`, `r0 = (x, 0)`; quadrature is exact (degree 6).
+    pub fn kinetic_terms(&self, x0: f64, q: &Vec6, qd: &Vec6, v0: [f64; 2], rate: f64) -> (f64, f64) {
+        let ra = self.density * self.area;
+        let l = self.length;
+        GAUSS.iter().fold((0.0, 0.0), |(e, h), &(xi, w)| {
+            let s = shape(xi, l);
+            let x = x0 + xi * l;
+            let (wu, wv) = (s.nu.dot(q), s.nv.dot(q));
+            let (du, dv) = (s.nu.dot(qd), s.nv.dot(qd));
+            let (px, py) = (x + wu, wv);
+            let vx = v0[0] - rate * py + du;
+            let vy = v0[1] + rate * px + dv;
+            let dm = ra * w * l;
+            (e + 0.5 * dm * (vx * vx + vy * vy), h + dm * (px * vy - py * vx))
+        })
+    }
 }

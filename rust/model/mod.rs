@@ -1,6 +1,7 @@
 //! The mechanism: flexible links, rigid bodies with prescribed motion, and clearance joints.
 //! Plain data plus validation; nothing here knows about matrices or time stepping.
 
+pub mod mechanism;
 pub mod motion;
 
 use std::sync::Arc;

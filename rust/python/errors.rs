@@ -50,6 +50,22 @@ pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyDict>>) -
                     ("reason", reason.clone().into_pyobject(py)?.into_any().unbind()),
                 ],
             ),
+            Error::NotConverged {
+                time,
+                step,
+                iterations,
+                residual,
+                correction,
+            } => (
+                "ConvergenceError",
+                vec![
+                    ("time", time.into_pyobject(py)?.into_any().unbind()),
+                    ("step", step.into_pyobject(py)?.into_any().unbind()),
+                    ("iterations", iterations.into_pyobject(py)?.into_any().unbind()),
+                    ("residual", residual.into_pyobject(py)?.into_any().unbind()),
+                    ("correction", correction.into_pyobject(py)?.into_any().unbind()),
+                ],
+            ),
             Error::Interrupted { time, step } => (
                 "SimulationInterrupted",
                 vec![

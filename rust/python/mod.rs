@@ -2,6 +2,7 @@
 //! about Python. Conversions, the model builder class, runs and modes; errors in `errors.rs`.
 
 mod errors;
+mod mechanism;
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -22,15 +23,15 @@ use crate::study::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutco
 
 use errors::{run_detached, to_pyerr};
 
-fn err(py: Python<'_>, e: Error) -> PyErr {
+pub(crate) fn err(py: Python<'_>, e: Error) -> PyErr {
     to_pyerr(py, &e, None)
 }
 
 /// A prescribed planar translation (see `flexclear.motion`).
 #[pyclass(name = "Motion", module = "flexclear._core", frozen)]
 #[derive(Clone)]
-struct PyMotion {
-    inner: Motion,
+pub(crate) struct PyMotion {
+    pub(crate) inner: Motion,
 }
 
 #[pymethods]
@@ -99,7 +100,7 @@ fn motion_or_fixed(m: Option<PyRef<'_, PyMotion>>) -> Motion {
     m.map_or(Motion::Fixed { position: [0.0, 0.0] }, |m| m.inner.clone())
 }
 
-fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw> {
+pub(crate) fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw> {
     match s {
         "viscous" => Ok(DampingLaw::Viscous),
         "radial" => Ok(DampingLaw::Radial),
@@ -615,7 +616,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
         Some(Err(f)) => {
             let status = match f.error {
                 Error::InvalidParameter { .. } | Error::InvalidModel { .. } => "invalid",
-                Error::Diverged { .. } => "diverged",
+                Error::Diverged { .. } | Error::NotConverged { .. } => "diverged",
                 Error::Singular { .. } => "singular",
                 Error::Interrupted { .. } => "interrupted",
             };
@@ -784,6 +785,9 @@ fn run_batch<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyModel>()?;
     m.add_class::<PyMotion>()?;
+    m.add_class::<mechanism::PyRotation>()?;
+    m.add_class::<mechanism::PyFrame>()?;
+    m.add_class::<mechanism::PyMechanism>()?;
     m.add_function(wrap_pyfunction!(slider_yoke, m)?)?;
     m.add_function(wrap_pyfunction!(run_batch, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -1,0 +1,1577 @@
+//! Newmark integration of a kineto-elastodynamic [`Mechanism`]: links in moving frames with the
+//! full element equation of METHOD.md section 2,
+//!
+//! `M Qdd + (D1 + D2 + M_COR) Qd + (K1 + K2 + K3 + M_IC) Q = f - M_R a_R`,
+//!
+//! ideal pins by elimination (a pinned node's translation is a shared unknown in global axes and
+//! enters each link through its frame rotation, the `T_ij` of paper eq. 4b; a node on a slider
+//! has one unknown along the guide), and clearance joints by the force or modified method.
+//!
+//! Each step solves for the accelerations `a` at `t + dt` (`y = y~ + beta dt^2 a`,
+//! `yd = v~ + gamma dt a`) by Newton iterations on the residual with the Jacobian of everything
+//! but the axial-force dependence of K2, K3, D2 (modified Newton, converging linearly at a rate
+//! set by how much the axial force moves within the step). The Jacobian is refactorized only when
+//! a quantity it depends on changed (step, frame rate and acceleration, frame angle for links
+//! with transformed nodes, axial forces, contact terms): a non-rotating link or one spinning at
+//! constant speed with no geometric terms factors once per run. A step with nothing nonlinear
+//! takes exactly one solve.
+//!
+//! Nothing allocates inside the time loop.
+
+use nalgebra::Matrix6;
+
+use crate::contact::{ContactTerms, Coupling};
+use crate::element::{Mat6, Vec6};
+use crate::error::{Error, Result};
+use crate::integrator::Newmark;
+use crate::kinematics::FrameState;
+use crate::linsolve::BandLu;
+use crate::model::mechanism::{Endpoint, Mechanism};
+
+const NONE: usize = usize::MAX;
+
+/// Settings of a KED run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KedSettings {
+    /// End time, s.
+    pub t_end: f64,
+    /// Step, s.
+    pub dt: f64,
+    /// Newmark parameters.
+    pub newmark: Newmark,
+    /// Clearance coupling: force or modified (the gap element is not offered here).
+    pub coupling: Coupling,
+    /// Relative tolerance of the step iterations (displacement correction over the
+    /// displacement scale).
+    pub tol: f64,
+    /// Iteration cap per step.
+    pub max_iter: usize,
+    /// How many times a step that does not converge may be halved (0 = fail at once with
+    /// [`Error::NotConverged`]).
+    pub step_halving: u32,
+    /// A translational DOF beyond this magnitude (m) means divergence; `None` = 10 x the longest
+    /// link.
+    pub divergence_limit: Option<f64>,
+    /// What to record.
+    pub record: KedRecord,
+}
+
+/// Channels of a KED run, recorded every `every` steps (the initial state included).
+#[derive(Debug, Clone, PartialEq)]
+pub struct KedRecord {
+    /// Record every k-th step (>= 1).
+    pub every: usize,
+    /// All nodal displacements `u, v, theta` of every link (link frame).
+    pub displacements: bool,
+    /// Axial force of every element, N.
+    pub axial_force: bool,
+    /// Midspan transverse deflection of every link relative to the chord through its end
+    /// nodes, m.
+    pub midspan: bool,
+    /// Kinetic energy (absolute motion), linear strain energy and angular momentum about the
+    /// frame origin of every link.
+    pub energy: bool,
+}
+
+impl Default for KedRecord {
+    fn default() -> Self {
+        KedRecord {
+            every: 1,
+            displacements: true,
+            axial_force: false,
+            midspan: false,
+            energy: false,
+        }
+    }
+}
+
+impl KedSettings {
+    /// Defaults: average-acceleration Newmark, modified coupling with lagged kappa, tolerance
+    /// 1e-8, 25 iterations, no halving.
+    pub fn new(t_end: f64, dt: f64) -> Self {
+        KedSettings {
+            t_end,
+            dt,
+            newmark: Newmark::default(),
+            coupling: Coupling::default(),
+            tol: 1e-8,
+            max_iter: 25,
+            step_halving: 0,
+            divergence_limit: None,
+            record: KedRecord::default(),
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        crate::error::check_positive("t_end", self.t_end, "s")?;
+        crate::error::check_positive("dt", self.dt, "s")?;
+        if self.dt > self.t_end {
+            return Err(Error::param("dt", self.dt, format!("<= t_end = {} s", self.t_end)));
+        }
+        if self.t_end / self.dt > 1e12 {
+            return Err(Error::param(
+                "dt",
+                self.dt,
+                format!("at least t_end/1e12 = {:e} s", self.t_end / 1e12),
+            ));
+        }
+        self.newmark.validate()?;
+        self.coupling.validate()?;
+        if let Coupling::Gap { .. } = self.coupling {
+            return Err(Error::param(
+                "method",
+                "gap",
+                "\"force\" or \"modified\" for a mechanism (the gap element is offered for Model only)",
+            ));
+        }
+        crate::error::check_positive("tol", self.tol, "(relative)")?;
+        if self.max_iter < 1 {
+            return Err(Error::param("max_iter", self.max_iter, "an integer >= 1"));
+        }
+        if self.step_halving > 20 {
+            return Err(Error::param("step_halving", self.step_halving, "0 ..= 20"));
+        }
+        if let Some(l) = self.divergence_limit {
+            crate::error::check_positive("divergence_limit", l, "m")?;
+        }
+        if self.record.every < 1 {
+            return Err(Error::param("every", self.record.every, "an integer >= 1"));
+        }
+        Ok(())
+    }
+}
+
+/// Histories of one link.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinkHistory {
+    /// Frame state at each record: origin x, y (m), angle (rad), rate (rad/s).
+    pub frame: Vec<[f64; 4]>,
+    /// Nodal displacements, `3 (N + 1)` per record (link frame).
+    pub displacements: Vec<f64>,
+    /// Element axial forces, N per record, N.
+    pub axial_force: Vec<f64>,
+    /// Midspan deflection relative to the chord, m.
+    pub midspan: Vec<f64>,
+    /// Kinetic energy, J.
+    pub kinetic: Vec<f64>,
+    /// Linear strain energy `Q^T K1 Q / 2`, J.
+    pub strain: Vec<f64>,
+    /// Angular momentum about the frame origin, kg m^2/s.
+    pub momentum: Vec<f64>,
+}
+
+/// Histories and extremes of one clearance joint.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct KedJointHistory {
+    /// Penetration `delta_r - delta_c`, m.
+    pub penetration: Vec<f64>,
+    /// Contact force magnitude, N.
+    pub force: Vec<f64>,
+    /// Largest penetration over every step, m.
+    pub max_penetration: f64,
+    /// Largest force over every step, N.
+    pub max_force: f64,
+    /// Open-to-closed transitions.
+    pub impacts: u64,
+}
+
+/// Counters of a KED run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct KedStats {
+    /// Steps completed (halved substeps count once, as their parent step).
+    pub steps: u64,
+    /// Substeps taken by step halving.
+    pub halved_substeps: u64,
+    /// Numeric factorizations of the Jacobian.
+    pub factorizations: u64,
+    /// Newton iterations in all.
+    pub iterations: u64,
+    /// Largest number of iterations in one step.
+    pub max_iterations: u64,
+    /// Terms active in the equations, in words, per link.
+    pub terms: Vec<String>,
+    /// Number of unknowns and the half-bandwidth of the Jacobian.
+    pub unknowns: usize,
+    /// Half-bandwidth of the Jacobian.
+    pub bandwidth: usize,
+}
+
+/// What a KED run produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct KedOutput {
+    /// Recorded times, s.
+    pub time: Vec<f64>,
+    /// Per link.
+    pub links: Vec<LinkHistory>,
+    /// Per clearance joint.
+    pub joints: Vec<KedJointHistory>,
+    /// Counters.
+    pub stats: KedStats,
+    /// Time reached, s.
+    pub t: f64,
+}
+
+/// A KED run that stopped early, with what it recorded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KedFailure {
+    /// Why.
+    pub error: Error,
+    /// Recorded until then.
+    pub output: KedOutput,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Trans {
+    /// Local unknowns (NONE where a support holds the component).
+    Local([usize; 2]),
+    /// Shared unknowns in global axes.
+    Global([usize; 2]),
+    /// One unknown along the guide of slider `slider`.
+    Slider { s: usize, slider: usize },
+    /// Held at zero.
+    Fixed,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct NodeMap {
+    trans: Trans,
+    rot: usize,
+}
+
+/// Per link, what it carries.
+#[derive(Debug, Clone, Copy)]
+struct Active {
+    coriolis: bool,
+    coupling: bool,
+    geometric: bool,
+    load: bool,
+    transformed: bool,
+}
+
+struct LinkData {
+    nodes: Vec<NodeMap>,
+    m: Mat6,
+    k1: Mat6,
+    d1: Mat6,
+    g: Mat6,
+    mt: Mat6,
+    k2u: Mat6,
+    k3u: Mat6,
+    eta_e: f64,
+    ea_l: f64,
+    /// Inertia load vectors per element: bx, by, bxx, byx.
+    loads: Vec<[Vec6; 4]>,
+    active: Active,
+    /// Point mass per node (kg), summed.
+    point_mass: Vec<f64>,
+    /// Constant nodal loads per node `[Fu, Fv, M]`.
+    nodal_load: Vec<[f64; 3]>,
+}
+
+/// Rotation-derived per-node transform for the current frame state: T (3x3 block, local from
+/// slots), Td, Tdd, and the slot unknown indices.
+#[derive(Clone, Copy)]
+struct NodeT {
+    idx: [usize; 3],
+    t: [[f64; 3]; 3],
+    td: [[f64; 3]; 3],
+    tdd: [[f64; 3]; 3],
+    plain: bool,
+}
+
+fn rot(a: f64) -> [[f64; 2]; 2] {
+    let (s, c) = a.sin_cos();
+    [[c, -s], [s, c]]
+}
+
+fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
+    let mut nt = NodeT {
+        idx: [NONE, NONE, map.rot],
+        t: [[0.0; 3]; 3],
+        td: [[0.0; 3]; 3],
+        tdd: [[0.0; 3]; 3],
+        plain: true,
+    };
+    nt.t[2][2] = 1.0;
+    // Columns of T for global unknowns: Rt = R(phi)^T; Td = -w S Rt; Tdd = (-al S - w^2) Rt.
+    let glob = |cols: &[[f64; 2]], nt: &mut NodeT| {
+        let r = rot(f.angle);
+        let (w, al) = (f.rate, f.accel);
+        for (c, g) in cols.iter().enumerate() {
+            // t = R^T g
+            let t = [r[0][0] * g[0] + r[1][0] * g[1], r[0][1] * g[0] + r[1][1] * g[1]];
+            // S t = (-t1, t0)
+            let st = [-t[1], t[0]];
+            nt.t[0][c] = t[0];
+            nt.t[1][c] = t[1];
+            nt.td[0][c] = -w * st[0];
+            nt.td[1][c] = -w * st[1];
+            nt.tdd[0][c] = -al * st[0] - w * w * t[0];
+            nt.tdd[1][c] = -al * st[1] - w * w * t[1];
+        }
+        nt.plain = false;
+    };
+    match map.trans {
+        Trans::Local(ix) => {
+            nt.idx[0] = ix[0];
+            nt.idx[1] = ix[1];
+            nt.t[0][0] = 1.0;
+            nt.t[1][1] = 1.0;
+        }
+        Trans::Global(ix) => {
+            nt.idx[0] = ix[0];
+            nt.idx[1] = ix[1];
+            glob(&[[1.0, 0.0], [0.0, 1.0]], &mut nt);
+        }
+        Trans::Slider { s, slider } => {
+            nt.idx[0] = s;
+            let a = sliders[slider];
+            glob(&[[a.cos(), a.sin()]], &mut nt);
+        }
+        Trans::Fixed => {}
+    }
+    nt
+}
+
+/// The KED run: DOF map, element data, Jacobian and state.
+pub struct KedRun<'a> {
+    mech: &'a Mechanism,
+    settings: &'a KedSettings,
+    links: Vec<LinkData>,
+    slider_dof: Vec<usize>,
+    slider_angle: Vec<f64>,
+    n: usize,
+    lu: BandLu,
+    /// Values the factorized Jacobian was built with (refactorize when they change).
+    signature: Vec<f64>,
+    sig_new: Vec<f64>,
+    frames: Vec<FrameState>,
+    y: Vec<f64>,
+    yd: Vec<f64>,
+    ydd: Vec<f64>,
+    y_pred: Vec<f64>,
+    v_pred: Vec<f64>,
+    y0: Vec<f64>,
+    yd0: Vec<f64>,
+    ydd0: Vec<f64>,
+    a: Vec<f64>,
+    r: Vec<f64>,
+    contact: Vec<ContactTerms>,
+    contact_was: Vec<bool>,
+    nonlinear_geometric: bool,
+    stats: KedStats,
+    out: KedOutput,
+    limit: f64,
+}
+
+struct DofBuilder {
+    parent: Vec<usize>,
+}
+
+impl DofBuilder {
+    fn find(&mut self, mut i: usize) -> usize {
+        while self.parent[i] != i {
+            self.parent[i] = self.parent[self.parent[i]];
+            i = self.parent[i];
+        }
+        i
+    }
+    fn union(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            self.parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+}
+
+impl<'a> KedRun<'a> {
+    /// Validates and prepares a run. Errors: invalid parameters or model
+    /// ([`Mechanism::validate`]), an over-constrained node.
+    pub fn new(mech: &'a Mechanism, settings: &'a KedSettings) -> Result<Self> {
+        settings.validate()?;
+        mech.validate(settings.t_end)?;
+        // Union-find over node translations, sliders and ground.
+        let offs: Vec<usize> = mech
+            .links
+            .iter()
+            .scan(0, |acc, l| {
+                let o = *acc;
+                *acc += l.nodes();
+                Some(o)
+            })
+            .collect();
+        let total_nodes: usize = mech.links.iter().map(|l| l.nodes()).sum();
+        let ground = total_nodes + mech.sliders.len();
+        let mut uf = DofBuilder {
+            parent: (0..=ground).collect(),
+        };
+        let item = |e: &Endpoint| match e {
+            Endpoint::Node { link, node } => offs[*link] + node,
+            Endpoint::Body { .. } => ground,
+            Endpoint::Slider(s) => total_nodes + s,
+        };
+        for p in &mech.pins {
+            uf.union(item(&p.a), item(&p.b));
+        }
+        let mut rollers = vec![[false; 3]; total_nodes];
+        for s in &mech.supports {
+            let i = offs[s.link] + s.node;
+            if s.fixed[0] && s.fixed[1] {
+                uf.union(i, ground);
+            }
+            for k in 0..3 {
+                rollers[i][k] |= s.fixed[k];
+            }
+        }
+        // Classify groups.
+        let root_ground = uf.find(ground);
+        let mut group_slider: Vec<Option<usize>> = vec![None; ground + 1];
+        let mut group_size = vec![0usize; ground + 1];
+        for i in 0..total_nodes {
+            let r = uf.find(i);
+            group_size[r] += 1;
+        }
+        for s in 0..mech.sliders.len() {
+            let r = uf.find(total_nodes + s);
+            if r == root_ground {
+                return Err(Error::InvalidModel {
+                    message: format!(
+                        "slider {:?} is pinned, through its links, to ground or a rigid body: over-constrained",
+                        mech.sliders[s].name
+                    ),
+                });
+            }
+            if let Some(o) = group_slider[r] {
+                return Err(Error::InvalidModel {
+                    message: format!(
+                        "sliders {:?} and {:?} are pinned to the same point: over-constrained",
+                        mech.sliders[o].name, mech.sliders[s].name
+                    ),
+                });
+            }
+            group_slider[r] = Some(s);
+        }
+        // Number the unknowns in link/node order.
+        let mut next = 0usize;
+        let mut group_dofs: Vec<Option<[usize; 2]>> = vec![None; ground + 1];
+        let mut slider_dof = vec![NONE; mech.sliders.len()];
+        let mut links = Vec::with_capacity(mech.links.len());
+        for (li, l) in mech.links.iter().enumerate() {
+            let mut nodes = Vec::with_capacity(l.nodes());
+            for nd in 0..l.nodes() {
+                let i = offs[li] + nd;
+                let r = uf.find(i);
+                let partial = (rollers[i][0] || rollers[i][1]) && !(rollers[i][0] && rollers[i][1]);
+                let trans = if r == root_ground {
+                    Trans::Fixed
+                } else if let Some(s) = group_slider[r] {
+                    if partial {
+                        return Err(Error::InvalidModel {
+                            message: format!(
+                                "node {nd} of link {:?} has a support and is on slider {:?}: over-constrained",
+                                l.name, mech.sliders[s].name
+                            ),
+                        });
+                    }
+                    if slider_dof[s] == NONE {
+                        slider_dof[s] = next;
+                        next += 1;
+                    }
+                    Trans::Slider {
+                        s: slider_dof[s],
+                        slider: s,
+                    }
+                } else if group_size[r] > 1 {
+                    if partial {
+                        return Err(Error::InvalidModel {
+                            message: format!(
+                                "node {nd} of link {:?} has a one-direction support and is pinned to another link: not supported (over-constrained in general)",
+                                l.name
+                            ),
+                        });
+                    }
+                    let d = *group_dofs[r].get_or_insert_with(|| {
+                        next += 2;
+                        [next - 2, next - 1]
+                    });
+                    Trans::Global(d)
+                } else {
+                    let mut ix = [NONE; 2];
+                    for k in 0..2 {
+                        if !rollers[i][k] {
+                            ix[k] = next;
+                            next += 1;
+                        }
+                    }
+                    Trans::Local(ix)
+                };
+                let rot = if rollers[i][2] {
+                    NONE
+                } else {
+                    next += 1;
+                    next - 1
+                };
+                nodes.push(NodeMap { trans, rot });
+                // A slider reached only through a clearance joint gets its unknown next to the
+                // journal, for a narrow band.
+                for j in &mech.joints {
+                    if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
+                        if *link == li && *node == nd && slider_dof[*s] == NONE {
+                            slider_dof[*s] = next;
+                            next += 1;
+                        }
+                    }
+                }
+            }
+            let e = l.element();
+            let rotates = l.frame.rotates();
+            let moves = rotates || l.frame.translates();
+            let gravity = mech.gravity != [0.0, 0.0];
+            let axially_loaded = mech.loads.iter().any(|f| f.link == li && f.force[0] != 0.0);
+            let t = l.terms;
+            let active = Active {
+                coriolis: t.coriolis.unwrap_or(rotates),
+                coupling: t.inertia_coupling.unwrap_or(rotates),
+                geometric: t.geometric.unwrap_or(rotates || axially_loaded),
+                load: t.inertia_load.unwrap_or(moves || gravity),
+                transformed: nodes
+                    .iter()
+                    .any(|n| matches!(n.trans, Trans::Global(_) | Trans::Slider { .. })),
+            };
+            let le = l.element_length();
+            let mut point_mass = vec![0.0; l.nodes()];
+            for pm in mech.masses.iter().filter(|m| m.link == li) {
+                point_mass[pm.node] += pm.mass;
+            }
+            let mut nodal_load = vec![[0.0; 3]; l.nodes()];
+            for f in mech.loads.iter().filter(|f| f.link == li) {
+                let x = &mut nodal_load[f.node];
+                x[0] += f.force[0];
+                x[1] += f.force[1];
+                x[2] += f.moment;
+            }
+            links.push(LinkData {
+                nodes,
+                m: e.mass(),
+                k1: e.stiffness(),
+                d1: e.damping_matrix(),
+                g: e.skew_mass(),
+                mt: e.translational_mass(),
+                k2u: e.geometric_stiffness(1.0),
+                k3u: e.axial_force_stiffness(1.0),
+                eta_e: e.damping / e.youngs_modulus,
+                ea_l: e.youngs_modulus * e.area / le,
+                loads: if active.load {
+                    (0..l.elements).map(|k| e.inertia_load_vectors(k as f64 * le)).collect()
+                } else {
+                    Vec::new()
+                },
+                active,
+                point_mass,
+                nodal_load,
+            });
+        }
+        // A slider attached to nothing keeps no unknown: it moves along its nominal path.
+        let n = next;
+        if n == 0 {
+            return Err(Error::InvalidModel {
+                message: "the mechanism has no free elastic degree of freedom".into(),
+            });
+        }
+        // Half-bandwidth from element and joint connectivity.
+        let mut b = 0usize;
+        let mut couple = |ids: &[usize]| {
+            for &i in ids.iter().filter(|&&i| i != NONE) {
+                for &j in ids.iter().filter(|&&j| j != NONE) {
+                    b = b.max(i.abs_diff(j));
+                }
+            }
+        };
+        let slots = |m: &NodeMap| -> [usize; 3] {
+            match m.trans {
+                Trans::Local(ix) | Trans::Global(ix) => [ix[0], ix[1], m.rot],
+                Trans::Slider { s, .. } => [s, NONE, m.rot],
+                Trans::Fixed => [NONE, NONE, m.rot],
+            }
+        };
+        for ld in &links {
+            for w in ld.nodes.windows(2) {
+                let (a, c) = (slots(&w[0]), slots(&w[1]));
+                couple(&[a[0], a[1], a[2], c[0], c[1], c[2]]);
+            }
+        }
+        let ep_slots = |e: &Endpoint| -> [usize; 3] {
+            match e {
+                Endpoint::Node { link, node } => slots(&links[*link].nodes[*node]),
+                Endpoint::Body { .. } => [NONE; 3],
+                Endpoint::Slider(s) => [slider_dof[*s], NONE, NONE],
+            }
+        };
+        for j in &mech.joints {
+            let (a, c) = (ep_slots(&j.journal), ep_slots(&j.bearing));
+            couple(&[a[0], a[1], c[0], c[1]]);
+        }
+        let nonlinear_geometric = links.iter().any(|l| l.active.geometric);
+        let limit = settings
+            .divergence_limit
+            .unwrap_or(10.0 * mech.links.iter().fold(0.0f64, |s, l| s.max(l.length)));
+        let mut stats = KedStats {
+            unknowns: n,
+            bandwidth: b,
+            ..Default::default()
+        };
+        for (l, ld) in mech.links.iter().zip(&links) {
+            let a = ld.active;
+            let mut t = vec!["M", "K1"];
+            if l.damping > 0.0 {
+                t.push("D1");
+            }
+            if a.geometric {
+                t.extend(["K2", "K3"]);
+                if l.damping > 0.0 {
+                    t.push("D2");
+                }
+            }
+            if a.coriolis {
+                t.push("M_COR");
+            }
+            if a.coupling {
+                t.push("M_IC");
+            }
+            if a.load {
+                t.push("M_R a_R");
+            }
+            stats.terms.push(format!("{}: {}", l.name, t.join(", ")));
+        }
+        let out = KedOutput {
+            links: vec![LinkHistory::default(); mech.links.len()],
+            joints: vec![KedJointHistory::default(); mech.joints.len()],
+            ..Default::default()
+        };
+        Ok(KedRun {
+            mech,
+            settings,
+            links,
+            slider_angle: mech.sliders.iter().map(|s| s.angle).collect(),
+            slider_dof,
+            n,
+            lu: BandLu::new(n, b),
+            signature: Vec::new(),
+            sig_new: Vec::new(),
+            frames: vec![FrameState::default(); mech.links.len()],
+            y: vec![0.0; n],
+            yd: vec![0.0; n],
+            ydd: vec![0.0; n],
+            y_pred: vec![0.0; n],
+            v_pred: vec![0.0; n],
+            y0: vec![0.0; n],
+            yd0: vec![0.0; n],
+            ydd0: vec![0.0; n],
+            a: vec![0.0; n],
+            r: vec![0.0; n],
+            contact: vec![ContactTerms::default(); mech.joints.len()],
+            contact_was: vec![false; mech.joints.len()],
+            nonlinear_geometric,
+            stats,
+            out,
+            limit,
+        })
+    }
+
+    /// Number of unknowns.
+    pub fn unknowns(&self) -> usize {
+        self.n
+    }
+
+    /// What each unknown is: `(link, node, component)` with component `u`, `v`, `theta` (link
+    /// frame), `x`, `y` (global, shared by pinned nodes) or `s` (along a slider's guide; link and
+    /// node of the first node on it, or `usize::MAX` for a slider reached only by a joint).
+    pub fn dof_map(&self) -> Vec<(usize, usize, &'static str)> {
+        let mut out = vec![(NONE, NONE, "s"); self.n];
+        for (li, ld) in self.links.iter().enumerate().rev() {
+            for (nd, m) in ld.nodes.iter().enumerate().rev() {
+                if m.rot != NONE {
+                    out[m.rot] = (li, nd, "theta");
+                }
+                match m.trans {
+                    Trans::Local(ix) => {
+                        for (k, c) in [(0, "u"), (1, "v")] {
+                            if ix[k] != NONE {
+                                out[ix[k]] = (li, nd, c);
+                            }
+                        }
+                    }
+                    Trans::Global(ix) => {
+                        out[ix[0]] = (li, nd, "x");
+                        out[ix[1]] = (li, nd, "y");
+                    }
+                    Trans::Slider { s, .. } => out[s] = (li, nd, "s"),
+                    Trans::Fixed => {}
+                }
+            }
+        }
+        out
+    }
+
+    /// Linearization at time `t` and state `(y, yd)` (accelerations zero): dense row-major
+    /// `M`, `C`, `K` (`n x n`, with the axial forces of `y` in K2, K3, D2 and the contact terms
+    /// of that state) and the residual `r(y, yd, 0)`, so that near the state
+    /// `M ydd + C dyd + K dy = -r`. Used for natural frequencies of a rotating or preloaded link
+    /// and static equilibria (Newton on `K dy = -r`).
+    pub fn linearize(&mut self, t: f64, y: &[f64], yd: &[f64]) -> Result<[Vec<f64>; 4]> {
+        if y.len() != self.n || yd.len() != self.n {
+            return Err(Error::param(
+                "y",
+                format!("{} values", y.len()),
+                format!("{} values (one per unknown)", self.n),
+            ));
+        }
+        self.update_frames(t);
+        self.y.copy_from_slice(y);
+        self.yd.copy_from_slice(yd);
+        self.ydd.fill(0.0);
+        self.y_pred.copy_from_slice(y);
+        self.v_pred.copy_from_slice(yd);
+        self.evaluate_contacts(true);
+        let n = self.n;
+        let mut lu = BandLu::new(n, self.lu.bandwidth());
+        let dense = |bh2: f64, gh: f64, lu: &mut BandLu| -> Vec<f64> {
+            self.assemble(bh2, gh, lu);
+            let mut d = vec![0.0; n * n];
+            for i in 0..n {
+                for j in 0..n {
+                    d[i * n + j] = lu.get(i, j);
+                }
+            }
+            d
+        };
+        let m = dense(0.0, 0.0, &mut lu);
+        let mc = dense(0.0, 1.0, &mut lu);
+        let mk = dense(1.0, 0.0, &mut lu);
+        let c: Vec<f64> = mc.iter().zip(&m).map(|(a, b)| a - b).collect();
+        let k: Vec<f64> = mk.iter().zip(&m).map(|(a, b)| a - b).collect();
+        self.residual(0.0, t);
+        Ok([m, c, k, self.r.clone()])
+    }
+
+    fn update_frames(&mut self, t: f64) {
+        for (f, l) in self.frames.iter_mut().zip(&self.mech.links) {
+            *f = l.frame.frame(t);
+        }
+    }
+
+    /// Node transforms of link `li` for the current frames.
+    #[inline]
+    fn nt(&self, li: usize, node: usize) -> NodeT {
+        node_t(&self.links[li].nodes[node], &self.frames[li], &self.slider_angle)
+    }
+
+    /// Local displacement, velocity and acceleration (u, v, th) of a node from global unknowns.
+    #[inline]
+    fn local(nt: &NodeT, y: &[f64], yd: &[f64], ydd: &[f64]) -> [[f64; 3]; 3] {
+        let g = |v: &[f64], i: usize| if i == NONE { 0.0 } else { v[i] };
+        let (q, qd, qdd) = (
+            [g(y, nt.idx[0]), g(y, nt.idx[1]), g(y, nt.idx[2])],
+            [g(yd, nt.idx[0]), g(yd, nt.idx[1]), g(yd, nt.idx[2])],
+            [g(ydd, nt.idx[0]), g(ydd, nt.idx[1]), g(ydd, nt.idx[2])],
+        );
+        let mut w = [[0.0; 3]; 3];
+        for r in 0..3 {
+            for c in 0..3 {
+                w[0][r] += nt.t[r][c] * q[c];
+                w[1][r] += nt.t[r][c] * qd[c] + nt.td[r][c] * q[c];
+                w[2][r] += nt.t[r][c] * qdd[c] + 2.0 * nt.td[r][c] * qd[c] + nt.tdd[r][c] * q[c];
+            }
+        }
+        w
+    }
+
+    /// Adds `T^T f` (f: local generalized force of a node) into `r`.
+    #[inline]
+    fn project(nt: &NodeT, f: [f64; 3], r: &mut [f64]) {
+        for c in 0..3 {
+            let i = nt.idx[c];
+            if i != NONE {
+                r[i] += nt.t[0][c] * f[0] + nt.t[1][c] * f[1] + nt.t[2][c] * f[2];
+            }
+        }
+    }
+
+    /// Element matrices (C, K) of element `e` of link `li` at axial force `fax`.
+    #[inline]
+    fn element_ck(&self, li: usize, fax: f64) -> (Mat6, Mat6) {
+        let ld = &self.links[li];
+        let f = &self.frames[li];
+        let mut c = ld.d1;
+        let mut k = ld.k1;
+        if ld.active.geometric {
+            k += ld.k2u * fax + ld.k3u * fax;
+            if ld.eta_e > 0.0 {
+                c += ld.k2u * (fax * ld.eta_e);
+            }
+        }
+        if ld.active.coriolis {
+            c += ld.g * (2.0 * f.rate);
+        }
+        if ld.active.coupling {
+            k += ld.g * f.accel - ld.mt * (f.rate * f.rate);
+        }
+        (c, k)
+    }
+
+    /// Nominal acceleration `a_R` of the point at `x` in link-frame components, gravity removed.
+    fn a_ref(&self, li: usize, x: f64) -> [f64; 2] {
+        let f = &self.frames[li];
+        let r = rot(f.angle);
+        let g = self.mech.gravity;
+        let a = [f.origin_acc[0] - g[0], f.origin_acc[1] - g[1]];
+        let a0 = [r[0][0] * a[0] + r[1][0] * a[1], r[0][1] * a[0] + r[1][1] * a[1]];
+        [a0[0] - f.rate * f.rate * x, a0[1] + f.accel * x]
+    }
+
+    /// Residual at the state (y, yd, ydd); contact forces by the coupling (`explicit` = force
+    /// method terms frozen from the step start).
+    fn residual(&mut self, _h: f64, t: f64) {
+        let mut r = std::mem::take(&mut self.r);
+        r.fill(0.0);
+        for li in 0..self.links.len() {
+            let ld = &self.links[li];
+            let le = self.mech.links[li].element_length();
+            let mut prev = self.nt(li, 0);
+            let mut wprev = Self::local(&prev, &self.y, &self.yd, &self.ydd);
+            let (c0, k0) = self.element_ck(li, 0.0);
+            let k23 = ld.k2u + ld.k3u;
+            let d2 = ld.k2u * ld.eta_e;
+            for e in 0..self.mech.links[li].elements {
+                let next = self.nt(li, e + 1);
+                let wn = Self::local(&next, &self.y, &self.yd, &self.ydd);
+                let q = Vec6::new(wprev[0][0], wprev[0][1], wprev[0][2], wn[0][0], wn[0][1], wn[0][2]);
+                let qd = Vec6::new(wprev[1][0], wprev[1][1], wprev[1][2], wn[1][0], wn[1][1], wn[1][2]);
+                let qdd = Vec6::new(wprev[2][0], wprev[2][1], wprev[2][2], wn[2][0], wn[2][1], wn[2][2]);
+                let mut f = ld.m * qdd + c0 * qd + k0 * q;
+                if ld.active.geometric {
+                    let fax = ld.ea_l * (q[3] - q[0]);
+                    f += (k23 * q + d2 * qd) * fax;
+                }
+                if ld.active.load {
+                    let fr = &self.frames[li];
+                    let fs = self.a_ref(li, 0.0);
+                    let b = &ld.loads[e];
+                    f += b[0] * fs[0] + b[1] * fs[1] - b[2] * (fr.rate * fr.rate) + b[3] * fr.accel;
+                }
+                Self::project(&prev, [f[0], f[1], f[2]], &mut r);
+                Self::project(&next, [f[3], f[4], f[5]], &mut r);
+                prev = next;
+                wprev = wn;
+            }
+            // Point masses and nodal loads.
+            for nd in 0..ld.nodes.len() {
+                let (m, fl) = (ld.point_mass[nd], ld.nodal_load[nd]);
+                if m == 0.0 && fl == [0.0; 3] {
+                    continue;
+                }
+                let nt = self.nt(li, nd);
+                let w = Self::local(&nt, &self.y, &self.yd, &self.ydd);
+                let fr = &self.frames[li];
+                let ar = self.a_ref(li, nd as f64 * le);
+                let (om, al) = (fr.rate, fr.accel);
+                // m [wdd + 2 om S wd + (al S - om^2) w + a_R]
+                let fx = m * (w[2][0] - 2.0 * om * w[1][1] - al * w[0][1] - om * om * w[0][0] + ar[0]);
+                let fy = m * (w[2][1] + 2.0 * om * w[1][0] + al * w[0][0] - om * om * w[0][1] + ar[1]);
+                Self::project(&nt, [fx - fl[0], fy - fl[1], -fl[2]], &mut r);
+            }
+        }
+        // Sliders: m (sdd + e . a_nominal) along the guide.
+        for (s, sl) in self.mech.sliders.iter().enumerate() {
+            let i = self.slider_dof[s];
+            if i == NONE || sl.mass == 0.0 {
+                continue;
+            }
+            let fs = sl.path.frame(t);
+            let e = [sl.angle.cos(), sl.angle.sin()];
+            let g = self.mech.gravity;
+            r[i] += sl.mass * (self.ydd[i] + e[0] * (fs.origin_acc[0] - g[0]) + e[1] * (fs.origin_acc[1] - g[1]));
+        }
+        // Clearance joints: the force on the journal is external (moved to the left: minus).
+        for j in 0..self.mech.joints.len() {
+            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+            let f = self.contact[j].force(q, qd);
+            self.apply_joint_force(j, [-f[0], -f[1]], &mut r);
+        }
+        self.r = r;
+    }
+
+    /// Global elastic displacement and velocity of an endpoint, and the columns of `d q/d y`
+    /// (unknown, column) and of the velocity's extra position dependence.
+    fn endpoint_state(&self, e: &Endpoint, y: &[f64], yd: &[f64]) -> ([f64; 2], [f64; 2]) {
+        match e {
+            Endpoint::Node { link, node } => {
+                let nt = self.nt(*link, *node);
+                let z = &self.ydd; // unused by the first two rows
+                let w = Self::local(&nt, y, yd, z);
+                let f = &self.frames[*link];
+                let r = rot(f.angle);
+                let (wl, wd) = (
+                    [w[0][0], w[0][1]],
+                    [w[1][0] - f.rate * w[0][1], w[1][1] + f.rate * w[0][0]],
+                );
+                (
+                    [r[0][0] * wl[0] + r[0][1] * wl[1], r[1][0] * wl[0] + r[1][1] * wl[1]],
+                    [r[0][0] * wd[0] + r[0][1] * wd[1], r[1][0] * wd[0] + r[1][1] * wd[1]],
+                )
+            }
+            Endpoint::Body { .. } => ([0.0; 2], [0.0; 2]),
+            Endpoint::Slider(s) => {
+                let i = self.slider_dof[*s];
+                let a = self.slider_angle[*s];
+                let (sv, sd) = if i == NONE { (0.0, 0.0) } else { (y[i], yd[i]) };
+                ([a.cos() * sv, a.sin() * sv], [a.cos() * sd, a.sin() * sd])
+            }
+        }
+    }
+
+    fn joint_state(&self, j: usize, y: &[f64], yd: &[f64]) -> ([f64; 2], [f64; 2]) {
+        let jt = &self.mech.joints[j];
+        let (a, ad) = self.endpoint_state(&jt.journal, y, yd);
+        let (b, bd) = self.endpoint_state(&jt.bearing, y, yd);
+        ([a[0] - b[0], a[1] - b[1]], [ad[0] - bd[0], ad[1] - bd[1]])
+    }
+
+    /// Derivative of an endpoint's global displacement with respect to its unknowns, as up to 2
+    /// (unknown, column) pairs, and the extra velocity term `d qd/d y` (frame rotation).
+    fn endpoint_jac(&self, e: &Endpoint) -> [(usize, [f64; 2], [f64; 2]); 2] {
+        let mut out = [(NONE, [0.0; 2], [0.0; 2]); 2];
+        match e {
+            Endpoint::Node { link, node } => {
+                let m = self.links[*link].nodes[*node];
+                let f = &self.frames[*link];
+                match m.trans {
+                    Trans::Local(ix) => {
+                        let r = rot(f.angle);
+                        for k in 0..2 {
+                            // column k of R; velocity extra: rate R S e_k
+                            let col = [r[0][k], r[1][k]];
+                            let sk = if k == 0 { [0.0, 1.0] } else { [-1.0, 0.0] };
+                            let rs = [r[0][0] * sk[0] + r[0][1] * sk[1], r[1][0] * sk[0] + r[1][1] * sk[1]];
+                            out[k] = (ix[k], col, [f.rate * rs[0], f.rate * rs[1]]);
+                        }
+                    }
+                    Trans::Global(ix) => {
+                        out[0] = (ix[0], [1.0, 0.0], [0.0; 2]);
+                        out[1] = (ix[1], [0.0, 1.0], [0.0; 2]);
+                    }
+                    Trans::Slider { s, slider } => {
+                        let a = self.slider_angle[slider];
+                        out[0] = (s, [a.cos(), a.sin()], [0.0; 2]);
+                    }
+                    Trans::Fixed => {}
+                }
+            }
+            Endpoint::Body { .. } => {}
+            Endpoint::Slider(s) => {
+                let a = self.slider_angle[*s];
+                out[0] = (self.slider_dof[*s], [a.cos(), a.sin()], [0.0; 2]);
+            }
+        }
+        out
+    }
+
+    /// Adds a global force `f` acting on the journal (and `-f` on the bearing) to `r`.
+    fn apply_joint_force(&self, j: usize, f: [f64; 2], r: &mut [f64]) {
+        let jt = &self.mech.joints[j];
+        for (e, sgn) in [(&jt.journal, 1.0), (&jt.bearing, -1.0)] {
+            for (i, col, _) in self.endpoint_jac(e) {
+                if i != NONE {
+                    r[i] += sgn * (col[0] * f[0] + col[1] * f[1]);
+                }
+            }
+        }
+    }
+
+    /// Builds the signature of the Jacobian and returns true when it differs from the factorized
+    /// one.
+    fn jacobian_changed(&mut self, h: f64) -> bool {
+        let mut s = std::mem::take(&mut self.sig_new);
+        s.clear();
+        s.push(h);
+        for (ld, f) in self.links.iter().zip(&self.frames) {
+            if ld.active.coriolis || ld.active.coupling || ld.active.transformed {
+                s.push(f.rate);
+                s.push(f.accel);
+            }
+            if ld.active.transformed {
+                s.push(f.angle);
+            }
+        }
+        if !matches!(self.settings.coupling, Coupling::Force) {
+            for c in &self.contact {
+                s.extend([
+                    c.k[0][0], c.k[0][1], c.k[1][0], c.k[1][1], c.c[0][0], c.c[0][1], c.c[1][0], c.c[1][1],
+                ]);
+            }
+        }
+        let changed = self.nonlinear_geometric || s != self.signature;
+        self.sig_new = s;
+        changed
+    }
+
+    /// Assembles and factorizes the Jacobian `d r / d a` at the current iterate.
+    fn factorize(&mut self, h: f64) -> Result<()> {
+        std::mem::swap(&mut self.signature, &mut self.sig_new);
+        let nm = self.settings.newmark;
+        let mut lu = std::mem::replace(&mut self.lu, BandLu::new(0, 0));
+        self.assemble(nm.beta * h * h, nm.gamma * h, &mut lu);
+        let res = lu.factorize("effective matrix of the mechanism");
+        self.lu = lu;
+        self.stats.factorizations += 1;
+        res
+    }
+
+    /// Assembles `A + gh B + bh2 K` into `lu`, where the Jacobian of the residual with respect
+    /// to the accelerations is that with `gh = gamma dt`, `bh2 = beta dt^2`.
+    fn assemble(&self, bh2: f64, gh: f64, lu: &mut BandLu) {
+        lu.clear();
+        for li in 0..self.links.len() {
+            let ld = &self.links[li];
+            let mut prev = self.nt(li, 0);
+            for e in 0..self.mech.links[li].elements {
+                let next = self.nt(li, e + 1);
+                let fax = if ld.active.geometric {
+                    let w0 = Self::local(&prev, &self.y, &self.yd, &self.ydd);
+                    let w1 = Self::local(&next, &self.y, &self.yd, &self.ydd);
+                    ld.ea_l * (w1[0][0] - w0[0][0])
+                } else {
+                    0.0
+                };
+                let (c, k) = self.element_ck(li, fax);
+                let idx = [
+                    prev.idx[0],
+                    prev.idx[1],
+                    prev.idx[2],
+                    next.idx[0],
+                    next.idx[1],
+                    next.idx[2],
+                ];
+                let je = if prev.plain && next.plain {
+                    ld.m + c * gh + k * bh2
+                } else {
+                    let mut t = Matrix6::zeros();
+                    let mut td = Matrix6::zeros();
+                    let mut tdd = Matrix6::zeros();
+                    for (o, nt) in [(0, &prev), (3, &next)] {
+                        for r in 0..3 {
+                            for cc in 0..3 {
+                                t[(o + r, o + cc)] = nt.t[r][cc];
+                                td[(o + r, o + cc)] = nt.td[r][cc];
+                                tdd[(o + r, o + cc)] = nt.tdd[r][cc];
+                            }
+                        }
+                    }
+                    let ta = t + td * (2.0 * gh) + tdd * bh2;
+                    let tv = t * gh + td * bh2;
+                    t.transpose() * (ld.m * ta + c * tv + k * (t * bh2))
+                };
+                for a in 0..6 {
+                    if idx[a] == NONE {
+                        continue;
+                    }
+                    for b in 0..6 {
+                        if idx[b] != NONE && je[(a, b)] != 0.0 {
+                            lu.add(idx[a], idx[b], je[(a, b)]);
+                        }
+                    }
+                }
+                prev = next;
+            }
+            // Point masses: m [ (T + 2 gh Td + bh2 Tdd) + 2 om S (gh T + bh2 Td) + (al S - om^2) bh2 T ].
+            let f = self.frames[li];
+            for nd in 0..ld.nodes.len() {
+                let m = ld.point_mass[nd];
+                if m == 0.0 {
+                    continue;
+                }
+                let nt = self.nt(li, nd);
+                let (om, al) = (f.rate, f.accel);
+                let mut blk = [[0.0; 3]; 2];
+                for c in 0..3 {
+                    let ta = [0, 1].map(|r| nt.t[r][c] + 2.0 * gh * nt.td[r][c] + bh2 * nt.tdd[r][c]);
+                    let tv = [0, 1].map(|r| gh * nt.t[r][c] + bh2 * nt.td[r][c]);
+                    let tk = [0, 1].map(|r| bh2 * nt.t[r][c]);
+                    blk[0][c] = m * (ta[0] - 2.0 * om * tv[1] - al * tk[1] - om * om * tk[0]);
+                    blk[1][c] = m * (ta[1] + 2.0 * om * tv[0] + al * tk[0] - om * om * tk[1]);
+                }
+                for a in 0..3 {
+                    if nt.idx[a] == NONE {
+                        continue;
+                    }
+                    for c in 0..3 {
+                        if nt.idx[c] == NONE {
+                            continue;
+                        }
+                        let v = nt.t[0][a] * blk[0][c] + nt.t[1][a] * blk[1][c];
+                        if v != 0.0 {
+                            lu.add(nt.idx[a], nt.idx[c], v);
+                        }
+                    }
+                }
+            }
+        }
+        for (s, sl) in self.mech.sliders.iter().enumerate() {
+            let i = self.slider_dof[s];
+            if i != NONE && sl.mass > 0.0 {
+                lu.add(i, i, sl.mass);
+            }
+        }
+        if !matches!(self.settings.coupling, Coupling::Force) {
+            for j in 0..self.mech.joints.len() {
+                let ct = self.contact[j];
+                if !ct.active() {
+                    continue;
+                }
+                let jt = &self.mech.joints[j];
+                let a = self.endpoint_jac(&jt.journal);
+                let b = self
+                    .endpoint_jac(&jt.bearing)
+                    .map(|(i, c, v)| (i, [-c[0], -c[1]], [-v[0], -v[1]]));
+                let all = [a[0], a[1], b[0], b[1]];
+                for (i, gi, _) in all {
+                    if i == NONE {
+                        continue;
+                    }
+                    for (jj, gj, vj) in all {
+                        if jj == NONE {
+                            continue;
+                        }
+                        // d(-f)/da with f = -k q - c qd: k bh2 G + c (gh G + bh2 Gv)
+                        let mut v = 0.0;
+                        for p in 0..2 {
+                            for qq in 0..2 {
+                                v += gi[p] * (ct.k[p][qq] * bh2 * gj[qq] + ct.c[p][qq] * (gh * gj[qq] + bh2 * vj[qq]));
+                            }
+                        }
+                        if v != 0.0 {
+                            lu.add(i, jj, v);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn evaluate_contacts(&mut self, from_start: bool) {
+        for j in 0..self.mech.joints.len() {
+            let (q, qd) = if from_start {
+                self.joint_state(j, &self.y_pred, &self.v_pred)
+            } else {
+                self.joint_state(j, &self.y, &self.yd)
+            };
+            let jt = &self.mech.joints[j];
+            let mut terms = jt.law.evaluate(q, qd, jt.clearance);
+            if let Coupling::Force = self.settings.coupling {
+                // Explicit: the whole force, frozen for the step.
+                let f = terms.force(q, qd);
+                terms = ContactTerms {
+                    penetration: terms.penetration,
+                    f_explicit: f,
+                    ..Default::default()
+                };
+            }
+            self.contact[j] = terms;
+        }
+    }
+
+    /// One Newmark step from `t` of size `h`. On failure the state is restored.
+    fn step(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
+        let nm = self.settings.newmark;
+        let (bh2, gh) = (nm.beta * h * h, nm.gamma * h);
+        // State at the start (kept for contact terms and for a retry).
+        for i in 0..self.n {
+            self.y_pred[i] = self.y[i];
+            self.v_pred[i] = self.yd[i];
+        }
+        // Contact terms from the start-of-step state (lagged kappa, force method).
+        self.evaluate_contacts(true);
+        self.y0.copy_from_slice(&self.y);
+        self.yd0.copy_from_slice(&self.yd);
+        self.ydd0.copy_from_slice(&self.ydd);
+        self.update_frames(t + h);
+        for i in 0..self.n {
+            let (y0, v0, a0) = (self.y[i], self.yd[i], self.ydd[i]);
+            self.y_pred[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * a0;
+            self.v_pred[i] = v0 + (1.0 - nm.gamma) * h * a0;
+            self.a[i] = a0;
+            self.y[i] = self.y_pred[i] + bh2 * a0;
+            self.yd[i] = self.v_pred[i] + gh * a0;
+            self.ydd[i] = a0;
+        }
+        let iterate_contact =
+            matches!(self.settings.coupling, Coupling::Modified { iterate: true, .. }) && !self.mech.joints.is_empty();
+        let linear = !self.nonlinear_geometric && !iterate_contact;
+        let scale_floor = 1e-9 * self.limit / 10.0;
+        let mut iters = 0usize;
+        let mut last_res;
+        let mut last_corr;
+        let converged = loop {
+            iters += 1;
+            if iterate_contact && iters > 1 {
+                self.evaluate_contacts(false);
+            }
+            if (iters == 1 || iterate_contact) && self.jacobian_changed(h) {
+                if let Err(e) = self.factorize(h) {
+                    self.restore();
+                    return Err(e);
+                }
+            }
+            self.residual(h, t + h);
+            last_res = self.r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let mut dx = std::mem::take(&mut self.r);
+            self.lu.solve_in_place(&mut dx);
+            let mut dmax = 0.0f64;
+            let mut ymax = 0.0f64;
+            for i in 0..self.n {
+                let da = -dx[i];
+                self.a[i] += da;
+                self.ydd[i] = self.a[i];
+                self.y[i] = self.y_pred[i] + bh2 * self.a[i];
+                self.yd[i] = self.v_pred[i] + gh * self.a[i];
+                dmax = dmax.max((bh2 * da).abs());
+                ymax = ymax.max(self.y[i].abs());
+            }
+            self.r = dx;
+            last_corr = dmax / ymax.max(scale_floor);
+            if !last_corr.is_finite() {
+                break false;
+            }
+            if linear || last_corr <= self.settings.tol {
+                break true;
+            }
+            if iters >= self.settings.max_iter {
+                break false;
+            }
+        };
+        self.stats.iterations += iters as u64;
+        self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
+        if converged {
+            return Ok(());
+        }
+        self.restore();
+        self.update_frames(t);
+        if depth < self.settings.step_halving && last_corr.is_finite() {
+            self.step(t, 0.5 * h, step, depth + 1)?;
+            self.step(t + 0.5 * h, 0.5 * h, step, depth + 1)?;
+            self.stats.halved_substeps += 2;
+            return Ok(());
+        }
+        Err(Error::NotConverged {
+            time: t,
+            step,
+            iterations: iters,
+            residual: last_res,
+            correction: last_corr,
+        })
+    }
+
+    fn restore(&mut self) {
+        self.y.copy_from_slice(&self.y0);
+        self.yd.copy_from_slice(&self.yd0);
+        self.ydd.copy_from_slice(&self.ydd0);
+    }
+
+    /// Initial state: given elastic displacements/velocities (link frame) mapped to the unknowns
+    /// (a shared unknown takes the first link's value), initial accelerations from the equations.
+    fn initialize(&mut self) -> Result<()> {
+        self.update_frames(0.0);
+        for li in 0..self.links.len() {
+            let l = &self.mech.links[li];
+            for nd in 0..l.nodes() {
+                let nt = self.nt(li, nd);
+                for (src, dst) in [(&l.initial_displacement, 0), (&l.initial_velocity, 1)] {
+                    let Some(v) = src else { continue };
+                    let w = [v[3 * nd], v[3 * nd + 1], v[3 * nd + 2]];
+                    // Least-squares inverse of the orthonormal-column T: slots = T^T w.
+                    for c in 0..3 {
+                        let i = nt.idx[c];
+                        if i != NONE {
+                            let val = nt.t[0][c] * w[0] + nt.t[1][c] * w[1] + nt.t[2][c] * w[2];
+                            if dst == 0 {
+                                self.y[i] = val;
+                            } else {
+                                self.yd[i] = val;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Velocity relative to the frame given: for global unknowns subtract T-dot y.
+        // (Td y is the apparent velocity of a fixed global displacement in the rotating frame.)
+        self.evaluate_contacts_at_state();
+        // Accelerations: solve J(h -> 0) a = -r(a = 0): with beta h^2 -> 0 the Jacobian is the
+        // mass matrix plus velocity-coupling terms that vanish too; use a tiny h.
+        self.ydd.fill(0.0);
+        self.factorize_mass()?;
+        self.residual(0.0, 0.0);
+        let mut dx = std::mem::take(&mut self.r);
+        self.lu.solve_in_place(&mut dx);
+        for i in 0..self.n {
+            self.ydd[i] = -dx[i];
+        }
+        self.r = dx;
+        self.signature.clear();
+        Ok(())
+    }
+
+    fn evaluate_contacts_at_state(&mut self) {
+        for i in 0..self.n {
+            self.y_pred[i] = self.y[i];
+            self.v_pred[i] = self.yd[i];
+        }
+        self.evaluate_contacts(true);
+    }
+
+    /// The Jacobian at h = 0: the mass matrix (with the transforms), for the initial
+    /// accelerations.
+    fn factorize_mass(&mut self) -> Result<()> {
+        self.sig_new.clear();
+        self.sig_new.push(f64::NAN);
+        self.factorize(0.0)
+    }
+
+    fn check_divergence(&self, t: f64, step: u64) -> Result<()> {
+        for i in 0..self.n {
+            let v = self.y[i];
+            if !v.is_finite() || v.abs() > self.limit || !self.yd[i].is_finite() {
+                return Err(Error::Diverged {
+                    time: t,
+                    step,
+                    dof: self.describe(i),
+                    reason: if v.is_finite() {
+                        format!(
+                            "|displacement| = {:.3e} exceeds the limit {:.3e} m",
+                            v.abs(),
+                            self.limit
+                        )
+                    } else {
+                        "non-finite state".into()
+                    },
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn describe(&self, i: usize) -> String {
+        for (li, ld) in self.links.iter().enumerate() {
+            for (nd, m) in ld.nodes.iter().enumerate() {
+                let name = &self.mech.links[li].name;
+                if m.rot == i {
+                    return format!("theta of node {nd} of link {name:?}");
+                }
+                match m.trans {
+                    Trans::Local(ix) if ix.contains(&i) => {
+                        let c = if ix[0] == i { "u" } else { "v" };
+                        return format!("{c} of node {nd} of link {name:?}");
+                    }
+                    Trans::Global(ix) if ix.contains(&i) => {
+                        let c = if ix[0] == i { "x" } else { "y" };
+                        return format!("global {c} of node {nd} of link {name:?}");
+                    }
+                    Trans::Slider { s, slider } if s == i => {
+                        return format!("slider {:?}", self.mech.sliders[slider].name);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        for (s, &d) in self.slider_dof.iter().enumerate() {
+            if d == i {
+                return format!("slider {:?}", self.mech.sliders[s].name);
+            }
+        }
+        format!("unknown #{i}")
+    }
+
+    fn record(&mut self, t: f64) {
+        let rec = self.settings.record.clone();
+        self.out.time.push(t);
+        for li in 0..self.links.len() {
+            let l = &self.mech.links[li];
+            let f = self.frames[li];
+            let mut hist = std::mem::take(&mut self.out.links[li]);
+            hist.frame.push([f.origin[0], f.origin[1], f.angle, f.rate]);
+            let nn = l.nodes();
+            let need_w = rec.displacements || rec.axial_force || rec.midspan || rec.energy;
+            if need_w {
+                let base = hist.displacements.len();
+                let mut buf: Vec<[[f64; 3]; 3]> = Vec::with_capacity(nn);
+                for nd in 0..nn {
+                    let nt = self.nt(li, nd);
+                    buf.push(Self::local(&nt, &self.y, &self.yd, &self.ydd));
+                }
+                if rec.displacements {
+                    for w in &buf {
+                        hist.displacements.extend_from_slice(&w[0]);
+                    }
+                }
+                let _ = base;
+                let ld = &self.links[li];
+                let e = l.element();
+                if rec.axial_force {
+                    for k in 0..l.elements {
+                        hist.axial_force.push(ld.ea_l * (buf[k + 1][0][0] - buf[k][0][0]));
+                    }
+                }
+                if rec.midspan {
+                    let xm = 0.5 * l.elements as f64;
+                    let k = (xm.floor() as usize).min(l.elements - 1);
+                    let xi = xm - k as f64;
+                    let q = Vec6::new(
+                        buf[k][0][0],
+                        buf[k][0][1],
+                        buf[k][0][2],
+                        buf[k + 1][0][0],
+                        buf[k + 1][0][1],
+                        buf[k + 1][0][2],
+                    );
+                    let vm = e.transverse_at(xi, &q);
+                    hist.midspan.push(vm - 0.5 * (buf[0][0][1] + buf[nn - 1][0][1]));
+                }
+                if rec.energy {
+                    let r = rot(f.angle);
+                    let v0 = [
+                        r[0][0] * f.origin_vel[0] + r[1][0] * f.origin_vel[1],
+                        r[0][1] * f.origin_vel[0] + r[1][1] * f.origin_vel[1],
+                    ];
+                    let (mut te, mut ve, mut he) = (0.0, 0.0, 0.0);
+                    let le = l.element_length();
+                    for k in 0..l.elements {
+                        let q = Vec6::new(
+                            buf[k][0][0],
+                            buf[k][0][1],
+                            buf[k][0][2],
+                            buf[k + 1][0][0],
+                            buf[k + 1][0][1],
+                            buf[k + 1][0][2],
+                        );
+                        let qd = Vec6::new(
+                            buf[k][1][0],
+                            buf[k][1][1],
+                            buf[k][1][2],
+                            buf[k + 1][1][0],
+                            buf[k + 1][1][1],
+                            buf[k + 1][1][2],
+                        );
+                        let (tk, hk) = e.kinetic_terms(k as f64 * le, &q, &qd, v0, f.rate);
+                        te += tk;
+                        he += hk;
+                        ve += 0.5 * q.dot(&(ld.k1 * q));
+                    }
+                    for (nd, w) in buf.iter().enumerate() {
+                        let m = ld.point_mass[nd];
+                        if m > 0.0 {
+                            let px = nd as f64 * le + w[0][0];
+                            let py = w[0][1];
+                            let vx = v0[0] - f.rate * py + w[1][0];
+                            let vy = v0[1] + f.rate * px + w[1][1];
+                            te += 0.5 * m * (vx * vx + vy * vy);
+                            he += m * (px * vy - py * vx);
+                        }
+                    }
+                    hist.kinetic.push(te);
+                    hist.strain.push(ve);
+                    hist.momentum.push(he);
+                }
+            }
+            self.out.links[li] = hist;
+        }
+        for j in 0..self.mech.joints.len() {
+            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+            let jt = &self.mech.joints[j];
+            let terms = jt.law.evaluate(q, qd, jt.clearance);
+            let f = terms.force(q, qd);
+            let h = &mut self.out.joints[j];
+            h.penetration.push(terms.penetration);
+            h.force.push((f[0] * f[0] + f[1] * f[1]).sqrt());
+        }
+    }
+
+    fn track_joints(&mut self) {
+        for j in 0..self.mech.joints.len() {
+            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+            let jt = &self.mech.joints[j];
+            let terms = jt.law.evaluate(q, qd, jt.clearance);
+            let f = terms.force(q, qd);
+            let h = &mut self.out.joints[j];
+            let closed = terms.penetration > 0.0;
+            if closed && !self.contact_was[j] {
+                h.impacts += 1;
+            }
+            self.contact_was[j] = closed;
+            h.max_penetration = h.max_penetration.max(terms.penetration);
+            h.max_force = h.max_force.max((f[0] * f[0] + f[1] * f[1]).sqrt());
+        }
+    }
+
+    /// Runs to `t_end`. `control(fraction)` is called every 256 steps; returning false stops
+    /// the run with [`Error::Interrupted`]. Failures carry everything recorded until then.
+    pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<KedOutput, Box<KedFailure>> {
+        if let Err(e) = self.initialize() {
+            return Err(self.fail(e, 0.0));
+        }
+        for j in 0..self.mech.joints.len() {
+            self.out.joints[j].max_penetration = f64::NEG_INFINITY;
+        }
+        self.track_joints();
+        self.record(0.0);
+        let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
+        let h = self.settings.dt;
+        let every = self.settings.record.every as u64;
+        for k in 1..=steps {
+            let t0 = (k - 1) as f64 * h;
+            if let Err(e) = self.step(t0, h, k, 0) {
+                return Err(self.fail(e, t0));
+            }
+            self.stats.steps = k;
+            self.track_joints();
+            let t1 = k as f64 * h;
+            if (k % 16 == 0 || k == steps) && self.check_divergence(t1, k).is_err() {
+                let e = self.check_divergence(t1, k).unwrap_err();
+                return Err(self.fail(e, t1));
+            }
+            if k % every == 0 || k == steps {
+                self.update_frames(t1);
+                self.record(t1);
+            }
+            if k % 256 == 0 && !control(k as f64 / steps as f64) {
+                return Err(self.fail(Error::Interrupted { time: t1, step: k }, t1));
+            }
+        }
+        self.out.t = steps as f64 * h;
+        self.out.stats = self.stats.clone();
+        Ok(self.out)
+    }
+
+    fn fail(mut self, error: Error, t: f64) -> Box<KedFailure> {
+        self.out.t = t;
+        self.out.stats = self.stats.clone();
+        Box::new(KedFailure {
+            error,
+            output: self.out,
+        })
+    }
+}
+
+/// Runs a mechanism. See [`KedRun::run`].
+pub fn simulate_mechanism(
+    mech: &Mechanism,
+    settings: &KedSettings,
+    control: &mut dyn FnMut(f64) -> bool,
+) -> std::result::Result<KedOutput, Box<KedFailure>> {
+    let run = KedRun::new(mech, settings).map_err(|error| {
+        Box::new(KedFailure {
+            error,
+            output: KedOutput::default(),
+        })
+    })?;
+    run.run(control)
+}

@@ -1,0 +1,448 @@
+//! A kineto-elastodynamic (KED) mechanism: flexible links whose frames move with large prescribed
+//! planar motion (translation and rotation), ideal pins between links, supports, sliders on
+//! straight guides, point masses, nodal loads and clearance joints (METHOD.md sections 2-4).
+//!
+//! Plain data plus validation; [`crate::integrator::ked`] steps it. The nominal (rigid-body)
+//! motion of every frame comes from a [`FrameKinematics`] (a spinning hub, a slider-crank, a
+//! four-bar, tables); elastic displacements are measured in each link's frame.
+
+use std::sync::Arc;
+
+use crate::contact::ContactLaw;
+use crate::element::BeamElement;
+use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
+use crate::kinematics::FrameKinematics;
+
+/// Which terms of the element equation (METHOD.md section 2) a link carries. `None` = chosen
+/// automatically from the link's motion: Coriolis and inertia coupling only for a rotating frame,
+/// geometric stiffness (K2, K3, D2) only for a rotating frame or an axially loaded link, the
+/// nominal-motion inertia load only for a frame that moves or under gravity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Terms {
+    /// Coriolis `M_COR = 2 phidot rho A int N^T S N`.
+    pub coriolis: Option<bool>,
+    /// Rigid/elastic inertia coupling `M_IC = rho A int N^T (phiddot S - phidot^2 I) N`.
+    pub inertia_coupling: Option<bool>,
+    /// Geometric (axial-force) terms K2, K3 and D2, updated with the axial force by iteration.
+    pub geometric: Option<bool>,
+    /// Inertia load of the nominal motion `M_R a_R`.
+    pub inertia_load: Option<bool>,
+}
+
+/// A straight flexible link of equal beam elements in a moving frame: node 0 at the frame origin,
+/// the link along the frame's x axis.
+#[derive(Debug, Clone)]
+pub struct Link {
+    /// Name, unique among links.
+    pub name: String,
+    /// Length L, m.
+    pub length: f64,
+    /// Number of elements N >= 1.
+    pub elements: usize,
+    /// Young's modulus E, Pa.
+    pub youngs_modulus: f64,
+    /// Density rho, kg/m^3.
+    pub density: f64,
+    /// Kelvin-Voigt damping eta, Pa s.
+    pub damping: f64,
+    /// Section area A, m^2.
+    pub area: f64,
+    /// Second moment of area I, m^4.
+    pub inertia: f64,
+    /// Prescribed motion of the link frame.
+    pub frame: Arc<dyn FrameKinematics>,
+    /// Term selection (automatic by default).
+    pub terms: Terms,
+    /// Initial elastic displacement, `3 (N + 1)` values `[u, v, th]` per node, link frame.
+    pub initial_displacement: Option<Vec<f64>>,
+    /// Initial elastic velocity relative to the frame, `3 (N + 1)` values (m/s, rad/s).
+    pub initial_velocity: Option<Vec<f64>>,
+}
+
+impl Link {
+    /// Element length l = L / N, m.
+    pub fn element_length(&self) -> f64 {
+        self.length / self.elements as f64
+    }
+
+    /// The element all of whose copies make up the link (no rotary inertia).
+    pub fn element(&self) -> BeamElement {
+        BeamElement {
+            length: self.element_length(),
+            youngs_modulus: self.youngs_modulus,
+            density: self.density,
+            area: self.area,
+            inertia: self.inertia,
+            damping: self.damping,
+            rotary_inertia: false,
+        }
+    }
+
+    /// Number of nodes N + 1.
+    pub fn nodes(&self) -> usize {
+        self.elements + 1
+    }
+}
+
+/// A point of the mechanism that a pin or clearance joint connects.
+#[derive(Debug, Clone)]
+pub enum Endpoint {
+    /// Node `node` of link `link`.
+    Node {
+        /// Index into [`Mechanism::links`].
+        link: usize,
+        /// Node index, 0 ..= elements.
+        node: usize,
+    },
+    /// A point of a rigid body with prescribed motion (a crank, ground): it has no elastic
+    /// displacement. `point` is its position in the body frame, m.
+    Body {
+        /// The body's frame motion.
+        frame: Arc<dyn FrameKinematics>,
+        /// Position in the body frame, m.
+        point: [f64; 2],
+        /// Name for messages.
+        name: String,
+    },
+    /// A slider: index into [`Mechanism::sliders`].
+    Slider(usize),
+}
+
+/// A slider block on a straight fixed guide: one elastic DOF `s` (m) along the guide on top of
+/// its nominal motion.
+#[derive(Debug, Clone)]
+pub struct Slider {
+    /// Name, unique among sliders.
+    pub name: String,
+    /// Mass, kg (>= 0).
+    pub mass: f64,
+    /// Guide direction, global angle, rad.
+    pub angle: f64,
+    /// Nominal motion of the slider pin (the frame origin is used; its angle is ignored).
+    pub path: Arc<dyn FrameKinematics>,
+}
+
+/// An ideal revolute joint: translations shared, rotations free.
+#[derive(Debug, Clone)]
+pub struct Pin {
+    /// Name, unique among pins and joints.
+    pub name: String,
+    /// A node.
+    pub a: Endpoint,
+    /// A node, a rigid-body point or a slider.
+    pub b: Endpoint,
+}
+
+/// Elastic DOFs of a node held at zero in its link frame (a clamp at a hub, a simple support).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Support {
+    /// Link index.
+    pub link: usize,
+    /// Node index.
+    pub node: usize,
+    /// Which of `u`, `v`, `theta` are held.
+    pub fixed: [bool; 3],
+}
+
+/// A point mass at a node, kg; it moves with the link frame like the beam's own mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointMass {
+    /// Link index.
+    pub link: usize,
+    /// Node index.
+    pub node: usize,
+    /// Mass, kg.
+    pub mass: f64,
+}
+
+/// A constant nodal load in the link frame: `[F_u, F_v]` (N) and a moment (N m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodalLoad {
+    /// Link index.
+    pub link: usize,
+    /// Node index.
+    pub node: usize,
+    /// Force, link frame, N.
+    pub force: [f64; 2],
+    /// Moment, N m.
+    pub moment: f64,
+}
+
+/// A revolute joint with radial clearance between a journal node and a bearing (node, body point
+/// or slider).
+#[derive(Debug, Clone)]
+pub struct Clearance {
+    /// Name, unique among pins and joints.
+    pub name: String,
+    /// The journal: a node.
+    pub journal: Endpoint,
+    /// The bearing.
+    pub bearing: Endpoint,
+    /// Radial clearance, m.
+    pub clearance: f64,
+    /// Contact law.
+    pub law: Arc<dyn ContactLaw>,
+}
+
+/// A mechanism for the KED integrator.
+#[derive(Debug, Clone, Default)]
+pub struct Mechanism {
+    /// Flexible links.
+    pub links: Vec<Link>,
+    /// Sliders.
+    pub sliders: Vec<Slider>,
+    /// Ideal pins.
+    pub pins: Vec<Pin>,
+    /// Supports.
+    pub supports: Vec<Support>,
+    /// Point masses.
+    pub masses: Vec<PointMass>,
+    /// Nodal loads.
+    pub loads: Vec<NodalLoad>,
+    /// Clearance joints.
+    pub joints: Vec<Clearance>,
+    /// Gravity, global, m/s^2.
+    pub gravity: [f64; 2],
+}
+
+/// Tolerance of the closure check of pins: nominal positions must agree to this fraction of the
+/// largest link length.
+const CLOSURE_TOL: f64 = 1e-7;
+
+impl Mechanism {
+    /// Global nominal position of an endpoint at `t`, m.
+    pub fn nominal_position(&self, e: &Endpoint, t: f64) -> [f64; 2] {
+        match e {
+            Endpoint::Node { link, node } => {
+                let l = &self.links[*link];
+                l.frame.frame(t).point(*node as f64 * l.element_length()).pos
+            }
+            Endpoint::Body { frame, point, .. } => {
+                let f = frame.frame(t);
+                let r = f.rotation();
+                [
+                    f.origin[0] + r[0][0] * point[0] + r[0][1] * point[1],
+                    f.origin[1] + r[1][0] * point[0] + r[1][1] * point[1],
+                ]
+            }
+            Endpoint::Slider(s) => self.sliders[*s].path.frame(t).origin,
+        }
+    }
+
+    fn endpoint_name(&self, e: &Endpoint) -> String {
+        match e {
+            Endpoint::Node { link, node } => match self.links.get(*link) {
+                Some(l) => format!("node {node} of link {:?}", l.name),
+                None => format!("node {node} of link #{link}"),
+            },
+            Endpoint::Body { name, .. } => format!("body {name:?}"),
+            Endpoint::Slider(s) => match self.sliders.get(*s) {
+                Some(sl) => format!("slider {:?}", sl.name),
+                None => format!("slider #{s}"),
+            },
+        }
+    }
+
+    fn check_endpoint(&self, name: &str, e: &Endpoint) -> Result<()> {
+        match e {
+            Endpoint::Node { link, node } => self.check_node(name, *link, *node),
+            Endpoint::Body { point, .. } => {
+                check_finite(&format!("{name}.point[0]"), point[0], "m")?;
+                check_finite(&format!("{name}.point[1]"), point[1], "m")
+            }
+            Endpoint::Slider(s) => {
+                if *s >= self.sliders.len() {
+                    return Err(Error::InvalidModel {
+                        message: format!(
+                            "{name}: slider #{s} does not exist (the mechanism has {})",
+                            self.sliders.len()
+                        ),
+                    });
+                }
+                Ok(())
+            }
+        }
+    }
+
+    fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
+        let Some(l) = self.links.get(link) else {
+            return Err(Error::InvalidModel {
+                message: format!(
+                    "{name}: link #{link} does not exist (the mechanism has {})",
+                    self.links.len()
+                ),
+            });
+        };
+        if node > l.elements {
+            return Err(Error::param(
+                name,
+                node,
+                format!("a node of link {:?}: 0 ..= {}", l.name, l.elements),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks parameters, references, connectivity and kinematic closure over `[0, t_end]`.
+    /// Fails with [`Error::InvalidParameter`] (naming the parameter and its range) or
+    /// [`Error::InvalidModel`] (a dangling reference, a link with nothing attached, a pin whose
+    /// two sides do not stay together under the nominal motion, an over-constrained node).
+    pub fn validate(&self, t_end: f64) -> Result<()> {
+        if self.links.is_empty() {
+            return Err(Error::InvalidModel {
+                message: "the mechanism has no flexible link".into(),
+            });
+        }
+        let mut names = std::collections::HashSet::new();
+        for l in &self.links {
+            if !names.insert(("link", l.name.as_str())) {
+                return Err(Error::InvalidModel {
+                    message: format!("two links are named {:?}", l.name),
+                });
+            }
+        }
+        for n in self
+            .pins
+            .iter()
+            .map(|p| &p.name)
+            .chain(self.joints.iter().map(|j| &j.name))
+        {
+            if !names.insert(("joint", n.as_str())) {
+                return Err(Error::InvalidModel {
+                    message: format!("two pins or joints are named {n:?}"),
+                });
+            }
+        }
+        check_finite("gravity[0]", self.gravity[0], "m/s^2")?;
+        check_finite("gravity[1]", self.gravity[1], "m/s^2")?;
+        for (i, l) in self.links.iter().enumerate() {
+            let p = |f: &str| format!("links[{i}].{f}");
+            check_positive(&p("length"), l.length, "m")?;
+            if l.elements < 1 || l.elements > 1_000_000 {
+                return Err(Error::param(p("elements"), l.elements, "an integer in 1 ..= 1000000"));
+            }
+            check_positive(&p("youngs_modulus"), l.youngs_modulus, "Pa")?;
+            check_positive(&p("density"), l.density, "kg/m^3")?;
+            check_non_negative(&p("damping"), l.damping, "Pa s")?;
+            check_positive(&p("area"), l.area, "m^2")?;
+            check_positive(&p("inertia"), l.inertia, "m^4")?;
+            l.frame.check(&p("frame"), t_end)?;
+            let dofs = 3 * l.nodes();
+            for (label, v) in [
+                ("initial_displacement", &l.initial_displacement),
+                ("initial_velocity", &l.initial_velocity),
+            ] {
+                if let Some(v) = v {
+                    if v.len() != dofs {
+                        return Err(Error::param(
+                            p(label),
+                            format!("{} values", v.len()),
+                            format!("{dofs} values (3 per node)"),
+                        ));
+                    }
+                    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+                        return Err(Error::param(format!("{}[{k}]", p(label)), v[k], "finite values"));
+                    }
+                }
+            }
+        }
+        for (i, s) in self.sliders.iter().enumerate() {
+            check_non_negative(&format!("sliders[{i}].mass"), s.mass, "kg")?;
+            check_finite(&format!("sliders[{i}].angle"), s.angle, "rad")?;
+            s.path.check(&format!("sliders[{i}].path"), t_end)?;
+        }
+        for (i, s) in self.supports.iter().enumerate() {
+            self.check_node(&format!("supports[{i}].node"), s.link, s.node)?;
+        }
+        for (i, m) in self.masses.iter().enumerate() {
+            self.check_node(&format!("masses[{i}].node"), m.link, m.node)?;
+            check_non_negative(&format!("masses[{i}].mass"), m.mass, "kg")?;
+        }
+        for (i, f) in self.loads.iter().enumerate() {
+            self.check_node(&format!("loads[{i}].node"), f.link, f.node)?;
+            for (k, v) in [f.force[0], f.force[1], f.moment].into_iter().enumerate() {
+                check_finite(
+                    &format!("loads[{i}].{}", ["force[0]", "force[1]", "moment"][k]),
+                    v,
+                    "N or N m",
+                )?;
+            }
+        }
+        let scale = self.links.iter().fold(0.0f64, |s, l| s.max(l.length));
+        let times: Vec<f64> = (0..=200).map(|k| t_end * k as f64 / 200.0).collect();
+        let pairs = self
+            .pins
+            .iter()
+            .map(|p| (format!("pins[{:?}]", p.name), &p.name, &p.a, &p.b, "pin"))
+            .chain(self.joints.iter().map(|j| {
+                (
+                    format!("joints[{:?}]", j.name),
+                    &j.name,
+                    &j.journal,
+                    &j.bearing,
+                    "clearance joint",
+                )
+            }));
+        for (label, name, a, b, kind) in pairs {
+            if !matches!(a, Endpoint::Node { .. }) {
+                return Err(Error::InvalidModel {
+                    message: format!("{kind} {name:?}: its first side must be a node of a flexible link"),
+                });
+            }
+            self.check_endpoint(&format!("{label}.a"), a)?;
+            self.check_endpoint(&format!("{label}.b"), b)?;
+            if let (Endpoint::Node { link: la, node: na }, Endpoint::Node { link: lb, node: nb }) = (a, b) {
+                if la == lb {
+                    return Err(Error::InvalidModel {
+                        message: format!(
+                            "{kind} {name:?} joins nodes {na} and {nb} of the same link {:?}: over-constrained",
+                            self.links[*la].name
+                        ),
+                    });
+                }
+            }
+            for &t in &times {
+                let (pa, pb) = (self.nominal_position(a, t), self.nominal_position(b, t));
+                let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2)).sqrt();
+                if d.is_nan() || d > CLOSURE_TOL * scale {
+                    return Err(Error::InvalidModel {
+                        message: format!(
+                            "{kind} {name:?} does not close: {} is at ({:.6}, {:.6}) m and {} at ({:.6}, {:.6}) m at t = {t} s ({d:.3e} m apart); the links' nominal motions must keep the two sides together",
+                            self.endpoint_name(a),
+                            pa[0],
+                            pa[1],
+                            self.endpoint_name(b),
+                            pb[0],
+                            pb[1]
+                        ),
+                    });
+                }
+            }
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            check_non_negative(&format!("joints[{i}].clearance"), j.clearance, "m")?;
+            j.law.validate(&format!("joints[{i}].law"))?;
+        }
+        // Every link must be held by something: a free link's elastic motion is unrestrained.
+        for (i, l) in self.links.iter().enumerate() {
+            let on = |e: &Endpoint| matches!(e, Endpoint::Node { link, .. } if *link == i);
+            let held = self.supports.iter().any(|s| s.link == i)
+                || self.pins.iter().any(|p| on(&p.a) || on(&p.b))
+                || self.joints.iter().any(|j| on(&j.journal) || on(&j.bearing));
+            if !held {
+                return Err(Error::InvalidModel {
+                    message: format!(
+                        "link {:?} has no joint, pin or support: nothing holds it to the mechanism",
+                        l.name
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Index of the link named `name`.
+    pub fn link_index(&self, name: &str) -> Option<usize> {
+        self.links.iter().position(|l| l.name == name)
+    }
+}

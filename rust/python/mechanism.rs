@@ -1,0 +1,743 @@
+//! Bindings of the kineto-elastodynamic part: angle drivers, frame kinematics (rotating frames,
+//! slider-crank, four-bar) and the `Mechanism` builder with its run and linearization.
+
+use std::sync::Arc;
+
+use numpy::ndarray::Array2;
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, ToPyArray};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use super::errors::{run_detached, to_pyerr};
+use super::{err, parse_damping_law, PyMotion};
+use crate::contact::{Coupling, SpringDamper};
+use crate::error::Error;
+use crate::integrator::ked::{simulate_mechanism, KedOutput, KedRecord, KedRun, KedSettings};
+use crate::integrator::Newmark;
+use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankLink};
+use crate::model::mechanism::{
+    Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
+};
+use crate::model::Motion;
+
+/// A prescribed angle `phi(t)` (see `flexclear.kinematics`).
+#[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
+#[derive(Clone)]
+pub(super) struct PyRotation {
+    inner: Rotation,
+}
+
+#[pymethods]
+impl PyRotation {
+    /// A fixed angle, rad.
+    #[staticmethod]
+    fn fixed(angle: f64) -> Self {
+        PyRotation {
+            inner: Rotation::Fixed { angle },
+        }
+    }
+
+    /// Constant rate `rate` (rad/s) from `angle0` (rad).
+    #[staticmethod]
+    #[pyo3(signature = (rate, angle0=0.0))]
+    fn constant(rate: f64, angle0: f64) -> Self {
+        PyRotation {
+            inner: Rotation::Constant { angle0, rate },
+        }
+    }
+
+    /// Kane's smooth spin-up to `final_rate` (rad/s) over `ramp_time` (s).
+    #[staticmethod]
+    #[pyo3(signature = (final_rate, ramp_time, angle0=0.0))]
+    fn spin_up(final_rate: f64, ramp_time: f64, angle0: f64) -> Self {
+        PyRotation {
+            inner: Rotation::SpinUp {
+                angle0,
+                final_rate,
+                ramp_time,
+            },
+        }
+    }
+
+    /// `mean + amplitude sin(2 pi frequency t + phase)` (rad, Hz).
+    #[staticmethod]
+    #[pyo3(signature = (amplitude, frequency, mean=0.0, phase=0.0))]
+    fn harmonic(amplitude: f64, frequency: f64, mean: f64, phase: f64) -> Self {
+        PyRotation {
+            inner: Rotation::Harmonic {
+                mean,
+                amplitude,
+                frequency,
+                phase,
+            },
+        }
+    }
+
+    /// Tabulated angle (rad) at increasing times (s); rate and acceleration by central
+    /// differences unless given.
+    #[staticmethod]
+    #[pyo3(signature = (time, angle, rate=None, accel=None))]
+    fn tabulated(
+        py: Python<'_>,
+        time: Vec<f64>,
+        angle: Vec<f64>,
+        rate: Option<Vec<f64>>,
+        accel: Option<Vec<f64>>,
+    ) -> PyResult<Self> {
+        let inner = Rotation::tabulated(time, angle, rate, accel).map_err(|e| err(py, e))?;
+        Ok(PyRotation { inner })
+    }
+
+    /// `(angle, rate, accel)` at time `t` (s).
+    fn at(&self, t: f64) -> (f64, f64, f64) {
+        self.inner.at(t)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("{:?}", self.inner)
+    }
+}
+
+/// The prescribed motion of a link frame or rigid body.
+#[pyclass(name = "Frame", module = "flexclear._core", frozen)]
+#[derive(Clone)]
+pub(super) struct PyFrame {
+    inner: Arc<dyn FrameKinematics>,
+}
+
+#[pymethods]
+impl PyFrame {
+    /// A frame whose origin follows `origin` (fixed at (0, 0) when None) and whose angle follows
+    /// `rotation`.
+    #[staticmethod]
+    #[pyo3(signature = (rotation, origin=None))]
+    fn rotating(
+        py: Python<'_>,
+        rotation: PyRef<'_, PyRotation>,
+        origin: Option<PyRef<'_, PyMotion>>,
+    ) -> PyResult<Self> {
+        let origin = origin.map_or(Motion::Fixed { position: [0.0, 0.0] }, |m| m.inner.clone());
+        origin.validate("origin").map_err(|e| err(py, e))?;
+        rotation.inner.validate("rotation").map_err(|e| err(py, e))?;
+        Ok(PyFrame {
+            inner: Arc::new(RotatingFrame {
+                origin,
+                rotation: rotation.inner.clone(),
+            }),
+        })
+    }
+
+    /// A link of a slider-crank (crank pivot at the origin, guide along x at height `offset`):
+    /// `link` is "crank", "rod" or "slider".
+    #[staticmethod]
+    #[pyo3(signature = (crank, rod, driver, link, offset=0.0))]
+    fn slider_crank(
+        py: Python<'_>,
+        crank: f64,
+        rod: f64,
+        driver: PyRef<'_, PyRotation>,
+        link: &str,
+        offset: f64,
+    ) -> PyResult<Self> {
+        let sc = Arc::new(SliderCrank::new(crank, rod, offset, driver.inner.clone()).map_err(|e| err(py, e))?);
+        let which = match link {
+            "crank" => SliderCrankLink::Crank,
+            "rod" => SliderCrankLink::Rod,
+            "slider" => SliderCrankLink::Slider,
+            other => {
+                return Err(err(
+                    py,
+                    Error::param("link", format!("{other:?}"), "one of \"crank\", \"rod\", \"slider\""),
+                ));
+            }
+        };
+        Ok(PyFrame {
+            inner: Arc::new(crate::kinematics::SliderCrankFrame {
+                mechanism: sc,
+                link: which,
+            }),
+        })
+    }
+
+    /// A link of a four-bar (pivots at (0, 0) and (ground, 0)): `link` is "crank", "coupler" or
+    /// "rocker"; `branch` +1 or -1 picks the assembly.
+    #[staticmethod]
+    #[pyo3(signature = (ground, crank, coupler, rocker, driver, link, branch=1.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn four_bar(
+        py: Python<'_>,
+        ground: f64,
+        crank: f64,
+        coupler: f64,
+        rocker: f64,
+        driver: PyRef<'_, PyRotation>,
+        link: &str,
+        branch: f64,
+    ) -> PyResult<Self> {
+        let fb = Arc::new(
+            FourBar::new(ground, crank, coupler, rocker, branch, driver.inner.clone()).map_err(|e| err(py, e))?,
+        );
+        let which = match link {
+            "crank" => FourBarLink::Crank,
+            "coupler" => FourBarLink::Coupler,
+            "rocker" => FourBarLink::Rocker,
+            other => {
+                return Err(err(
+                    py,
+                    Error::param(
+                        "link",
+                        format!("{other:?}"),
+                        "one of \"crank\", \"coupler\", \"rocker\"",
+                    ),
+                ));
+            }
+        };
+        Ok(PyFrame {
+            inner: Arc::new(crate::kinematics::FourBarFrame {
+                mechanism: fb,
+                link: which,
+            }),
+        })
+    }
+
+    /// `(origin, origin_velocity, origin_acceleration, angle, rate, accel)` at `t` (SI).
+    #[allow(clippy::type_complexity)]
+    fn at(&self, t: f64) -> ((f64, f64), (f64, f64), (f64, f64), f64, f64, f64) {
+        let f = self.inner.frame(t);
+        (
+            (f.origin[0], f.origin[1]),
+            (f.origin_vel[0], f.origin_vel[1]),
+            (f.origin_acc[0], f.origin_acc[1]),
+            f.angle,
+            f.rate,
+            f.accel,
+        )
+    }
+
+    /// Checks the motion over `[0, t_end]` (a four-bar that does not close, a short table).
+    fn check(&self, py: Python<'_>, t_end: f64) -> PyResult<()> {
+        self.inner.check("frame", t_end).map_err(|e| err(py, e))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("{:?}", self.inner)
+    }
+}
+
+/// A kineto-elastodynamic mechanism under construction (see `flexclear.Mechanism`).
+#[pyclass(name = "Mechanism", module = "flexclear._core")]
+#[derive(Clone, Default)]
+pub(super) struct PyMechanism {
+    inner: Mechanism,
+}
+
+fn vec_opt(a: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
+    a.map(|a| Ok(a.as_slice()?.to_vec())).transpose()
+}
+
+impl PyMechanism {
+    fn link(&self, py: Python<'_>, name: &str, link: usize, node: usize) -> PyResult<()> {
+        let Some(l) = self.inner.links.get(link) else {
+            return Err(err(
+                py,
+                Error::InvalidModel {
+                    message: format!(
+                        "{name}: link #{link} does not exist (the mechanism has {})",
+                        self.inner.links.len()
+                    ),
+                },
+            ));
+        };
+        if node > l.elements {
+            return Err(err(
+                py,
+                Error::param(name, node, format!("a node of link {:?}: 0 ..= {}", l.name, l.elements)),
+            ));
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn endpoint(
+        &self,
+        py: Python<'_>,
+        kind: &str,
+        link: Option<usize>,
+        node: Option<usize>,
+        frame: Option<PyRef<'_, PyFrame>>,
+        point: (f64, f64),
+        slider: Option<usize>,
+        body: &str,
+    ) -> PyResult<Endpoint> {
+        match kind {
+            "node" => {
+                let (Some(l), Some(n)) = (link, node) else {
+                    return Err(err(
+                        py,
+                        Error::param("target", "node", "a (link, node) pair for a node target"),
+                    ));
+                };
+                self.link(py, "target_node", l, n)?;
+                Ok(Endpoint::Node { link: l, node: n })
+            }
+            "body" => {
+                let Some(f) = frame else {
+                    return Err(err(py, Error::param("target", "body", "a frame for a body target")));
+                };
+                Ok(Endpoint::Body {
+                    frame: f.inner.clone(),
+                    point: [point.0, point.1],
+                    name: body.to_string(),
+                })
+            }
+            "slider" => {
+                let Some(s) = slider.filter(|s| *s < self.inner.sliders.len()) else {
+                    return Err(err(
+                        py,
+                        Error::param(
+                            "slider",
+                            format!("{slider:?}"),
+                            format!("a slider index 0 ..< {}", self.inner.sliders.len()),
+                        ),
+                    ));
+                };
+                Ok(Endpoint::Slider(s))
+            }
+            other => Err(err(
+                py,
+                Error::param("target", format!("{other:?}"), "one of \"node\", \"body\", \"slider\""),
+            )),
+        }
+    }
+}
+
+fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_vec(py, v)
+}
+
+fn mat<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let a = Array2::from_shape_vec((rows, cols), v)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("internal shape error: {e}")))?;
+    Ok(a.to_pyarray(py))
+}
+
+fn output_dict<'py>(py: Python<'py>, m: &Mechanism, out: KedOutput) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let rows = out.time.len();
+    d.set_item("time", vec1(py, out.time))?;
+    d.set_item("t", out.t)?;
+    let links = PyList::empty(py);
+    for (l, h) in m.links.iter().zip(out.links) {
+        let ld = PyDict::new(py);
+        let fr: Vec<f64> = h.frame.iter().flatten().copied().collect();
+        let fr_rows = h.frame.len();
+        ld.set_item("frame", mat(py, fr, fr_rows, 4)?)?;
+        let nn = l.elements + 1;
+        let drows = h.displacements.len() / (3 * nn);
+        ld.set_item("displacements", mat(py, h.displacements, drows, 3 * nn)?)?;
+        let arows = h.axial_force.len() / l.elements;
+        ld.set_item("axial_force", mat(py, h.axial_force, arows, l.elements)?)?;
+        ld.set_item("midspan", vec1(py, h.midspan))?;
+        ld.set_item("kinetic", vec1(py, h.kinetic))?;
+        ld.set_item("strain", vec1(py, h.strain))?;
+        ld.set_item("momentum", vec1(py, h.momentum))?;
+        links.append(ld)?;
+    }
+    let _ = rows;
+    d.set_item("links", links)?;
+    let joints = PyList::empty(py);
+    for j in out.joints {
+        let jd = PyDict::new(py);
+        jd.set_item("penetration", vec1(py, j.penetration))?;
+        jd.set_item("force", vec1(py, j.force))?;
+        jd.set_item("max_penetration", j.max_penetration)?;
+        jd.set_item("max_force", j.max_force)?;
+        jd.set_item("impacts", j.impacts)?;
+        joints.append(jd)?;
+    }
+    d.set_item("joints", joints)?;
+    let s = out.stats;
+    let st = PyDict::new(py);
+    st.set_item("steps", s.steps)?;
+    st.set_item("halved_substeps", s.halved_substeps)?;
+    st.set_item("factorizations", s.factorizations)?;
+    st.set_item("iterations", s.iterations)?;
+    st.set_item("max_iterations", s.max_iterations)?;
+    st.set_item("unknowns", s.unknowns)?;
+    st.set_item("bandwidth", s.bandwidth)?;
+    st.set_item("terms", s.terms)?;
+    d.set_item("stats", st)?;
+    Ok(d)
+}
+
+#[pymethods]
+impl PyMechanism {
+    #[new]
+    fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a flexible link; returns its index. Term switches `None` = automatic.
+    #[pyo3(signature = (name, length, elements, youngs_modulus, density, area, inertia, frame, damping=0.0,
+                        coriolis=None, inertia_coupling=None, geometric=None, inertia_load=None,
+                        initial_displacement=None, initial_velocity=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_link(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        length: f64,
+        elements: i64,
+        youngs_modulus: f64,
+        density: f64,
+        area: f64,
+        inertia: f64,
+        frame: PyRef<'_, PyFrame>,
+        damping: f64,
+        coriolis: Option<bool>,
+        inertia_coupling: Option<bool>,
+        geometric: Option<bool>,
+        inertia_load: Option<bool>,
+        initial_displacement: Option<PyReadonlyArray1<'_, f64>>,
+        initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
+    ) -> PyResult<usize> {
+        let i = self.inner.links.len();
+        let elements = usize::try_from(elements)
+            .ok()
+            .filter(|&e| (1..=1_000_000).contains(&e))
+            .ok_or_else(|| {
+                err(
+                    py,
+                    Error::param(format!("links[{i}].elements"), elements, "an integer in 1 ..= 1000000"),
+                )
+            })?;
+        if self.inner.links.iter().any(|l| l.name == name) {
+            return Err(err(
+                py,
+                Error::InvalidModel {
+                    message: format!("two links are named {name:?}"),
+                },
+            ));
+        }
+        let link = Link {
+            name,
+            length,
+            elements,
+            youngs_modulus,
+            density,
+            damping,
+            area,
+            inertia,
+            frame: frame.inner.clone(),
+            terms: Terms {
+                coriolis,
+                inertia_coupling,
+                geometric,
+                inertia_load,
+            },
+            initial_displacement: vec_opt(initial_displacement)?,
+            initial_velocity: vec_opt(initial_velocity)?,
+        };
+        let p = |f: &str| format!("links[{i}].{f}");
+        use crate::error::{check_non_negative, check_positive};
+        (|| -> crate::error::Result<()> {
+            check_positive(&p("length"), link.length, "m")?;
+            check_positive(&p("youngs_modulus"), link.youngs_modulus, "Pa")?;
+            check_positive(&p("density"), link.density, "kg/m^3")?;
+            check_non_negative(&p("damping"), link.damping, "Pa s")?;
+            check_positive(&p("area"), link.area, "m^2")?;
+            check_positive(&p("inertia"), link.inertia, "m^4")
+        })()
+        .map_err(|e| err(py, e))?;
+        self.inner.links.push(link);
+        Ok(i)
+    }
+
+    /// Adds a slider on a straight guide at global angle `angle` (rad) whose pin follows the
+    /// origin of `path`; returns its index.
+    fn add_slider(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        mass: f64,
+        angle: f64,
+        path: PyRef<'_, PyFrame>,
+    ) -> PyResult<usize> {
+        let i = self.inner.sliders.len();
+        crate::error::check_non_negative(&format!("sliders[{i}].mass"), mass, "kg").map_err(|e| err(py, e))?;
+        crate::error::check_finite(&format!("sliders[{i}].angle"), angle, "rad").map_err(|e| err(py, e))?;
+        self.inner.sliders.push(Slider {
+            name,
+            mass,
+            angle,
+            path: path.inner.clone(),
+        });
+        Ok(i)
+    }
+
+    /// Adds an ideal pin between node `node` of `link` and a target: "node" (target_link,
+    /// target_node), "body" (frame, point in the body frame, m) or "slider" (slider index).
+    #[pyo3(signature = (name, link, node, target, target_link=None, target_node=None, frame=None, point=(0.0, 0.0), slider=None, body="body"))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_pin(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        link: usize,
+        node: usize,
+        target: &str,
+        target_link: Option<usize>,
+        target_node: Option<usize>,
+        frame: Option<PyRef<'_, PyFrame>>,
+        point: (f64, f64),
+        slider: Option<usize>,
+        body: &str,
+    ) -> PyResult<()> {
+        self.link(py, "node", link, node)?;
+        let b = self.endpoint(py, target, target_link, target_node, frame, point, slider, body)?;
+        self.inner.pins.push(Pin {
+            name,
+            a: Endpoint::Node { link, node },
+            b,
+        });
+        Ok(())
+    }
+
+    /// Adds a clearance joint: journal at node `node` of `link`, bearing at the target (as for
+    /// `add_pin`), radial clearance (m), spring-dashpot bearing (N/m, N s/m).
+    #[pyo3(signature = (name, link, node, target, clearance, stiffness, damping, target_link=None, target_node=None,
+                        frame=None, point=(0.0, 0.0), slider=None, body="body", damping_law="viscous", no_tension=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn add_clearance(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        link: usize,
+        node: usize,
+        target: &str,
+        clearance: f64,
+        stiffness: f64,
+        damping: f64,
+        target_link: Option<usize>,
+        target_node: Option<usize>,
+        frame: Option<PyRef<'_, PyFrame>>,
+        point: (f64, f64),
+        slider: Option<usize>,
+        body: &str,
+        damping_law: &str,
+        no_tension: bool,
+    ) -> PyResult<()> {
+        self.link(py, "node", link, node)?;
+        let i = self.inner.joints.len();
+        crate::error::check_non_negative(&format!("joints[{i}].clearance"), clearance, "m").map_err(|e| err(py, e))?;
+        let law = SpringDamper {
+            stiffness,
+            damping,
+            damping_law: parse_damping_law(py, damping_law)?,
+            no_tension,
+        };
+        use crate::contact::ContactLaw;
+        law.validate(&format!("joints[{i}]")).map_err(|e| err(py, e))?;
+        let b = self.endpoint(py, target, target_link, target_node, frame, point, slider, body)?;
+        self.inner.joints.push(Clearance {
+            name,
+            journal: Endpoint::Node { link, node },
+            bearing: b,
+            clearance,
+            law: Arc::new(law),
+        });
+        Ok(())
+    }
+
+    /// Holds elastic DOFs of a node at zero in its link frame.
+    #[pyo3(signature = (link, node, u=true, v=true, theta=false))]
+    fn add_support(&mut self, py: Python<'_>, link: usize, node: usize, u: bool, v: bool, theta: bool) -> PyResult<()> {
+        self.link(py, "node", link, node)?;
+        self.inner.supports.push(Support {
+            link,
+            node,
+            fixed: [u, v, theta],
+        });
+        Ok(())
+    }
+
+    /// A point mass (kg) at a node.
+    fn add_mass(&mut self, py: Python<'_>, link: usize, node: usize, mass: f64) -> PyResult<()> {
+        self.link(py, "node", link, node)?;
+        crate::error::check_non_negative("mass", mass, "kg").map_err(|e| err(py, e))?;
+        self.inner.masses.push(PointMass { link, node, mass });
+        Ok(())
+    }
+
+    /// A constant nodal load in the link frame (N, N, N m).
+    #[pyo3(signature = (link, node, fu=0.0, fv=0.0, moment=0.0))]
+    fn add_load(&mut self, py: Python<'_>, link: usize, node: usize, fu: f64, fv: f64, moment: f64) -> PyResult<()> {
+        self.link(py, "node", link, node)?;
+        self.inner.loads.push(NodalLoad {
+            link,
+            node,
+            force: [fu, fv],
+            moment,
+        });
+        Ok(())
+    }
+
+    /// Gravity, global, m/s^2.
+    fn set_gravity(&mut self, gx: f64, gy: f64) {
+        self.inner.gravity = [gx, gy];
+    }
+
+    /// Link names.
+    #[getter]
+    fn link_names(&self) -> Vec<String> {
+        self.inner.links.iter().map(|l| l.name.clone()).collect()
+    }
+
+    /// Clearance joint names.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.inner.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// Element counts per link.
+    #[getter]
+    fn link_elements(&self) -> Vec<usize> {
+        self.inner.links.iter().map(|l| l.elements).collect()
+    }
+
+    /// Checks the whole mechanism over `[0, t_end]`.
+    fn validate(&self, py: Python<'_>, t_end: f64) -> PyResult<()> {
+        self.inner.validate(t_end).map_err(|e| err(py, e))
+    }
+
+    /// The unknowns: list of `(link, node, component)`.
+    fn dof_map(&self, py: Python<'_>) -> PyResult<Vec<(i64, i64, String)>> {
+        let settings = KedSettings::new(1.0, 1.0);
+        let run = KedRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
+        Ok(run
+            .dof_map()
+            .into_iter()
+            .map(|(l, n, c)| {
+                (
+                    if l == usize::MAX { -1 } else { l as i64 },
+                    if n == usize::MAX { -1 } else { n as i64 },
+                    c.to_string(),
+                )
+            })
+            .collect())
+    }
+
+    /// Linearization at time `t` (s) and state `y` (yd = zero when None): `(M, C, K, r)`.
+    #[pyo3(signature = (t, y, yd=None))]
+    #[allow(clippy::type_complexity)]
+    fn linearize<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArray1<'_, f64>,
+        yd: Option<PyReadonlyArray1<'_, f64>>,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f64>>,
+        Bound<'py, PyArray2<f64>>,
+        Bound<'py, PyArray2<f64>>,
+        Bound<'py, PyArray1<f64>>,
+    )> {
+        let settings = KedSettings::new(t.max(1e-9) * 2.0 + 1.0, 1.0);
+        let mut run = KedRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
+        let n = run.unknowns();
+        let y = y.as_slice()?.to_vec();
+        let yd = match yd {
+            Some(v) => v.as_slice()?.to_vec(),
+            None => vec![0.0; n],
+        };
+        let [m, c, k, r] = run.linearize(t, &y, &yd).map_err(|e| err(py, e))?;
+        Ok((mat(py, m, n, n)?, mat(py, c, n, n)?, mat(py, k, n, n)?, vec1(py, r)))
+    }
+
+    /// Runs the mechanism; returns a dict of histories (see `flexclear.Mechanism.simulate`).
+    #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
+                        divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
+                        progress=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        t_end: f64,
+        dt: f64,
+        method: &str,
+        iterate: bool,
+        tol: f64,
+        max_iter: i64,
+        step_halving: i64,
+        beta: f64,
+        gamma: f64,
+        divergence_limit: Option<f64>,
+        every: i64,
+        displacements: bool,
+        axial_force: bool,
+        midspan: bool,
+        energy: bool,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let max_iter =
+            usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
+        let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
+        let step_halving =
+            u32::try_from(step_halving).map_err(|_| err(py, Error::param("step_halving", step_halving, "0 ..= 20")))?;
+        let coupling = match method {
+            "force" => Coupling::Force,
+            "modified" => Coupling::Modified {
+                iterate,
+                tol: 1e-10,
+                max_iter: 50,
+            },
+            other => {
+                return Err(err(
+                    py,
+                    Error::param("method", format!("{other:?}"), "one of \"force\", \"modified\""),
+                ))
+            }
+        };
+        let settings = KedSettings {
+            t_end,
+            dt,
+            newmark: Newmark { beta, gamma },
+            coupling,
+            tol,
+            max_iter,
+            step_halving,
+            divergence_limit,
+            record: KedRecord {
+                every,
+                displacements,
+                axial_force,
+                midspan,
+                energy,
+            },
+        };
+        let mech = &self.inner;
+        let (res, pending) = run_detached(py, progress, |control| simulate_mechanism(mech, &settings, control));
+        match res {
+            Ok(out) => output_dict(py, mech, out),
+            Err(fail) => {
+                if let Some(e) = pending {
+                    if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
+                        return Err(e);
+                    }
+                }
+                let partial = output_dict(py, mech, fail.output)?;
+                Err(to_pyerr(py, &fail.error, Some(partial)))
+            }
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Mechanism(links={:?}, sliders={}, pins={}, joints={:?})",
+            self.link_names(),
+            self.inner.sliders.len(),
+            self.inner.pins.len(),
+            self.joint_names()
+        )
+    }
+}
