@@ -159,7 +159,8 @@ class MechanismResult:
 
     def __repr__(self) -> str:
         status = "complete" if self.complete else f"stopped early: {self.error}"
-        return f"MechanismResult(dt={self.dt:g} s, t_end={self.end_time:g} s, steps={self.stats['steps']}, {status})"
+        steps = self.stats["steps"]
+        return f"MechanismResult(dt={self.dt:g} s, t_end={self.end_time:g} s, steps={steps}, {status})"
 
 
 Target = Union[NodeRef, str, tuple]
@@ -283,7 +284,12 @@ class Mechanism:
             return {"target": "node", "target_link": self._link(target[0]), "target_node": int(target[1])}
         if isinstance(target, tuple) and len(target) in (2, 3) and isinstance(target[0], _core.Frame):
             pt = tuple(float(v) for v in target[1])
-            return {"target": "body", "frame": target[0], "point": pt, "body": target[2] if len(target) == 3 else "body"}
+            return {
+                "target": "body",
+                "frame": target[0],
+                "point": pt,
+                "body": target[2] if len(target) == 3 else "body",
+            }
         raise InvalidParameterError(
             f"target {target!r}: expected (link name, node), a slider name, or (Frame, (x, y)[, body name])"
         )
@@ -323,7 +329,9 @@ class Mechanism:
         )
         return self
 
-    def support(self, link: str, node: int, *, u: bool = True, v: bool = True, theta: bool = False) -> Mechanism:
+    def support(
+        self, link: str, node: int, *, u: bool = True, v: bool = True, theta: bool = False
+    ) -> Mechanism:
         """Holds the chosen elastic DOFs of a node at zero in its link frame."""
         self._core.add_support(self._link(link), int(node), u, v, theta)
         return self
@@ -337,7 +345,9 @@ class Mechanism:
         self._core.add_mass(self._link(link), int(node), float(mass))
         return self
 
-    def load(self, link: str, node: int, *, fu: float = 0.0, fv: float = 0.0, moment: float = 0.0) -> Mechanism:
+    def load(
+        self, link: str, node: int, *, fu: float = 0.0, fv: float = 0.0, moment: float = 0.0
+    ) -> Mechanism:
         """A constant nodal load in the link frame: axial ``fu`` and transverse ``fv`` (N),
         ``moment`` (N m)."""
         self._core.add_load(self._link(link), int(node), float(fu), float(fv), float(moment))
@@ -366,7 +376,7 @@ class Mechanism:
         :class:`ConvergenceError` if it does not converge."""
         n = len(self.dof_map())
         y = np.zeros(n)
-        for it in range(max_iter):
+        for _ in range(max_iter):
             _, _, k, r = self._core.linearize(float(t), y)
             dy = np.linalg.solve(k, -r)
             y = y + dy
@@ -374,7 +384,9 @@ class Mechanism:
                 return y
         raise ConvergenceError(f"static_state did not converge in {max_iter} iterations (t = {t} s)")
 
-    def frequencies(self, t: float = 0.0, *, count: int = 5, coriolis: bool = True, state: Optional[np.ndarray] = None) -> np.ndarray:
+    def frequencies(
+        self, t: float = 0.0, *, count: int = 5, coriolis: bool = True, state: Optional[np.ndarray] = None
+    ) -> np.ndarray:
         """Natural frequencies (rad/s, ascending) of the motion linearized about ``state``
         (default: :meth:`static_state` at ``t``), with the frame motion of instant ``t`` held:
         for a link spinning at constant speed, the in-plane frequencies with centrifugal
