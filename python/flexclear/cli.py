@@ -43,8 +43,12 @@ def main(argv: Optional[list] = None) -> int:
     su.add_argument("--dt", type=float, default=1e-3, help="time step, s (default: %(default)s)")
     su.add_argument("--t-end", type=float, default=20.0, help="end time, s (default: %(default)s)")
     su.add_argument("--elements", type=int, default=10, help="beam elements (default: %(default)s)")
-    su.add_argument("--data", choices=("kane", "simo"), default="kane", help="data set (default: %(default)s)")
-    su.add_argument("--speeds", type=int, default=41, help="hub speeds of the frequency plot (default: %(default)s)")
+    su.add_argument(
+        "--data", choices=("kane", "simo"), default="kane", help="data set (default: %(default)s)"
+    )
+    su.add_argument(
+        "--speeds", type=int, default=41, help="hub speeds of the frequency plot (default: %(default)s)"
+    )
     su.add_argument("--max-speed", type=float, default=None, help="top hub speed, rad/s (default: 2.5 W)")
     su.add_argument(
         "--reference",
@@ -53,26 +57,37 @@ def main(argv: Optional[list] = None) -> int:
         help="table to overlay on the frequency plot: '#' comments, a header, rows 'lambda, w1, w2, ...' "
         "nondimensional by sqrt(EI/(rho A L^4)), flapwise (converted to in-plane by w^2 - Omega^2)",
     )
-    su.add_argument("--reference-inplane", action="store_true", help="the --reference table is in-plane already")
+    su.add_argument(
+        "--reference-inplane", action="store_true", help="the --reference table is in-plane already"
+    )
     sc = sub.add_parser(
         "slider-crank",
-        help="Simeon's flexible slider-crank: rod midspan deflection and axial force (optional clearance joint)",
+        help="Simeon's flexible slider-crank: rod deflection and axial force, optional clearance joint",
     )
     sc.add_argument("--out", default="slider-crank", help="output folder (default: %(default)s)")
     sc.add_argument("--dt", type=float, default=1e-5, help="time step, s (default: %(default)s)")
     sc.add_argument("--t-end", type=float, default=0.1, help="end time, s (default: %(default)s)")
     sc.add_argument("--elements", type=int, default=8, help="rod elements (default: %(default)s)")
     sc.add_argument(
-        "--clearance-at", choices=("crank_pin", "slider_pin"), default=None, help="also run with a clearance joint here"
+        "--clearance-at",
+        choices=("crank_pin", "slider_pin"),
+        default=None,
+        help="also run with a clearance joint here",
     )
-    sc.add_argument("--clearance", type=float, default=5e-4, help="radial clearance, m (default: %(default)s)")
-    sc.add_argument("--method", choices=("modified", "force"), default="modified", help="clearance joint method")
+    sc.add_argument(
+        "--clearance", type=float, default=5e-4, help="radial clearance, m (default: %(default)s)"
+    )
+    sc.add_argument(
+        "--method", choices=("modified", "force"), default="modified", help="clearance joint method"
+    )
     fb = sub.add_parser("four-bar", help="four-bar with a flexible coupler: coupler midspan deflection")
     fb.add_argument("--out", default="four-bar", help="output folder (default: %(default)s)")
     fb.add_argument("--dt", type=float, default=1e-4, help="time step, s (default: %(default)s)")
     fb.add_argument("--t-end", type=float, default=None, help="end time, s (default: three crank turns)")
     fb.add_argument("--elements", type=int, default=6, help="coupler elements (default: %(default)s)")
-    fb.add_argument("--crank-speed", type=float, default=100.0, help="crank speed, rad/s (default: %(default)s)")
+    fb.add_argument(
+        "--crank-speed", type=float, default=100.0, help="crank speed, rad/s (default: %(default)s)"
+    )
     fb.add_argument("--flexible-rocker", action="store_true", help="model the rocker as a flexible link too")
     args = parser.parse_args(argv)
     if args.command == "paper":

@@ -46,6 +46,10 @@ def _run(mech, t_end: float, dt: float, **kw) -> tuple[MechanismResult, Optional
         return res, e
 
 
+def _status(err: Optional[FlexclearError], res: MechanismResult) -> str:
+    return "complete" if err is None else f"{type(err).__name__} at t = {res.end_time:.4g} s"
+
+
 def _fmt(x: float, unit: str = "", digits: int = 4) -> str:
     return f"{x:.{digits}g}{(' ' + unit) if unit else ''}"
 
@@ -127,7 +131,9 @@ def spin_up_report(
         if geometric:
             axes[1].plot(res.time, tip, color=colors[geometric], label=lab)
     axes[0].set_ylabel("tip deflection, m")
-    axes[0].set_title(f"Spin-up ({data} data): W = {big_w:g} rad/s over T = {p['ramp_time']:g} s, dt = {dt:g} s")
+    axes[0].set_title(
+        f"Spin-up ({data} data): W = {big_w:g} rad/s over T = {p['ramp_time']:g} s, dt = {dt:g} s"
+    )
     axes[0].legend(loc="lower left", fontsize=8)
     axes[0].grid(alpha=0.3)
     axes[1].set_ylabel("tip deflection, m")
@@ -155,7 +161,9 @@ def spin_up_report(
         f_cor[i, : len(f)] = f
         f = mech.frequencies(0.0, count=2, coriolis=False)
         f_nocor[i, : len(f)] = f
-        lin = scenes.spin_up(data=data, elements=elements, geometric=False, rotation=Rotation.constant(float(om)))
+        lin = scenes.spin_up(
+            data=data, elements=elements, geometric=False, rotation=Rotation.constant(float(om))
+        )
         # Signed squared first frequency of the unstiffened model (Coriolis dropped): it
         # crosses zero where the linear model loses stability.
         mm, _, kk, _ = lin._core.linearize(0.0, lin.static_state(0.0))
@@ -212,9 +220,9 @@ def spin_up_report(
         "",
         "| run | status | max abs tip, m | tip at end, m | wall, s |",
         "|---|---|---|---|---|",
-        f"| with geometric stiffness | {'complete' if err_s is None else type(err_s).__name__} | "
+        f"| with geometric stiffness | {_status(err_s, res_s)} | "
         f"{_fmt(np.max(np.abs(tip_s)))} | {_fmt(tip_s[-1])} | {sec_s:.2f} |",
-        f"| without | {'complete' if err_l is None else type(err_l).__name__ + f' at t = {res_l.end_time:.3f} s'} | "
+        f"| without | {_status(err_l, res_l)} | "
         f"{_fmt(np.max(np.abs(tip_l)))} | {_fmt(tip_l[-1])} | {sec_l:.2f} |",
         "",
         f"With stiffening, after the ramp (t >= {p['ramp_time']:g} s) the tip stays within "
@@ -299,7 +307,9 @@ def slider_crank_report(
         axes[1].plot(res.time * 1e3, rod.axial_force[:, mid_el], color=f"C{k}", lw=1, label=lab)
     w = variants[0][1].parameters["crank_speed"]
     axes[0].set_ylabel("rod midspan deflection, mm")
-    axes[0].set_title(f"Flexible slider-crank (Simeon 1996): crank {w:g} rad/s, {elements} elements, dt = {dt:g} s")
+    axes[0].set_title(
+        f"Flexible slider-crank (Simeon 1996): crank {w:g} rad/s, {elements} elements, dt = {dt:g} s"
+    )
     axes[1].set_ylabel(f"axial force, element {mid_el + 1}, N")
     axes[1].set_xlabel("time, ms")
     for ax in axes:
@@ -343,8 +353,8 @@ def slider_crank_report(
         rod = res.link("rod")
         n = rod.axial_force[:, mid_el]
         lines.append(
-            f"| {label} | {'complete' if err is None else f'{type(err).__name__} at {res.end_time:.4g} s'} | "
-            f"{np.max(np.abs(rod.midspan)) * 1e3:.4g} | {max(n.max(), 0):.4g} | {max(-n.min(), 0):.4g} | {sec:.2f} |"
+            f"| {label} | {_status(err, res)} | {np.max(np.abs(rod.midspan)) * 1e3:.4g} | "
+            f"{max(n.max(), 0):.4g} | {max(-n.min(), 0):.4g} | {sec:.2f} |"
         )
     lines += [
         "",
@@ -358,9 +368,10 @@ def slider_crank_report(
         q = mech.parameters
         lines += [
             "",
-            f"Clearance joint `{clearance_at}`: c = {q['clearance']:g} m, K_B = {q['bearing_stiffness']:.4g} N/m "
-            f"(Hertz secant at {q['reference_penetration']:g} m), C_B = {q['bearing_damping']:.4g} N s/m "
-            f"({q['bearing_damping_ratio']:g} of critical for {q['effective_mass']:.4g} kg); method {method}: "
+            f"Clearance joint `{clearance_at}`: c = {q['clearance']:g} m, "
+            f"K_B = {q['bearing_stiffness']:.4g} N/m (Hertz secant at {q['reference_penetration']:g} m), "
+            f"C_B = {q['bearing_damping']:.4g} N s/m ({q['bearing_damping_ratio']:g} of critical for "
+            f"{q['effective_mass']:.4g} kg); method {method}: "
             f"max contact force {j.max_force:.4g} N, max penetration {j.max_penetration * 1e6:.4g} um, "
             f"{j.impacts} impacts.",
         ]
@@ -434,13 +445,12 @@ def four_bar_report(
         f"{elements} coupler elements{'; flexible rocker' if flexible_rocker else ''}; dt = {dt:g} s, "
         f"t_end = {t_end:.4g} s ({t_end / turn:.3g} crank turns).",
         "",
-        f"Status: {'complete' if err is None else f'{type(err).__name__} at {res.end_time:.4g} s'} "
-        f"({sec:.2f} s wall).",
+        f"Status: {_status(err, res)} ({sec:.2f} s wall).",
         f"Coupler midspan deflection: max abs {np.max(np.abs(cpl.midspan)) * 1e3:.4g} mm; over the last turn "
         f"[{cpl.midspan[last].min() * 1e3:.4g}, {cpl.midspan[last].max() * 1e3:.4g}] mm.",
         f"Coupler axial force (middle element): [{cpl.axial_force[:, elements // 2].min():.4g}, "
         f"{cpl.axial_force[:, elements // 2].max():.4g}] N.",
-        f"Lowest natural frequencies at t = 0 (linearized, crank speed held): "
+        "Lowest natural frequencies at t = 0 (linearized, crank speed held): "
         + ", ".join(f"{x:.4g}" for x in f)
         + " rad/s.",
         "",

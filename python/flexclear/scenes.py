@@ -309,7 +309,9 @@ def spin_up(
     return m
 
 
-def _hertz_secant(youngs_modulus: float, poisson_ratio: float, radius: float, clearance: float, penetration: float):
+def _hertz_secant(
+    youngs_modulus: float, poisson_ratio: float, radius: float, clearance: float, penetration: float
+):
     """Secant stiffness (N/m) at ``penetration`` (m) of the Hertz law ``F = K_h delta^1.5`` for a
     journal of ``radius`` (m) in a bearing of radius ``radius + clearance``, both of the same
     material: ``K_h = (4/3) E* sqrt(R*)`` with ``E* = E / (2 (1 - nu^2))`` and
@@ -432,7 +434,7 @@ def slider_crank(
         raise _bad(
             "rod_length",
             rod_length,
-            f"> crank_length + |offset| = {reach:g} m (the rod could not reach the guide at every crank angle)",
+            f"> crank_length + |offset| = {reach:g} m (the rod cannot reach the guide at every crank angle)",
         )
     if clearance_at not in (None, "crank_pin", "slider_pin"):
         raise _bad("clearance_at", repr(clearance_at), 'None, "crank_pin" or "slider_pin"')
@@ -616,7 +618,9 @@ def four_bar(
             f"over a crank turn: {e}"
         ) from None
     area, inertia = width * depth, width * depth**3 / 12.0
-    section = dict(youngs_modulus=youngs_modulus, density=density, area=area, inertia=inertia, damping=damping)
+    section = dict(
+        youngs_modulus=youngs_modulus, density=density, area=area, inertia=inertia, damping=damping
+    )
     m = Mechanism()
     m.add_link("coupler", length=coupler_length, elements=elements, frame=frame("coupler"), **section)
     m.pin("crank_pin", ("coupler", 0), (frame("crank"), (float(crank_length), 0.0), "crank"))
