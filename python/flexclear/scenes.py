@@ -311,7 +311,7 @@ def spin_up(
 
 def _hertz_secant(
     youngs_modulus: float, poisson_ratio: float, radius: float, clearance: float, penetration: float
-):
+) -> float:
     """Secant stiffness (N/m) at ``penetration`` (m) of the Hertz law ``F = K_h delta^1.5`` for a
     journal of ``radius`` (m) in a bearing of radius ``radius + clearance``, both of the same
     material: ``K_h = (4/3) E* sqrt(R*)`` with ``E* = E / (2 (1 - nu^2))`` and
