@@ -8,11 +8,19 @@ method of Hong & Kim 1993) or as gap elements. SI units throughout.
 >>> model = flexclear.scenes.slider_yoke(clearance=1e-4)
 >>> res = model.simulate(0.2, 1e-5)
 >>> res.joint("bearing").max_penetration  # m
+
+Mechanisms of flexible links in moving frames (kineto-elastodynamics) are :class:`Mechanism`
+objects; ready ones are in :mod:`flexclear.scenes` (``spin_up``, ``slider_crank``, ``four_bar``):
+
+>>> mech = flexclear.scenes.spin_up()
+>>> res = mech.simulate(20.0, 1e-3)
+>>> res.link("beam").tip  # m, in the hub frame
 """
 
 from . import motion, scenes, study
 from ._core import __version__
 from .errors import (
+    ConvergenceError,
     FlexclearError,
     InvalidParameterError,
     ModelError,
@@ -20,17 +28,25 @@ from .errors import (
     SimulationInterrupted,
     SingularMatrixError,
 )
+from .mechanism import Frame, LinkResult, Mechanism, MechanismJointResult, MechanismResult, Rotation
 from .model import JointResult, Model, NodeResult, Record, Result
 
 __all__ = [
+    "ConvergenceError",
     "FlexclearError",
+    "Frame",
     "InvalidParameterError",
     "JointResult",
+    "LinkResult",
+    "Mechanism",
+    "MechanismJointResult",
+    "MechanismResult",
     "Model",
     "ModelError",
     "NodeResult",
     "Record",
     "Result",
+    "Rotation",
     "SimulationDivergedError",
     "SimulationInterrupted",
     "SingularMatrixError",

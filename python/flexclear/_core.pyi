@@ -1,12 +1,15 @@
 """Type stubs of the compiled core ``flexclear._core`` (hand-written; see rust/python/mod.rs)."""
 
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, final
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = ["Model", "Motion", "Rotation", "Frame", "Mechanism", "slider_yoke", "run_batch", "__version__"]
+
 __version__: str
 
+@final
 class Motion:
     @staticmethod
     def fixed(position: tuple[float, float]) -> Motion: ...
@@ -26,6 +29,7 @@ class Motion:
     ) -> Motion: ...
     def at(self, t: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]: ...
 
+@final
 class Model:
     def __init__(self) -> None: ...
     def add_link(
@@ -89,6 +93,148 @@ class Model:
         every: int = ...,
         histories: bool = ...,
         start: float = ...,
+        progress: Optional[Callable[[float], Any]] = ...,
+    ) -> dict[str, Any]: ...
+
+@final
+class Rotation:
+    """A prescribed angle phi(t) (rad) with its rate (rad/s) and acceleration (rad/s^2)."""
+
+    @staticmethod
+    def fixed(angle: float) -> Rotation: ...
+    @staticmethod
+    def constant(rate: float, angle0: float = ...) -> Rotation: ...
+    @staticmethod
+    def spin_up(final_rate: float, ramp_time: float, angle0: float = ...) -> Rotation: ...
+    @staticmethod
+    def harmonic(amplitude: float, frequency: float, mean: float = ..., phase: float = ...) -> Rotation: ...
+    @staticmethod
+    def tabulated(
+        time: list[float],
+        angle: list[float],
+        rate: Optional[list[float]] = ...,
+        accel: Optional[list[float]] = ...,
+    ) -> Rotation: ...
+    def at(self, t: float) -> tuple[float, float, float]: ...
+
+@final
+class Frame:
+    """The prescribed motion of a link frame or rigid body."""
+
+    @staticmethod
+    def rotating(rotation: Rotation, origin: Optional[Motion] = ...) -> Frame: ...
+    @staticmethod
+    def slider_crank(crank: float, rod: float, driver: Rotation, link: str, offset: float = ...) -> Frame: ...
+    @staticmethod
+    def four_bar(
+        ground: float,
+        crank: float,
+        coupler: float,
+        rocker: float,
+        driver: Rotation,
+        link: str,
+        branch: float = ...,
+    ) -> Frame: ...
+    def at(
+        self, t: float
+    ) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float], float, float, float]: ...
+    def check(self, t_end: float) -> None: ...
+
+@final
+class Mechanism:
+    """A kineto-elastodynamic mechanism under construction (wrapped by flexclear.Mechanism)."""
+
+    def __init__(self) -> None: ...
+    def add_link(
+        self,
+        name: str,
+        length: float,
+        elements: int,
+        youngs_modulus: float,
+        density: float,
+        area: float,
+        inertia: float,
+        frame: Frame,
+        damping: float = ...,
+        coriolis: Optional[bool] = ...,
+        inertia_coupling: Optional[bool] = ...,
+        geometric: Optional[bool] = ...,
+        inertia_load: Optional[bool] = ...,
+        initial_displacement: Optional[npt.NDArray[np.float64]] = ...,
+        initial_velocity: Optional[npt.NDArray[np.float64]] = ...,
+    ) -> int: ...
+    def add_slider(self, name: str, mass: float, angle: float, path: Frame) -> int: ...
+    def add_pin(
+        self,
+        name: str,
+        link: int,
+        node: int,
+        target: str,
+        target_link: Optional[int] = ...,
+        target_node: Optional[int] = ...,
+        frame: Optional[Frame] = ...,
+        point: tuple[float, float] = ...,
+        slider: Optional[int] = ...,
+        body: str = ...,
+    ) -> None: ...
+    def add_clearance(
+        self,
+        name: str,
+        link: int,
+        node: int,
+        target: str,
+        clearance: float,
+        stiffness: float,
+        damping: float,
+        target_link: Optional[int] = ...,
+        target_node: Optional[int] = ...,
+        frame: Optional[Frame] = ...,
+        point: tuple[float, float] = ...,
+        slider: Optional[int] = ...,
+        body: str = ...,
+        damping_law: str = ...,
+        no_tension: bool = ...,
+    ) -> None: ...
+    def add_support(self, link: int, node: int, u: bool = ..., v: bool = ..., theta: bool = ...) -> None: ...
+    def add_mass(self, link: int, node: int, mass: float) -> None: ...
+    def add_load(
+        self, link: int, node: int, fu: float = ..., fv: float = ..., moment: float = ...
+    ) -> None: ...
+    def set_gravity(self, gx: float, gy: float) -> None: ...
+    @property
+    def link_names(self) -> list[str]: ...
+    @property
+    def joint_names(self) -> list[str]: ...
+    @property
+    def link_elements(self) -> list[int]: ...
+    def validate(self, t_end: float) -> None: ...
+    def dof_map(self) -> list[tuple[int, int, str]]: ...
+    def linearize(
+        self,
+        t: float,
+        y: npt.NDArray[np.float64],
+        yd: Optional[npt.NDArray[np.float64]] = ...,
+    ) -> tuple[
+        npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]
+    ]:
+        """`(M, C, K, r)` at time `t` (s) and state `y` (velocities `yd`, zero when None)."""
+    def simulate(
+        self,
+        t_end: float,
+        dt: float,
+        method: str = ...,
+        iterate: bool = ...,
+        tol: float = ...,
+        max_iter: int = ...,
+        step_halving: int = ...,
+        beta: float = ...,
+        gamma: float = ...,
+        divergence_limit: Optional[float] = ...,
+        every: int = ...,
+        displacements: bool = ...,
+        axial_force: bool = ...,
+        midspan: bool = ...,
+        energy: bool = ...,
         progress: Optional[Callable[[float], Any]] = ...,
     ) -> dict[str, Any]: ...
 

@@ -32,6 +32,63 @@ def main(argv: Optional[list] = None) -> int:
         "--local-cluster", type=int, default=0, metavar="N", help="start a local Dask cluster of N workers"
     )
     mc.add_argument("--no-progress", action="store_true", help="no progress bar")
+    su = sub.add_parser(
+        "spin-up",
+        help="spin-up of a cantilever with and without geometric stiffening; in-plane frequency vs speed",
+        description="Runs flexclear.scenes.spin_up with and without geometric stiffness (the unstiffened "
+        "run diverges: what it computed until then is plotted) and the first two in-plane frequencies "
+        "at constant hub speeds. Writes PNG plots and summary.md into --out.",
+    )
+    su.add_argument("--out", default="spin-up", help="output folder (default: %(default)s)")
+    su.add_argument("--dt", type=float, default=1e-3, help="time step, s (default: %(default)s)")
+    su.add_argument("--t-end", type=float, default=20.0, help="end time, s (default: %(default)s)")
+    su.add_argument("--elements", type=int, default=10, help="beam elements (default: %(default)s)")
+    su.add_argument(
+        "--data", choices=("kane", "simo"), default="kane", help="data set (default: %(default)s)"
+    )
+    su.add_argument(
+        "--speeds", type=int, default=41, help="hub speeds of the frequency plot (default: %(default)s)"
+    )
+    su.add_argument("--max-speed", type=float, default=None, help="top hub speed, rad/s (default: 2.5 W)")
+    su.add_argument(
+        "--reference",
+        default=None,
+        metavar="CSV",
+        help="table to overlay on the frequency plot: '#' comments, a header, rows 'lambda, w1, w2, ...' "
+        "nondimensional by sqrt(EI/(rho A L^4)), flapwise (converted to in-plane by w^2 - Omega^2)",
+    )
+    su.add_argument(
+        "--reference-inplane", action="store_true", help="the --reference table is in-plane already"
+    )
+    sc = sub.add_parser(
+        "slider-crank",
+        help="Simeon's flexible slider-crank: rod deflection and axial force, optional clearance joint",
+    )
+    sc.add_argument("--out", default="slider-crank", help="output folder (default: %(default)s)")
+    sc.add_argument("--dt", type=float, default=1e-5, help="time step, s (default: %(default)s)")
+    sc.add_argument("--t-end", type=float, default=0.1, help="end time, s (default: %(default)s)")
+    sc.add_argument("--elements", type=int, default=8, help="rod elements (default: %(default)s)")
+    sc.add_argument(
+        "--clearance-at",
+        choices=("crank_pin", "slider_pin"),
+        default=None,
+        help="also run with a clearance joint here",
+    )
+    sc.add_argument(
+        "--clearance", type=float, default=5e-4, help="radial clearance, m (default: %(default)s)"
+    )
+    sc.add_argument(
+        "--method", choices=("modified", "force"), default="modified", help="clearance joint method"
+    )
+    fb = sub.add_parser("four-bar", help="four-bar with a flexible coupler: coupler midspan deflection")
+    fb.add_argument("--out", default="four-bar", help="output folder (default: %(default)s)")
+    fb.add_argument("--dt", type=float, default=1e-4, help="time step, s (default: %(default)s)")
+    fb.add_argument("--t-end", type=float, default=None, help="end time, s (default: three crank turns)")
+    fb.add_argument("--elements", type=int, default=6, help="coupler elements (default: %(default)s)")
+    fb.add_argument(
+        "--crank-speed", type=float, default=100.0, help="crank speed, rad/s (default: %(default)s)"
+    )
+    fb.add_argument("--flexible-rocker", action="store_true", help="model the rocker as a flexible link too")
     args = parser.parse_args(argv)
     if args.command == "paper":
         from .paper import write_report
@@ -46,6 +103,58 @@ def main(argv: Optional[list] = None) -> int:
             print(f"mode {i}: {fr:.3f} Hz")
     elif args.command == "montecarlo":
         return _montecarlo(args)
+    elif args.command in ("spin-up", "slider-crank", "four-bar"):
+        return _ked(args)
+    return 0
+
+
+def _ked(args) -> int:
+    from . import ked_reports as kr
+    from .errors import FlexclearError
+
+    def log(s: str) -> None:
+        print(s, file=sys.stderr)
+
+    try:
+        if args.command == "spin-up":
+            path = kr.spin_up_report(
+                args.out,
+                dt=args.dt,
+                t_end=args.t_end,
+                elements=args.elements,
+                data=args.data,
+                speeds=args.speeds,
+                max_speed=args.max_speed,
+                reference=args.reference,
+                reference_flapwise=not args.reference_inplane,
+                log=log,
+            )
+        elif args.command == "slider-crank":
+            path = kr.slider_crank_report(
+                args.out,
+                dt=args.dt,
+                t_end=args.t_end,
+                elements=args.elements,
+                clearance_at=args.clearance_at,
+                clearance=args.clearance,
+                method=args.method,
+                log=log,
+            )
+        else:
+            path = kr.four_bar_report(
+                args.out,
+                dt=args.dt,
+                t_end=args.t_end,
+                elements=args.elements,
+                crank_speed=args.crank_speed,
+                flexible_rocker=args.flexible_rocker,
+                log=log,
+            )
+    except FlexclearError as e:
+        print(f"flexclear {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    print(path.read_text())
+    print(f"report written to {path}", file=sys.stderr)
     return 0
 
 

@@ -188,6 +188,8 @@ class Mechanism:
         self._elements: list[int] = []
         self._lengths: list[float] = []
         self._sliders: list[str] = []
+        #: Inputs and derived values of the scene that built this mechanism (empty otherwise).
+        self.parameters: dict[str, Any] = {}
 
     # -- building ---------------------------------------------------------------------------
     @property

@@ -1,12 +1,20 @@
 """The test mechanisms flexclear ships (see ``shared/SCENES.md``). Every number is a default that
-can be overridden by keyword; SI units (``clearance`` in metres, not a ratio)."""
+can be overridden by keyword; SI units (``clearance`` in metres, not a ratio).
+
+* :func:`slider_yoke`, :func:`slider_yoke_stiff`: the paper's slider-yoke (a :class:`flexclear.Model`).
+* :func:`spin_up`, :func:`slider_crank`, :func:`four_bar`: flexible links in moving frames (each a
+  ready :class:`flexclear.Mechanism`; run it with ``.simulate(t_end, dt)``).
+"""
 
 from __future__ import annotations
 
 import inspect
-from typing import Optional
+import math
+from typing import Any, Optional
 
 from . import _core
+from .errors import InvalidParameterError, ModelError
+from .mechanism import Frame, Mechanism, Rotation
 from .model import Model
 
 
@@ -136,4 +144,511 @@ def _stiff_signature() -> inspect.Signature:
 # The keywords (and their defaults) of the stiff variant, for introspection (flexclear.study).
 slider_yoke_stiff.__signature__ = _stiff_signature()  # type: ignore[attr-defined]
 
-__all__ = ["slider_yoke", "slider_yoke_stiff"]
+# ---------------------------------------------------------------------------------------------
+# Kineto-elastodynamic scenes (flexclear.Mechanism)
+# ---------------------------------------------------------------------------------------------
+
+
+def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
+    """An :class:`InvalidParameterError` naming a scene keyword, formatted like the core's."""
+    e = InvalidParameterError(f"invalid parameter `{parameter}` = {value}: allowed {allowed}")
+    e.parameter, e.value, e.allowed = parameter, str(value), allowed
+    return e
+
+
+def _positive(**kw: Any) -> None:
+    for name, v in kw.items():
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise _bad(name, v, "a finite number > 0")
+
+
+def _finite(**kw: Any) -> None:
+    for name, v in kw.items():
+        if not (isinstance(v, (int, float)) and math.isfinite(v)):
+            raise _bad(name, v, "a finite number")
+
+
+def _elements(name: str, n: Any) -> int:
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1_000_000:
+        raise _bad(name, n, "an integer in 1 ..= 1000000")
+    return n
+
+
+#: Beam data of the two classic spin-up problems, SI: length (m), E (Pa), rho (kg/m^3), A (m^2),
+#: I (m^4), final hub rate W (rad/s), ramp time T (s).
+SPIN_UP_DATA = {
+    # Kane, Ryan & Banerjee (1987), J. Guidance 10(2) 139-151, the spin-up example.
+    "kane": dict(
+        length=8.0,
+        youngs_modulus=6.8952e10,
+        density=2766.67,
+        area=7.2968e-5,
+        inertia=8.2189e-9,
+        final_rate=4.0,
+        ramp_time=15.0,
+    ),
+    # Simo & Vu-Quoc (1986), J. Appl. Mech. 53 849-863: EI = 1.4e4 N m^2, rho A = 1.2 kg/m,
+    # EA = 2.8e7 N, L = 10 m, W = 6 rad/s (T = 15 s). They give only these products; E = 7e10 Pa
+    # is our choice, giving A = 4e-4 m^2, I = 2e-7 m^4, rho = 3000 kg/m^3 (same EI, EA, rho A).
+    "simo": dict(
+        length=10.0,
+        youngs_modulus=7.0e10,
+        density=3000.0,
+        area=4.0e-4,
+        inertia=2.0e-7,
+        final_rate=6.0,
+        ramp_time=15.0,
+    ),
+}
+
+
+def spin_up(
+    *,
+    data: str = "kane",
+    length: Optional[float] = None,
+    youngs_modulus: Optional[float] = None,
+    density: Optional[float] = None,
+    area: Optional[float] = None,
+    inertia: Optional[float] = None,
+    final_rate: Optional[float] = None,
+    ramp_time: Optional[float] = None,
+    elements: int = 10,
+    geometric: bool = True,
+    damping: float = 0.0,
+    rotation: Optional[Rotation] = None,
+) -> Mechanism:
+    """A cantilever clamped to a hub that is spun up in the plane: the classic test of geometric
+    (centrifugal) stiffening.
+
+    The hub angle follows Kane's smooth spin-up: rate
+    ``theta_dot(t) = (W/T) (t - (T/(2 pi)) sin(2 pi t/T))`` for ``t < T``, then ``W``. The beam
+    (link ``"beam"``, node 0 clamped at the hub centre) deflects in the plane of rotation; its tip
+    deflection ``res.link("beam").tip`` is measured in the hub frame. Without the geometric
+    stiffness (``geometric=False``) the linear model softens with ``Omega^2`` (the inertia coupling
+    ``M_IC``) and the deflection grows without bound once the rate exceeds the first bending
+    frequency (2.91 rad/s for the Kane data); with it, the tip lags during the ramp and settles.
+
+    Parameters
+    ----------
+    data : {"kane", "simo"}
+        Which default data set (see :data:`SPIN_UP_DATA`; every value below overrides it):
+
+        ========  ======  ===========  ========  ==========  ==========  ======  =====
+        data      L (m)   E (Pa)       rho       A (m^2)     I (m^4)     W       T (s)
+        ========  ======  ===========  ========  ==========  ==========  ======  =====
+        kane      8       6.8952e10    2766.67   7.2968e-5   8.2189e-9   4       15
+        simo      10      7.0e10       3000      4.0e-4      2.0e-7      6       15
+        ========  ======  ===========  ========  ==========  ==========  ======  =====
+
+        ``"kane"``: Kane, Ryan & Banerjee (1987), J. Guidance Control Dyn. 10(2) 139-151.
+        ``"simo"``: Simo & Vu-Quoc (1986), J. Appl. Mech. 53 849-863, who give EI = 1.4e4 N m^2,
+        rho A = 1.2 kg/m and EA = 2.8e7 N only; E = 7e10 Pa is chosen here and A, I, rho follow.
+    length : float, optional
+        L, m.
+    youngs_modulus : float, optional
+        E, Pa.
+    density : float, optional
+        rho, kg/m^3.
+    area, inertia : float, optional
+        Cross-section A (m^2) and second moment I (m^4), in-plane bending.
+    final_rate : float, optional
+        W, rad/s.
+    ramp_time : float, optional
+        T, s.
+    elements : int
+        Beam elements (10 put the first two in-plane frequencies within 0.01 % of their
+        converged values for the Kane data at rest).
+    geometric : bool
+        Geometric stiffness (``K2``, ``K3``) on; False switches it off (the unstiffened linear
+        model that diverges).
+    damping : float
+        Kelvin-Voigt coefficient eta, Pa s (none in the references).
+    rotation : Rotation, optional
+        A different hub angle driver, e.g. ``Rotation.constant(Omega)`` for frequencies at constant
+        speed; ``final_rate`` and ``ramp_time`` are then unused.
+
+    Returns
+    -------
+    Mechanism
+        One link ``"beam"``; ``parameters`` holds the data used.
+    """
+    if data not in SPIN_UP_DATA:
+        raise _bad("data", repr(data), 'one of "kane", "simo"')
+    given = dict(
+        length=length,
+        youngs_modulus=youngs_modulus,
+        density=density,
+        area=area,
+        inertia=inertia,
+        final_rate=final_rate,
+        ramp_time=ramp_time,
+    )
+    p: dict[str, Any] = {**SPIN_UP_DATA[data], **{k: v for k, v in given.items() if v is not None}}
+    _positive(**{k: p[k] for k in ("length", "youngs_modulus", "density", "area", "inertia", "ramp_time")})
+    _finite(final_rate=p["final_rate"], damping=damping)
+    _elements("elements", elements)
+    if rotation is None:
+        rotation = Rotation.spin_up(final_rate=float(p["final_rate"]), ramp_time=float(p["ramp_time"]))
+    elif not isinstance(rotation, Rotation):
+        raise _bad("rotation", repr(rotation), "a flexclear.Rotation")
+    m = Mechanism()
+    m.add_link(
+        "beam",
+        length=p["length"],
+        elements=elements,
+        youngs_modulus=p["youngs_modulus"],
+        density=p["density"],
+        area=p["area"],
+        inertia=p["inertia"],
+        frame=Frame.rotating(rotation),
+        damping=damping,
+        geometric=bool(geometric),
+    )
+    m.clamp("beam", 0)
+    m.parameters = {**p, "data": data, "elements": elements, "geometric": bool(geometric), "damping": damping}
+    return m
+
+
+def _hertz_secant(
+    youngs_modulus: float, poisson_ratio: float, radius: float, clearance: float, penetration: float
+) -> float:
+    """Secant stiffness (N/m) at ``penetration`` (m) of the Hertz law ``F = K_h delta^1.5`` for a
+    journal of ``radius`` (m) in a bearing of radius ``radius + clearance``, both of the same
+    material: ``K_h = (4/3) E* sqrt(R*)`` with ``E* = E / (2 (1 - nu^2))`` and
+    ``R* = R (R + c) / c`` (the conformal internal contact, as in Lankarani & Nikravesh 1990)."""
+    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    r_star = radius * (radius + clearance) / clearance
+    return 4.0 / 3.0 * e_star * math.sqrt(r_star) * math.sqrt(penetration)
+
+
+def slider_crank(
+    *,
+    crank_length: float = 0.15,
+    rod_length: float = 0.30,
+    crank_speed: float = 150.0,
+    side: float = 0.008,
+    youngs_modulus: float = 2.0e11,
+    density: float = 7870.0,
+    slider_mass: float = 0.075552,
+    elements: int = 8,
+    damping: float = 0.0,
+    offset: float = 0.0,
+    clearance_at: Optional[str] = None,
+    clearance: float = 5e-4,
+    bearing_stiffness: Optional[float] = None,
+    bearing_damping: Optional[float] = None,
+    pin_radius: float = 5e-3,
+    poisson_ratio: float = 0.3,
+    reference_penetration: float = 1e-5,
+    bearing_damping_ratio: float = 0.2,
+    damping_law: str = "viscous",
+) -> Mechanism:
+    """The flexible slider-crank of Simeon (1996): rigid crank at constant speed, flexible
+    connecting rod, slider on a straight guide, no gravity.
+
+    Crank pivot at the origin, guide along global x at height ``offset``. The rod is link
+    ``"rod"`` (frame origin at the crank pin A, x axis towards the slider pin B, so node 0 is at A
+    and the last node at B); the slider block is ``"slider"``. The crank pin joins rod node 0 to
+    the crank body point ``(crank_length, 0)``; the slider pin joins the last rod node to the
+    slider. Both pins are ideal unless ``clearance_at`` names one of them, which then becomes a
+    revolute clearance joint of the same name.
+
+    Data: Simeon, B. (1996), "Modelling a flexible slider crank mechanism by a mixed system of DAEs
+    and PDEs", Math. Modelling of Systems 2(1) 1-18; also the "slider crank" problem of the Test
+    Set for IVP Solvers (Mazzia & Magherini): crank 0.15 m, rod 0.30 m of 8 x 8 mm steel
+    (E = 2.0e11 Pa, rho = 7870 kg/m^3), slider 0.075552 kg, crank 150 rad/s, 0 to 0.1 s. Here the
+    run starts from rest in the moving frames (no deformation), not from Simeon's initial values.
+
+    Parameters
+    ----------
+    crank_length, rod_length : float
+        m. The rod must be longer than ``crank_length + |offset|``.
+    crank_speed : float
+        Constant crank rate, rad/s (counter-clockwise positive).
+    side : float
+        Side of the square rod section, m (A = side^2, I = side^4/12).
+    youngs_modulus, density : float
+        Rod material, Pa and kg/m^3.
+    slider_mass : float
+        kg.
+    elements : int
+        Rod elements.
+    damping : float
+        Kelvin-Voigt coefficient of the rod, Pa s (Simeon's rod is undamped).
+    offset : float
+        Height of the guide line, m.
+    clearance_at : {None, "crank_pin", "slider_pin"}
+        Which pin, if any, has a radial clearance.
+    clearance : float
+        Radial clearance, m (0.5 mm, the value of Flores et al.'s slider-crank studies).
+    bearing_stiffness : float, optional
+        K_B, N/m. **Derived** when omitted: the secant stiffness at ``reference_penetration`` of a
+        Hertz contact of a steel journal of ``pin_radius`` in a bearing of radius
+        ``pin_radius + clearance`` (``F = K_h delta^1.5``, ``K_h = (4/3) E* sqrt(R (R + c)/c)``,
+        ``E* = E / (2 (1 - nu^2))``): about 1.09e8 N/m for the defaults. A linear spring is a
+        Hertz-like stand-in; say so when comparing with papers using the nonlinear law.
+    bearing_damping : float, optional
+        C_B, N s/m, active only in contact. **Derived** when omitted:
+        ``2 bearing_damping_ratio sqrt(K_B m_eff)`` with ``m_eff`` half the rod mass (crank pin;
+        the crank is driven) or the reduced mass of half the rod and the slider (slider pin):
+        about 1.15e3 N s/m at the crank pin for the defaults.
+    pin_radius, poisson_ratio, reference_penetration : float
+        Inputs of the derived K_B: journal radius (m), Poisson's ratio, penetration (m) at which
+        the Hertz law is linearized (10 um, the order of the computed penetrations).
+    bearing_damping_ratio : float
+        Fraction of critical of the derived C_B. 0.2 corresponds to a coefficient of restitution
+        of about 0.53 for a linear spring-dashpot. Much less damping (0.03, e = 0.9) lets the rod
+        go through sustained impact sequences whose axial force exceeds its Euler load
+        (7.5 kN for the default rod): that small-deformation run then diverges.
+    damping_law : {"viscous", "radial", "literal"}
+        Form of the bearing damping (see :meth:`flexclear.Model.add_joint`).
+
+    Returns
+    -------
+    Mechanism
+        Link ``"rod"``, slider ``"slider"``, pins ``"crank_pin"`` and ``"slider_pin"`` (one of them a
+        clearance joint when asked); ``parameters`` holds the inputs and the derived
+        ``bearing_stiffness``, ``bearing_damping``, ``rod_mass``, ``area``, ``inertia``.
+
+    Notes
+    -----
+    Use ``dt <= 1e-5`` s with a clearance joint (a contact period is about 2e-4 s for the
+    default K_B); without one, 5e-5 s resolves the rod's first bending mode (about 1.3e3 rad/s)
+    with 90 steps per period.
+    """
+    _positive(
+        crank_length=crank_length,
+        rod_length=rod_length,
+        side=side,
+        youngs_modulus=youngs_modulus,
+        density=density,
+    )
+    _finite(crank_speed=crank_speed, offset=offset, slider_mass=slider_mass, damping=damping)
+    if slider_mass < 0:
+        raise _bad("slider_mass", slider_mass, ">= 0 kg")
+    if damping < 0:
+        raise _bad("damping", damping, ">= 0 Pa s")
+    _elements("elements", elements)
+    reach = crank_length + abs(offset)
+    if rod_length <= reach:
+        raise _bad(
+            "rod_length",
+            rod_length,
+            f"> crank_length + |offset| = {reach:g} m (the rod cannot reach the guide at every crank angle)",
+        )
+    if clearance_at not in (None, "crank_pin", "slider_pin"):
+        raise _bad("clearance_at", repr(clearance_at), 'None, "crank_pin" or "slider_pin"')
+    area, inertia = side**2, side**4 / 12.0
+    rod_mass = density * area * rod_length
+    params: dict[str, Any] = dict(
+        crank_length=crank_length,
+        rod_length=rod_length,
+        crank_speed=crank_speed,
+        side=side,
+        youngs_modulus=youngs_modulus,
+        density=density,
+        slider_mass=slider_mass,
+        elements=elements,
+        damping=damping,
+        offset=offset,
+        clearance_at=clearance_at,
+        area=area,
+        inertia=inertia,
+        rod_mass=rod_mass,
+    )
+    driver = Rotation.constant(float(crank_speed))
+
+    def frame(link: str) -> Frame:
+        return Frame.slider_crank(float(crank_length), float(rod_length), driver, link, float(offset))
+
+    m = Mechanism()
+    m.add_link(
+        "rod",
+        length=rod_length,
+        elements=elements,
+        youngs_modulus=youngs_modulus,
+        density=density,
+        area=area,
+        inertia=inertia,
+        frame=frame("rod"),
+        damping=damping,
+    )
+    m.add_slider("slider", mass=slider_mass, path=frame("slider"))
+    crank_point = (frame("crank"), (float(crank_length), 0.0), "crank")
+    ends = {"crank_pin": (("rod", 0), crank_point), "slider_pin": (("rod", elements), "slider")}
+    for name, (node, target) in ends.items():
+        if name != clearance_at:
+            m.pin(name, node, target)
+            continue
+        _finite(clearance=clearance)
+        if clearance < 0:
+            raise _bad("clearance", clearance, ">= 0 m")
+        _positive(pin_radius=pin_radius, reference_penetration=reference_penetration)
+        _finite(poisson_ratio=poisson_ratio, bearing_damping_ratio=bearing_damping_ratio)
+        if not 0.0 <= poisson_ratio < 0.5:
+            raise _bad("poisson_ratio", poisson_ratio, "0 <= nu < 0.5")
+        if bearing_damping_ratio < 0:
+            raise _bad("bearing_damping_ratio", bearing_damping_ratio, ">= 0")
+        k_b = bearing_stiffness
+        if k_b is None:
+            c_ref = max(clearance, 1e-9)  # a zero clearance: the contact of a (nearly) fitted pin
+            k_b = _hertz_secant(youngs_modulus, poisson_ratio, pin_radius, c_ref, reference_penetration)
+        half = rod_mass / 2.0
+        m_eff = half if name == "crank_pin" else half * slider_mass / (half + slider_mass)
+        c_b = bearing_damping
+        if c_b is None:
+            c_b = 2.0 * bearing_damping_ratio * math.sqrt(k_b * m_eff)
+        m.clearance(
+            name,
+            node,
+            target,
+            clearance=clearance,
+            stiffness=k_b,
+            damping=c_b,
+            damping_law=damping_law,
+        )
+        params.update(
+            clearance=clearance,
+            bearing_stiffness=k_b,
+            bearing_damping=c_b,
+            pin_radius=pin_radius,
+            poisson_ratio=poisson_ratio,
+            reference_penetration=reference_penetration,
+            bearing_damping_ratio=bearing_damping_ratio,
+            effective_mass=m_eff,
+            damping_law=damping_law,
+        )
+    m.parameters = params
+    return m
+
+
+def four_bar(
+    *,
+    ground_length: float = 0.254,
+    crank_length: float = 0.0508,
+    coupler_length: float = 0.2794,
+    rocker_length: float = 0.2794,
+    crank_speed: float = 100.0,
+    branch: int = 1,
+    youngs_modulus: float = 7.1e10,
+    density: float = 2710.0,
+    width: float = 0.0254,
+    depth: float = 0.003175,
+    elements: int = 6,
+    flexible_rocker: bool = False,
+    rocker_elements: Optional[int] = None,
+    damping: float = 0.0,
+) -> Mechanism:
+    """A crank-rocker four-bar with a flexible coupler (and optionally a flexible rocker), driven
+    by a rigid crank at constant speed; no gravity.
+
+    Ground pivots O2 = (0, 0) (crank) and O4 = (``ground_length``, 0) (rocker). The coupler is
+    link ``"coupler"`` (frame origin at the crank pin A, x axis towards the rocker pin B); the
+    ``"crank_pin"`` joins its node 0 to the crank body point ``(crank_length, 0)``, the
+    ``"rocker_pin"`` its last node to the rocker: to the rigid rocker's body point
+    ``(rocker_length, 0)``, or, with ``flexible_rocker``, to the last node of link ``"rocker"``
+    (frame origin at O4, x axis towards B), whose node 0 is pinned to the ground at O4.
+
+    The numbers are **illustrative**, not a published test case: the link lengths are round
+    inch values (10, 2, 11, 11 in) in the proportions of laboratory flexible four-bars (e.g. Sung,
+    Thompson et al., 1980s: a short steel crank, thin aluminium coupler and rocker flexing in the
+    plane); the section is a 1 in x 1/8 in aluminium strip with its thin side in the plane. The
+    geometry is Grashof (s + l = 0.330 m <= p + q = 0.533 m) with the crank shortest, so the crank
+    turns fully (a crank-rocker). The coupler's first (pinned-pinned) bending frequency is about
+    593 rad/s; the default crank speed, 100 rad/s (955 rpm), is a sixth of it.
+
+    Parameters
+    ----------
+    ground_length, crank_length, coupler_length, rocker_length : float
+        Link lengths, m. The loop must close at every crank angle (otherwise :class:`ModelError`).
+    crank_speed : float
+        Constant crank rate, rad/s.
+    branch : {1, -1}
+        Assembly: +1 open, -1 crossed.
+    youngs_modulus, density : float
+        Coupler (and rocker) material, Pa and kg/m^3 (aluminium).
+    width, depth : float
+        Section: out-of-plane width and in-plane depth, m (A = width depth,
+        I = width depth^3 / 12).
+    elements : int
+        Coupler elements.
+    flexible_rocker : bool
+        Model the rocker as a flexible link of the same section too.
+    rocker_elements : int, optional
+        Rocker elements (default: ``elements``).
+    damping : float
+        Kelvin-Voigt coefficient, Pa s.
+
+    Returns
+    -------
+    Mechanism
+        Links ``"coupler"`` (and ``"rocker"``); ``parameters`` holds the inputs and ``area``,
+        ``inertia``.
+    """
+    _positive(
+        ground_length=ground_length,
+        crank_length=crank_length,
+        coupler_length=coupler_length,
+        rocker_length=rocker_length,
+        youngs_modulus=youngs_modulus,
+        density=density,
+        width=width,
+        depth=depth,
+    )
+    _finite(crank_speed=crank_speed, damping=damping)
+    if damping < 0:
+        raise _bad("damping", damping, ">= 0 Pa s")
+    if branch not in (1, -1):
+        raise _bad("branch", branch, "+1 (open) or -1 (crossed)")
+    _elements("elements", elements)
+    n_rocker = _elements("rocker_elements", elements if rocker_elements is None else rocker_elements)
+    driver = Rotation.constant(float(crank_speed))
+    lengths = (float(ground_length), float(crank_length), float(coupler_length), float(rocker_length))
+
+    def frame(link: str) -> Frame:
+        return Frame.four_bar(*lengths, driver, link, float(branch))
+
+    period = 2.0 * math.pi / abs(crank_speed) if crank_speed != 0 else 1.0
+    try:
+        frame("coupler").check(period)
+    except ModelError as e:
+        raise ModelError(
+            f"four_bar(ground_length={ground_length}, crank_length={crank_length}, "
+            f"coupler_length={coupler_length}, rocker_length={rocker_length}): the loop does not close "
+            f"over a crank turn: {e}"
+        ) from None
+    area, inertia = width * depth, width * depth**3 / 12.0
+    section = dict(
+        youngs_modulus=youngs_modulus, density=density, area=area, inertia=inertia, damping=damping
+    )
+    m = Mechanism()
+    m.add_link("coupler", length=coupler_length, elements=elements, frame=frame("coupler"), **section)
+    m.pin("crank_pin", ("coupler", 0), (frame("crank"), (float(crank_length), 0.0), "crank"))
+    if flexible_rocker:
+        m.add_link("rocker", length=rocker_length, elements=n_rocker, frame=frame("rocker"), **section)
+        m.support("rocker", 0, u=True, v=True, theta=False)
+        m.pin("rocker_pin", ("coupler", elements), ("rocker", n_rocker))
+    else:
+        m.pin("rocker_pin", ("coupler", elements), (frame("rocker"), (float(rocker_length), 0.0), "rocker"))
+    m.parameters = dict(
+        ground_length=ground_length,
+        crank_length=crank_length,
+        coupler_length=coupler_length,
+        rocker_length=rocker_length,
+        crank_speed=crank_speed,
+        branch=branch,
+        youngs_modulus=youngs_modulus,
+        density=density,
+        width=width,
+        depth=depth,
+        elements=elements,
+        flexible_rocker=flexible_rocker,
+        rocker_elements=n_rocker if flexible_rocker else None,
+        damping=damping,
+        area=area,
+        inertia=inertia,
+    )
+    return m
+
+
+__all__ = ["SPIN_UP_DATA", "four_bar", "slider_crank", "slider_yoke", "slider_yoke_stiff", "spin_up"]
