@@ -434,3 +434,134 @@ fn axially_loaded_pinned_beam_frequency_follows_the_load() {
     let out = simulate_mechanism(&pinned_pinned(4, 1.0), &settings, &mut |_| true).unwrap();
     assert!(out.stats.terms[0].contains("K2"), "{:?}", out.stats.terms);
 }
+
+// ------------------------------------------------------------------------------------------------
+// 4. Energy balance of an undamped beam driven by a prescribed rotation
+// ------------------------------------------------------------------------------------------------
+
+/// Energy bookkeeping of a clamped hub beam: per record, kinetic + K1 strain energy, the
+/// potential of the geometric terms (see the test), the work of the drive and the work of the
+/// non-conservative part of the geometric terms.
+struct Balance {
+    /// T + Q^T K1 Q / 2 (+ the geometric potential when asked).
+    energy: Vec<f64>,
+    /// Q^T K1 Q / 2, J.
+    strain: Vec<f64>,
+    /// Work of the drive, int phidot dH, J.
+    drive: Vec<f64>,
+    /// int sum_e dF/dt (q^T K2u q)/2 dt, J.
+    nonconservative: Vec<f64>,
+}
+
+fn balance(mech: &Mechanism, out: &KedOutput, geometric: bool) -> Balance {
+    let l = &mech.links[0];
+    let e: BeamElement = l.element();
+    let k2u = e.geometric_stiffness(1.0);
+    let (ea, le) = (e.youngs_modulus * e.area, e.length);
+    let h = &out.links[0];
+    let per = 3 * l.nodes();
+    let mut b = Balance {
+        energy: vec![],
+        strain: h.strain.clone(),
+        drive: vec![0.0],
+        nonconservative: vec![0.0],
+    };
+    let mut prev: Option<(Vec<f64>, Vec<f64>)> = None;
+    for (k, w) in h.displacements.chunks(per).enumerate() {
+        let mut forces = vec![0.0; l.elements];
+        let mut vq = vec![0.0; l.elements];
+        let mut v_geo = 0.0;
+        for el in 0..l.elements {
+            let q = nalgebra::SVector::<f64, 6>::from_column_slice(&w[3 * el..3 * el + 6]);
+            let du = (q[3] - q[0]) / le;
+            forces[el] = ea * du;
+            vq[el] = q.dot(&(k2u * q));
+            v_geo += ea * du.powi(3) * le / 3.0 + 0.5 * forces[el] * vq[el];
+        }
+        b.energy.push(h.kinetic[k] + h.strain[k] + if geometric { v_geo } else { 0.0 });
+        if let Some((f0, vq0)) = &prev {
+            let rate = |i: usize| h.frame[i][3];
+            b.drive
+                .push(b.drive[k - 1] + 0.5 * (rate(k - 1) + rate(k)) * (h.momentum[k] - h.momentum[k - 1]));
+            let p: f64 = (0..l.elements)
+                .map(|el| (forces[el] - f0[el]) * 0.25 * (vq[el] + vq0[el]))
+                .sum();
+            b.nonconservative.push(b.nonconservative[k - 1] + p);
+        }
+        prev = Some((forces, vq));
+    }
+    b
+}
+
+#[test]
+fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
+    // With the hub angle prescribed, the drive torque is tau = dH/dt (H: angular momentum about
+    // the hub axis; the clamp force acts at the axis) and its power tau phidot, so the work is
+    // W(t) = int phidot dH. The semi-discrete equations are Lagrange's equations of the absolute
+    // kinetic energy T(q, qd, t) and the strain energy, so d(T + V)/dt = tau phidot exactly.
+    //
+    // (a) Linear model (geometric = false), spin-up to 2 rad/s (below the first frequency, 2.91
+    //     rad/s) over 5 s, then 3 s at constant rate. Newmark's average acceleration conserves
+    //     energy exactly for a linear time-invariant system; here the matrices vary with phidot,
+    //     which could leave an O(dt^2) defect (and the trapezoidal rule for W one more). Measured:
+    //     3.6e-8 of the largest strain energy at dt = 1e-3 and 1.7e-7 at 5e-4, i.e. no visible
+    //     O(dt^2) term, only round-off accumulated over 8000-16000 steps on a kinetic energy 37 x
+    //     the strain energy. Tolerance 1e-5 of the largest strain energy (the scale of the elastic
+    //     motion; the rigid-body energy is 76 J against 2 J), well above that round-off, far
+    //     below any modelling error (a missing term moves the balance by O(1)).
+    let mut settings = KedSettings::new(8.0, 1e-3);
+    settings.record = KedRecord {
+        every: 1,
+        displacements: true,
+        axial_force: false,
+        midspan: false,
+        energy: true,
+    };
+    let defect = |mech: &Mechanism, s: &KedSettings, geometric: bool| {
+        let out = simulate_mechanism(mech, s, &mut |_| true).unwrap();
+        let b = balance(mech, &out, geometric);
+        let scale = b.strain.iter().fold(0.0f64, |m, x| m.max(*x));
+        let (mut worst, mut worst_nc) = (0.0f64, 0.0f64);
+        for k in 0..b.energy.len() {
+            let d = b.energy[k] - b.energy[0] - b.drive[k];
+            worst = worst.max(d.abs());
+            worst_nc = worst_nc.max((d - b.nonconservative[k]).abs());
+        }
+        let nc = b.nonconservative.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        (worst / scale, worst_nc / scale, nc / scale, scale, *b.drive.last().unwrap())
+    };
+    let linear = kane_beam(2.0, 5.0, Some(false));
+    let (d1, _, _, scale, work) = defect(&linear, &settings, false);
+    let mut half = settings.clone();
+    half.dt = 5e-4;
+    half.record.every = 2;
+    let (d2, _, _, _, _) = defect(&linear, &half, false);
+    println!(
+        "linear: max strain energy {scale:.4e} J, drive work {work:.4e} J, |E - E0 - W| / max strain = {d1:.2e} (dt 1e-3), {d2:.2e} (dt 5e-4)"
+    );
+    assert!(d1 <= 1e-5 && d2 <= 1e-5, "energy defect {d1}, {d2}");
+
+    // (b) With the geometric terms (Kane's spin-up to 4 rad/s). The model's internal force is
+    //     f_u = K1 u + EA int Nu'^T u'^2, f_v = K1 v + EA int Nv'^T u' v' (K3 and K2 times
+    //     F = EA u'). That is not a gradient (d f_v/d u != d f_u/d v = 0: the axial equation has
+    //     no v'^2/2 term), so no energy is conserved. Writing
+    //     qd . f = d/dt [int EA u'^3/3 + int F v'^2/2] - int (dF/dt) v'^2/2,
+    //     the potential of the model is V = Q^T K1 Q/2 + int EA u'^3/3 + int F v'^2/2 and the
+    //     balance E(t) - E(0) - W(t) = W_nc(t) = int int (dF/dt) v'^2/2 dx dt must close, up to
+    //     the defect of (a) (1e-5 of the strain energy scale). The test also
+    //     reports how large W_nc is: the bound on what the paper's K2/K3 fail to conserve.
+    let mut s = settings.clone();
+    s.t_end = 20.0;
+    s.dt = 2e-3;
+    let kane = kane_beam(4.0, 15.0, None);
+    let (d, d_nc, nc, scale, work) = defect(&kane, &s, true);
+    println!(
+        "geometric: max strain energy {scale:.4e} J, drive work {work:.4e} J; |E - E0 - W| / max strain = {d:.2e}, with W_nc counted {d_nc:.2e}; max |W_nc| / max strain = {nc:.2e}"
+    );
+    assert!(d_nc <= 1e-5, "energy defect with W_nc counted: {d_nc}");
+    // Measured: the balance closes to 3e-8 with W_nc, while W_nc itself reaches 1.25 x the
+    // largest strain energy: the paper's K2/K3 pair is far from conservative. This assertion
+    // records that finding (it fails, and should be revisited, if the axial equation ever gets
+    // the consistent EA v'^2/2 coupling).
+    assert!(nc > 0.1, "W_nc / strain scale = {nc}");
+}
