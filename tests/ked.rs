@@ -565,3 +565,229 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
     // the consistent EA v'^2/2 coupling).
     assert!(nc > 0.1, "W_nc / strain scale = {nc}");
 }
+
+// ------------------------------------------------------------------------------------------------
+// 5. Bad input and failing steps
+// ------------------------------------------------------------------------------------------------
+
+/// Simeon's slider-crank (SCENES.md scene 3): rigid crank 0.15 m at 150 rad/s, flexible rod
+/// 0.30 m of 8 x 8 mm steel (Young's modulus `e`), slider 0.075552 kg.
+fn slider_crank(e: f64, elements: usize) -> Mechanism {
+    let sc = Arc::new(
+        SliderCrank::new(
+            0.15,
+            0.30,
+            0.0,
+            Rotation::Constant {
+                angle0: 0.0,
+                rate: 150.0,
+            },
+        )
+        .unwrap(),
+    );
+    let frame = |link| -> Arc<dyn FrameKinematics> {
+        Arc::new(SliderCrankFrame {
+            mechanism: sc.clone(),
+            link,
+        })
+    };
+    let a = 0.008f64;
+    Mechanism {
+        links: vec![link("rod", 0.30, elements, e, 7870.0, a * a, a.powi(4) / 12.0, frame(SliderCrankLink::Rod))],
+        sliders: vec![Slider {
+            name: "slider".into(),
+            mass: 0.075552,
+            angle: 0.0,
+            path: frame(SliderCrankLink::Slider),
+        }],
+        pins: vec![
+            Pin {
+                name: "A".into(),
+                a: Endpoint::Node { link: 0, node: 0 },
+                b: Endpoint::Body {
+                    frame: frame(SliderCrankLink::Crank),
+                    point: [0.15, 0.0],
+                    name: "crank".into(),
+                },
+            },
+            Pin {
+                name: "B".into(),
+                a: Endpoint::Node {
+                    link: 0,
+                    node: elements,
+                },
+                b: Endpoint::Slider(0),
+            },
+        ],
+        ..Default::default()
+    }
+}
+
+/// A crank-rocker four-bar (ground 0.3, crank 0.1, coupler 0.35, rocker 0.25 m; Grashof) with a
+/// flexible steel coupler (10 x 10 mm, Young's modulus `e`) pinned to the rigid crank and rocker.
+fn four_bar(e: f64, lengths: [f64; 4]) -> Mechanism {
+    let [g, c, cp, r] = lengths;
+    let fb = Arc::new(
+        FourBar::new(
+            g,
+            c,
+            cp,
+            r,
+            1.0,
+            Rotation::Constant {
+                angle0: 0.0,
+                rate: 30.0,
+            },
+        )
+        .unwrap(),
+    );
+    let frame = |link| -> Arc<dyn FrameKinematics> {
+        Arc::new(FourBarFrame {
+            mechanism: fb.clone(),
+            link,
+        })
+    };
+    let a = 0.01f64;
+    Mechanism {
+        links: vec![link("coupler", cp, 8, e, 7850.0, a * a, a.powi(4) / 12.0, frame(FourBarLink::Coupler))],
+        pins: vec![
+            Pin {
+                name: "A".into(),
+                a: Endpoint::Node { link: 0, node: 0 },
+                b: Endpoint::Body {
+                    frame: frame(FourBarLink::Crank),
+                    point: [c, 0.0],
+                    name: "crank".into(),
+                },
+            },
+            Pin {
+                name: "B".into(),
+                a: Endpoint::Node { link: 0, node: 8 },
+                b: Endpoint::Body {
+                    frame: frame(FourBarLink::Rocker),
+                    point: [r, 0.0],
+                    name: "rocker".into(),
+                },
+            },
+        ],
+        ..Default::default()
+    }
+}
+
+/// The error of preparing a run of `mech` over 0.1 s.
+fn prepare_error(mech: &Mechanism) -> Error {
+    let settings = KedSettings::new(0.1, 1e-4);
+    match KedRun::new(mech, &settings) {
+        Ok(_) => panic!("the model was accepted"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn bad_models_are_rejected_with_errors_that_name_the_fault() {
+    // Each message must name the offending item (parameter, link, node, pin) and the rule.
+    let check = |e: Error, words: &[&str]| {
+        let msg = e.to_string();
+        println!("{msg}");
+        for w in words {
+            assert!(msg.contains(w), "{msg:?} does not mention {w:?}");
+        }
+    };
+    // A slider-crank whose rod is shorter than its crank.
+    let e = SliderCrank::new(0.15, 0.10, 0.0, Rotation::Constant { angle0: 0.0, rate: 1.0 }).unwrap_err();
+    assert!(matches!(e, Error::InvalidParameter { ref name, .. } if name == "rod"), "{e}");
+    check(e, &["rod", "crank"]);
+    // A four-bar that does not close: |A - O4| >= 0.8 > coupler + rocker = 0.6.
+    let e = prepare_error(&four_bar(2e11, [1.0, 0.2, 0.3, 0.3]));
+    assert!(matches!(e, Error::InvalidModel { .. }), "{e}");
+    check(e, &["close"]);
+    // A link with no joint.
+    let mut m = slider_crank(2e11, 4);
+    m.links.push(link("loose", 0.2, 2, 2e11, 7850.0, 1e-4, 1e-9, fixed_frame()));
+    let e = prepare_error(&m);
+    assert!(matches!(e, Error::InvalidModel { .. }), "{e}");
+    check(e, &["\"loose\"", "no joint"]);
+    // A pin on a node the link does not have.
+    let mut m = slider_crank(2e11, 4);
+    m.pins[1].a = Endpoint::Node { link: 0, node: 7 };
+    let e = prepare_error(&m);
+    assert!(matches!(e, Error::InvalidParameter { .. }), "{e}");
+    check(e, &["pins", "7", "0 ..= 4", "\"rod\""]);
+    // A pin on a link that does not exist.
+    let mut m = slider_crank(2e11, 4);
+    m.pins[1].a = Endpoint::Node { link: 3, node: 0 };
+    check(prepare_error(&m), &["link #3", "does not exist"]);
+    // Over-constrained: a pin joining two nodes of one link.
+    let mut m = slider_crank(2e11, 4);
+    m.pins.push(Pin {
+        name: "C".into(),
+        a: Endpoint::Node { link: 0, node: 1 },
+        b: Endpoint::Node { link: 0, node: 3 },
+    });
+    check(prepare_error(&m), &["\"C\"", "same link", "over-constrained"]);
+    // Over-constrained: the slider's node also pinned to ground (the crank pivot frame follows
+    // the slider pin here so that the pin closes and only the constraint count is wrong).
+    let mut m = slider_crank(2e11, 4);
+    m.pins.push(Pin {
+        name: "ground".into(),
+        a: Endpoint::Node { link: 0, node: 4 },
+        b: Endpoint::Body {
+            frame: m.sliders[0].path.clone(),
+            point: [0.0, 0.0],
+            name: "guide".into(),
+        },
+    });
+    check(prepare_error(&m), &["\"slider\"", "over-constrained"]);
+}
+
+#[test]
+fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
+    // Kane's spin-up with the geometric terms: modified Newton converges linearly, at a rate set
+    // by how much the axial force moves within the step (measured at dt = 0.02 s: two iterations
+    // reach 1e-8 in every step, 1e-12 only up to t = 1.08 s).
+    let mech = kane_beam(4.0, 15.0, None);
+    let mut settings = KedSettings::new(2.0, 2e-2);
+    settings.record.every = 1000;
+    let not_converged = |s: &KedSettings| -> (f64, u64, usize, f64, f64) {
+        let f = simulate_mechanism(&mech, s, &mut |_| true).unwrap_err();
+        println!("{}", f.error);
+        assert!(f.error.to_string().contains("did not converge"));
+        match f.error {
+            Error::NotConverged {
+                time,
+                step,
+                iterations,
+                residual,
+                correction,
+            } => {
+                // What was recorded until then is kept, up to the start of the failing step.
+                assert!((f.output.t - time).abs() < 1e-12 && step >= 1);
+                (time, step, iterations, residual, correction)
+            }
+            e => panic!("expected NotConverged, got {e}"),
+        }
+    };
+    // One iteration per step can never converge a nonlinear step: the first correction is the
+    // whole update. The error names the first step, its start time, the iterations done and a
+    // finite residual.
+    settings.max_iter = 1;
+    let (time, step, iterations, residual, correction) = not_converged(&settings);
+    assert_eq!((time, step, iterations), (0.0, 1, 1));
+    assert!(residual.is_finite() && correction > settings.tol);
+    // Two iterations and a tolerance of 1e-12: fails at a later step, whose start time it reports.
+    settings.max_iter = 2;
+    settings.tol = 1e-12;
+    let (time, step, iterations, _, correction) = not_converged(&settings);
+    assert!(step > 1 && iterations == 2 && correction > 1e-12);
+    assert!((time - (step - 1) as f64 * settings.dt).abs() < 1e-12, "time {time} is not the start of step {step}");
+    // With step halving allowed the same run completes (halved steps move the axial force less).
+    settings.step_halving = 4;
+    let out = simulate_mechanism(&mech, &settings, &mut |_| true).unwrap();
+    println!(
+        "with halving: {} steps, {} halved substeps, max {} iterations",
+        out.stats.steps, out.stats.halved_substeps, out.stats.max_iterations
+    );
+    assert_eq!(out.stats.steps, 100);
+    assert!(out.stats.halved_substeps > 0 && out.stats.max_iterations <= 2);
+    assert!((out.t - 2.0).abs() < 1e-12);
+}
