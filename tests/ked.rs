@@ -245,9 +245,15 @@ fn rotating_cantilever_in_plane_frequencies_follow_the_flapwise_curve() {
             println!(
                 "Omega_bar {s:4.1} mode {mode}: omega_in {w24:.5}; sqrt(omega_in^2 + Omega^2) = {l24:.5} (24 el.), {extrapolated:.5} (extrapolated) vs Frobenius {reference:.5}"
             );
-            assert!(e24 <= 1e-3 * reference, "Omega_bar {s}, mode {mode}: {l24} vs {reference}");
+            assert!(
+                e24 <= 1e-3 * reference,
+                "Omega_bar {s}, mode {mode}: {l24} vs {reference}"
+            );
             if s > 0.0 {
-                assert!(e24 <= 1.3 * richardson, "Omega_bar {s}, mode {mode}: error {e24:e}, estimate {richardson:e}");
+                assert!(
+                    e24 <= 1.3 * richardson,
+                    "Omega_bar {s}, mode {mode}: error {e24:e}, estimate {richardson:e}"
+                );
             }
             assert!(
                 (extrapolated - reference).abs() <= 1e-5 * reference,
@@ -303,10 +309,10 @@ fn spin_up_stays_bounded_with_geometric_stiffening_and_diverges_without() {
         .zip(&v)
         .filter(|(t, _)| **t >= 16.0)
         .fold(0.0f64, |m, (_, x)| m.max(x.abs()));
-    let (i_peak, _) = v
-        .iter()
-        .enumerate()
-        .fold((0, 0.0f64), |(im, m), (i, x)| if x.abs() > m { (i, x.abs()) } else { (im, m) });
+    let (i_peak, _) = v.iter().enumerate().fold(
+        (0, 0.0f64),
+        |(im, m), (i, x)| if x.abs() > m { (i, x.abs()) } else { (im, m) },
+    );
     println!(
         "with K2: peak |tip v| = {peak:.4} m at t = {:.2} s (tip lags: v = {:.4} m); after the ramp (t >= 16 s) |v| <= {settle:.4} m",
         with.time[i_peak], v[i_peak]
@@ -328,7 +334,10 @@ fn spin_up_stays_bounded_with_geometric_stiffening_and_diverges_without() {
     assert!((peak - peak_fine).abs() <= 5e-3 * peak_fine);
     // Settles: after the ramp (acceleration back to zero) the beam vibrates about the stretched,
     // undeflected state with an amplitude well below the lag it had during the ramp.
-    assert!(settle < 0.25 * peak, "after the ramp |v| reaches {settle} m, peak {peak} m");
+    assert!(
+        settle < 0.25 * peak,
+        "after the ramp |v| reaches {settle} m, peak {peak} m"
+    );
 
     // Without K2 (and K3): once the rate exceeds 2.91 rad/s the centrifugal softening -Omega^2 M
     // exceeds the bending stiffness of the first mode and the deflection grows exponentially
@@ -424,7 +433,10 @@ fn axially_loaded_pinned_beam_frequency_follows_the_load() {
         );
         let tol = 1.5e-6 / (1.0 + f / p_cr);
         assert!(e16 <= tol, "P/Pcr = {ratio}: {w16} vs {exact}");
-        assert!(e8 >= 12.0 * e16 || e8 < 1e-9, "P/Pcr = {ratio}: errors {e8:e} -> {e16:e}");
+        assert!(
+            e8 >= 12.0 * e16 || e8 < 1e-9,
+            "P/Pcr = {ratio}: errors {e8:e} -> {e16:e}"
+        );
         // The K3 shift: omega(F) - omega(P) = -w0^2 (P - F)/(2 P_cr omega) to first order.
         let shift = -(w0 * w0) * (p - f) / (p_cr * (exact + with_p));
         assert!((exact - with_p - shift).abs() <= 1e-3 * shift.abs().max(1e-12) || ratio == 0.0);
@@ -478,7 +490,8 @@ fn balance(mech: &Mechanism, out: &KedOutput, geometric: bool) -> Balance {
             vq[el] = q.dot(&(k2u * q));
             v_geo += ea * du.powi(3) * le / 3.0 + 0.5 * forces[el] * vq[el];
         }
-        b.energy.push(h.kinetic[k] + h.strain[k] + if geometric { v_geo } else { 0.0 });
+        b.energy
+            .push(h.kinetic[k] + h.strain[k] + if geometric { v_geo } else { 0.0 });
         if let Some((f0, vq0)) = &prev {
             let rate = |i: usize| h.frame[i][3];
             b.drive
@@ -528,7 +541,13 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
             worst_nc = worst_nc.max((d - b.nonconservative[k]).abs());
         }
         let nc = b.nonconservative.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        (worst / scale, worst_nc / scale, nc / scale, scale, *b.drive.last().unwrap())
+        (
+            worst / scale,
+            worst_nc / scale,
+            nc / scale,
+            scale,
+            *b.drive.last().unwrap(),
+        )
     };
     let linear = kane_beam(2.0, 5.0, Some(false));
     let (d1, _, _, scale, work) = defect(&linear, &settings, false);
@@ -593,7 +612,16 @@ fn slider_crank(e: f64, elements: usize) -> Mechanism {
     };
     let a = 0.008f64;
     Mechanism {
-        links: vec![link("rod", 0.30, elements, e, 7870.0, a * a, a.powi(4) / 12.0, frame(SliderCrankLink::Rod))],
+        links: vec![link(
+            "rod",
+            0.30,
+            elements,
+            e,
+            7870.0,
+            a * a,
+            a.powi(4) / 12.0,
+            frame(SliderCrankLink::Rod),
+        )],
         sliders: vec![Slider {
             name: "slider".into(),
             mass: 0.075552,
@@ -649,7 +677,16 @@ fn four_bar(e: f64, lengths: [f64; 4]) -> Mechanism {
     };
     let a = 0.01f64;
     Mechanism {
-        links: vec![link("coupler", cp, 8, e, 7850.0, a * a, a.powi(4) / 12.0, frame(FourBarLink::Coupler))],
+        links: vec![link(
+            "coupler",
+            cp,
+            8,
+            e,
+            7850.0,
+            a * a,
+            a.powi(4) / 12.0,
+            frame(FourBarLink::Coupler),
+        )],
         pins: vec![
             Pin {
                 name: "A".into(),
@@ -695,7 +732,10 @@ fn bad_models_are_rejected_with_errors_that_name_the_fault() {
     };
     // A slider-crank whose rod is shorter than its crank.
     let e = SliderCrank::new(0.15, 0.10, 0.0, Rotation::Constant { angle0: 0.0, rate: 1.0 }).unwrap_err();
-    assert!(matches!(e, Error::InvalidParameter { ref name, .. } if name == "rod"), "{e}");
+    assert!(
+        matches!(e, Error::InvalidParameter { ref name, .. } if name == "rod"),
+        "{e}"
+    );
     check(e, &["rod", "crank"]);
     // A four-bar that does not close: |A - O4| >= 0.8 > coupler + rocker = 0.6.
     let e = prepare_error(&four_bar(2e11, [1.0, 0.2, 0.3, 0.3]));
@@ -703,7 +743,8 @@ fn bad_models_are_rejected_with_errors_that_name_the_fault() {
     check(e, &["close"]);
     // A link with no joint.
     let mut m = slider_crank(2e11, 4);
-    m.links.push(link("loose", 0.2, 2, 2e11, 7850.0, 1e-4, 1e-9, fixed_frame()));
+    m.links
+        .push(link("loose", 0.2, 2, 2e11, 7850.0, 1e-4, 1e-9, fixed_frame()));
     let e = prepare_error(&m);
     assert!(matches!(e, Error::InvalidModel { .. }), "{e}");
     check(e, &["\"loose\"", "no joint"]);
@@ -779,7 +820,10 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
     settings.tol = 1e-12;
     let (time, step, iterations, _, correction) = not_converged(&settings);
     assert!(step > 1 && iterations == 2 && correction > 1e-12);
-    assert!((time - (step - 1) as f64 * settings.dt).abs() < 1e-12, "time {time} is not the start of step {step}");
+    assert!(
+        (time - (step - 1) as f64 * settings.dt).abs() < 1e-12,
+        "time {time} is not the start of step {step}"
+    );
     // With step halving allowed the same run completes (halved steps move the axial force less).
     settings.step_halving = 4;
     let out = simulate_mechanism(&mech, &settings, &mut |_| true).unwrap();
@@ -790,4 +834,134 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
     assert_eq!(out.stats.steps, 100);
     assert!(out.stats.halved_substeps > 0 && out.stats.max_iterations <= 2);
     assert!((out.t - 2.0).abs() < 1e-12);
+}
+
+// ------------------------------------------------------------------------------------------------
+// 6. Each link gets the terms its motion calls for; no iterations when nothing is nonlinear
+// ------------------------------------------------------------------------------------------------
+
+#[test]
+fn linear_links_factor_once_and_take_one_solve_per_step() {
+    let settings = KedSettings::new(0.05, 1e-4);
+    // A non-rotating cantilever, unloaded axially (a transverse tip load and an initial bend).
+    let mut m = clamped(link("beam", 1.0, 8, 2e11, 7850.0, 1e-4, 1e-9, fixed_frame()));
+    m.loads.push(NodalLoad {
+        link: 0,
+        node: 8,
+        force: [0.0, 10.0],
+        moment: 0.0,
+    });
+    let out = simulate_mechanism(&m, &settings, &mut |_| true).unwrap();
+    println!(
+        "{:?}: {} factorizations, {} iterations, {} steps",
+        out.stats.terms, out.stats.factorizations, out.stats.iterations, out.stats.steps
+    );
+    assert_eq!(out.stats.terms, vec!["beam: M, K1".to_string()]);
+    // One factorization of the mass matrix for the initial accelerations and one of the
+    // effective matrix for the whole run; exactly one solve per step.
+    assert_eq!(out.stats.factorizations, 2);
+    assert_eq!(out.stats.iterations, out.stats.steps);
+    assert_eq!(out.stats.max_iterations, 1);
+    // The tip load bends it: the answer is not trivially zero (static tip deflection
+    // F L^3/(3 EI) = 0.0167 m, the undamped response oscillates between 0 and twice that).
+    let v = tip_v(&out);
+    assert!(v.iter().any(|x| *x > 0.02) && v.iter().all(|x| *x < 0.034 && *x > -1e-6));
+
+    // Spinning at constant speed without geometric terms: Coriolis and M_IC are constant, so
+    // the Jacobian is factorized once for the run (and once for the initial accelerations).
+    let mut l = link(
+        "beam",
+        1.0,
+        8,
+        2e11,
+        7850.0,
+        1e-4,
+        1e-9,
+        hub(Rotation::Constant {
+            angle0: 0.0,
+            rate: 10.0,
+        }),
+    );
+    l.terms.geometric = Some(false);
+    let out = simulate_mechanism(&clamped(l), &settings, &mut |_| true).unwrap();
+    println!(
+        "{:?}: {} factorizations, {} iterations",
+        out.stats.terms, out.stats.factorizations, out.stats.iterations
+    );
+    assert_eq!(out.stats.terms, vec!["beam: M, K1, M_COR, M_IC, M_R a_R".to_string()]);
+    assert_eq!(out.stats.factorizations, 2);
+    assert_eq!(out.stats.iterations, out.stats.steps);
+
+    // The same with the automatic choice: the geometric terms come on, and with them iterations.
+    let l = link(
+        "beam",
+        1.0,
+        8,
+        2e11,
+        7850.0,
+        1e-4,
+        1e-9,
+        hub(Rotation::Constant {
+            angle0: 0.0,
+            rate: 10.0,
+        }),
+    );
+    let out = simulate_mechanism(&clamped(l), &settings, &mut |_| true).unwrap();
+    assert_eq!(
+        out.stats.terms,
+        vec!["beam: M, K1, K2, K3, M_COR, M_IC, M_R a_R".to_string()]
+    );
+    assert!(out.stats.iterations > out.stats.steps);
+}
+
+// ------------------------------------------------------------------------------------------------
+// 7. Multi-link mechanisms: a very stiff link follows the rigid kinematics
+// ------------------------------------------------------------------------------------------------
+
+/// Largest |value| of the recorded unknown-level displacements (link frame), m.
+fn max_disp(out: &KedOutput) -> (f64, f64) {
+    let h = &out.links[0];
+    let per = h.displacements.len() / out.time.len();
+    let (mut trans, mut rot) = (0.0f64, 0.0f64);
+    for w in h.displacements.chunks(per) {
+        for n in w.chunks(3) {
+            trans = trans.max(n[0].abs()).max(n[1].abs());
+            rot = rot.max(n[2].abs());
+        }
+    }
+    (trans, rot)
+}
+
+#[test]
+fn stiff_links_follow_the_rigid_kinematics() {
+    // The elastic displacements of a link driven by its nominal motion are the response to the
+    // inertia loads, of order (load / stiffness): scaling E by 1e3 must scale them by about 1e-3
+    // (quasi-statically exactly; the dynamic part of the nominal run, which starts from rest in
+    // its frames, is bounded by the same factor because its amplitude is also load/stiffness).
+    // Tolerance: the ratio within [0.2e-3, 2e-3] and the stiff displacements below 1e-5 of the
+    // link length (measured 5e-6 for the slider-crank), i.e. the stiff mechanism follows the
+    // rigid kinematics.
+    let settings = KedSettings::new(0.042, 1e-5); // one crank turn at 150 rad/s
+    let soft = simulate_mechanism(&slider_crank(2e11, 6), &settings, &mut |_| true).unwrap();
+    let stiff = simulate_mechanism(&slider_crank(2e14, 6), &settings, &mut |_| true).unwrap();
+    let (s, k) = (max_disp(&soft).0, max_disp(&stiff).0);
+    println!(
+        "slider-crank: max |elastic displacement| {s:.3e} m (E), {k:.3e} m (1e3 E), ratio {:.2e}",
+        k / s
+    );
+    assert!(k / s >= 0.2e-3 && k / s <= 2e-3, "ratio {}", k / s);
+    assert!(k < 1e-5 * 0.30);
+
+    // A four-bar with a flexible coupler, likewise.
+    let g = [0.3, 0.1, 0.35, 0.25];
+    let settings = KedSettings::new(0.21, 1e-4); // one crank turn at 30 rad/s
+    let soft = simulate_mechanism(&four_bar(2e11, g), &settings, &mut |_| true).unwrap();
+    let stiff = simulate_mechanism(&four_bar(2e14, g), &settings, &mut |_| true).unwrap();
+    let (s, k) = (max_disp(&soft).0, max_disp(&stiff).0);
+    println!(
+        "four-bar: max |elastic displacement| {s:.3e} m (E), {k:.3e} m (1e3 E), ratio {:.2e}",
+        k / s
+    );
+    assert!(k / s >= 0.2e-3 && k / s <= 2e-3, "ratio {}", k / s);
+    assert!(k < 1e-5 * 0.35);
 }
