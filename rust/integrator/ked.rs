@@ -13,7 +13,8 @@
 //! set by how much the axial force moves within the step). The Jacobian is refactorized only when
 //! a quantity it depends on changed (step, frame rate and acceleration, frame angle for links
 //! with transformed nodes, axial forces, contact terms): a non-rotating link or one spinning at
-//! constant speed with no geometric terms factors once per run. A step with nothing nonlinear
+//! constant speed with no geometric terms factors it once per run (after the one factorization of
+//! the mass matrix for the initial accelerations). A step with nothing nonlinear
 //! takes exactly one solve.
 //!
 //! Nothing allocates inside the time loop.
@@ -182,7 +183,8 @@ pub struct KedStats {
     pub steps: u64,
     /// Substeps taken by step halving.
     pub halved_substeps: u64,
-    /// Numeric factorizations of the Jacobian.
+    /// Numeric factorizations: the mass matrix once for the initial accelerations, then the
+    /// Jacobian each time it changes.
     pub factorizations: u64,
     /// Newton iterations in all.
     pub iterations: u64,
