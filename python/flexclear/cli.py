@@ -7,6 +7,14 @@ import sys
 from typing import Optional
 
 
+def _default_rotating_table():
+    """The Wright et al. (1982) table shipped with the source tree, or None when installed without it."""
+    from pathlib import Path
+
+    p = Path(__file__).resolve().parents[2] / "tests" / "data" / "rotating_cantilever_flapwise.csv"
+    return p if p.is_file() else None
+
+
 def main(argv: Optional[list] = None) -> int:
     parser = argparse.ArgumentParser(prog="flexclear", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -52,10 +60,11 @@ def main(argv: Optional[list] = None) -> int:
     su.add_argument("--max-speed", type=float, default=None, help="top hub speed, rad/s (default: 2.5 W)")
     su.add_argument(
         "--reference",
-        default=None,
+        default=_default_rotating_table(),
         metavar="CSV",
         help="table to overlay on the frequency plot: '#' comments, a header, rows 'lambda, w1, w2, ...' "
-        "nondimensional by sqrt(EI/(rho A L^4)), flapwise (converted to in-plane by w^2 - Omega^2)",
+        "nondimensional by sqrt(EI/(rho A L^4)), flapwise (converted to in-plane by w^2 - Omega^2); "
+        "default: the published table in the source tree's tests/data (Wright et al. 1982), if present",
     )
     su.add_argument(
         "--reference-inplane", action="store_true", help="the --reference table is in-plane already"
