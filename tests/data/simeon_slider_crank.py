@@ -23,7 +23,7 @@ The index-2 DAE of the test set is integrated here as the equivalent index-1 sys
 and multipliers from the augmented system [[M, G^T], [G, 0]]) with scipy's DOP853 at rtol 1e-13,
 from the test set's initial values (subroutine init, "close to smooth motion"), with the
 velocities projected onto the velocity constraints (the published values are rounded to 9 digits;
-the projection changes them by 1.2e-8 m/s; a mass-weighted projection or none moves q1(0.1 s) in
+they miss the velocity constraint by 1.2e-8 m/s; a mass-weighted projection or none moves q1(0.1 s) in
 the 7th digit). The port reproduces the published initial accelerations (phi2'' to 16 digits) and
 the published reference solution at t = 0.1 s: positions to >= 5.4 significant digits, q1 and q2
 to 6.6-6.7. The axial velocities and accelerations of the published solution (q3', q4', q3'',
@@ -340,7 +340,7 @@ def main() -> None:
             "and a quadratic axial ansatz (q3 mid-node, q4 = u(L)) in the chord frame A->B.",
             "Computed by integrating the published equations (tests/data/simeon_slider_crank.py: index-1",
             "form, scipy DOP853, rtol 1e-13) from the test set's initial values (subroutine init, the",
-            "velocities projected onto the constraints, a 1.2e-8 m/s change).",
+            "velocities projected onto the constraints: a 1.2e-8 m/s residual).",
             f"Check against the published reference solution at t = 0.1 s: q1 to {dig['q1']:.1f} significant",
             f"digits ({REFERENCE_T01[3]:.15e} m published, {yend[3]:.15e} m here), q2 to",
             f"{dig['q2']:.1f}, all positions to >= {min(positions):.1f}, all nonzero components to >= "
