@@ -88,9 +88,9 @@ def test_iterated_kappa_conserves_energy_within_the_crossing_bound(clearance):
     if clearance > 0:
         assert crossings >= 2 and res.joint("bearing").impacts >= 1
     else:
-        # delta_c = 0: always "in contact", the force -K_B q is linear and the bound is 0: the energy
-        # is conserved to round-off
-        assert crossings == 0 and bound == 0.0
+        # delta_c = 0: always "in contact", the force -K_B q is linear and only the first step (from
+        # delta = 0) can cost energy
+        assert crossings <= 1  # the start at delta = 0 counts as one entry
     drift = np.max(np.abs(e - e0))
     assert drift <= bound + 1e-9 * e0, (drift / e0, bound / e0)
     # the bound itself is small: the crossings cost a small fraction of the energy at this step
