@@ -32,7 +32,14 @@ def main(argv: Optional[list] = None) -> int:
         "--local-cluster", type=int, default=0, metavar="N", help="start a local Dask cluster of N workers"
     )
     mc.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ac = sub.add_parser(
+        "accuracy", help="speed/accuracy of the contact couplings: Pareto fronts and a recommendation"
+    )
+    ac.add_argument("--out", default="flexclear-accuracy", help="output folder (default: %(default)s)")
+    ac.add_argument("--quick", action="store_true", help="CI-sized sweep (about a minute)")
     args = parser.parse_args(argv)
+    if args.command == "accuracy":
+        return _accuracy(args)
     if args.command == "paper":
         from .paper import write_report
 
@@ -46,6 +53,15 @@ def main(argv: Optional[list] = None) -> int:
             print(f"mode {i}: {fr:.3f} Hz")
     elif args.command == "montecarlo":
         return _montecarlo(args)
+    return 0
+
+
+def _accuracy(args) -> int:
+    from .accuracy import write_report
+
+    path = write_report(args.out, quick=args.quick, log=lambda s: print(s, file=sys.stderr))
+    print(path.read_text())
+    print(f"report written to {path}", file=sys.stderr)
     return 0
 
 
