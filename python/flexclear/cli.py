@@ -98,7 +98,14 @@ def main(argv: Optional[list] = None) -> int:
         "--crank-speed", type=float, default=100.0, help="crank speed, rad/s (default: %(default)s)"
     )
     fb.add_argument("--flexible-rocker", action="store_true", help="model the rocker as a flexible link too")
+    ac = sub.add_parser(
+        "accuracy", help="speed/accuracy of the contact couplings: Pareto fronts and a recommendation"
+    )
+    ac.add_argument("--out", default="flexclear-accuracy", help="output folder (default: %(default)s)")
+    ac.add_argument("--quick", action="store_true", help="CI-sized sweep (about a minute)")
     args = parser.parse_args(argv)
+    if args.command == "accuracy":
+        return _accuracy(args)
     if args.command == "paper":
         from .paper import write_report
 
@@ -162,6 +169,15 @@ def _ked(args) -> int:
     except FlexclearError as e:
         print(f"flexclear {args.command}: error: {e}", file=sys.stderr)
         return 2
+    print(path.read_text())
+    print(f"report written to {path}", file=sys.stderr)
+    return 0
+
+
+def _accuracy(args) -> int:
+    from .accuracy import write_report
+
+    path = write_report(args.out, quick=args.quick, log=lambda s: print(s, file=sys.stderr))
     print(path.read_text())
     print(f"report written to {path}", file=sys.stderr)
     return 0
