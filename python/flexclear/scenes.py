@@ -342,6 +342,7 @@ def slider_crank(
     reference_penetration: float = 1e-5,
     bearing_damping_ratio: float = 0.2,
     damping_law: str = "viscous",
+    geometric: Optional[bool] = None,
 ) -> Mechanism:
     """The flexible slider-crank of Simeon (1996): rigid crank at constant speed, flexible
     connecting rod, slider on a straight guide, no gravity.
@@ -472,6 +473,7 @@ def slider_crank(
         inertia=inertia,
         frame=frame("rod"),
         damping=damping,
+        geometric=geometric,
     )
     m.add_slider("slider", mass=slider_mass, path=frame("slider"))
     crank_point = (frame("crank"), (float(crank_length), 0.0), "crank")
