@@ -415,7 +415,7 @@ class Mechanism:
         dt: float,
         *,
         method: str = "modified",
-        iterate: bool = False,
+        iterate: Optional[bool] = None,
         tol: float = 1e-8,
         max_iter: int = 25,
         step_halving: int = 0,
@@ -437,8 +437,14 @@ class Mechanism:
             End time and step, s.
         method : {"modified", "force"}
             How clearance joints enter the step (METHOD.md section 4).
-        iterate : bool
-            Iterate kappa of the modified method within the step.
+        iterate : bool or None
+            Treat the contact of clearance joints implicitly (modified method with kappa and the
+            spring tangent iterated within the step; the damping from the step start). None (the
+            default) chooses True when the mechanism has a clearance joint and ``method`` is
+            "modified": the lagged variants pump energy into every impact (measured: +169 % after
+            22 undamped impacts of two free links, and a lightly damped slider-crank pin running
+            away to MN forces), see ``flexclear.scenes.slider_crank``. False gives the paper's
+            lagged-kappa method.
         tol, max_iter : float, int
             Newton tolerance (displacement correction over displacement scale) and cap per step.
         step_halving : int
@@ -471,7 +477,9 @@ class Mechanism:
                 float(t_end),
                 float(dt),
                 method=method,
-                iterate=iterate,
+                iterate=(bool(self.joint_names) and method == "modified")
+                if iterate is None
+                else bool(iterate),
                 tol=float(tol),
                 max_iter=int(max_iter),
                 step_halving=int(step_halving),
