@@ -33,6 +33,8 @@ pub struct Cholesky {
     /// The factor copied into a dense band after each factorization, when it fits in
     /// half-bandwidth [`BAND`] (every chain of beam elements does).
     band: Option<BandedFactor>,
+    /// One lane's right-hand side, for [`Self::solve_lanes`] without a band.
+    lane_tmp: Vec<f64>,
     /// Number of numeric factorizations done.
     pub factorizations: u64,
 }
@@ -134,6 +136,8 @@ struct BandedFactor {
     dinv: Vec<f64>,
     /// The CPU has fused multiply-add (x86_64): use [`BandedFactor::solve_fma`].
     fma: bool,
+    /// The CPU also has AVX2: the lane substitution uses 256-bit registers.
+    avx2: bool,
 }
 
 impl BandedFactor {
@@ -198,6 +202,83 @@ impl BandedFactor {
     }
 }
 
+/// One row of the lane substitution: `y = x - (r0 p1 + r1 p2 + ... + r4 p5)` for every lane,
+/// with exactly the operations (and their order) of the single-vector substitution, so that each
+/// lane's result is bitwise that of [`BandedFactor::solve_plain`] or [`BandedFactor::solve_fma`].
+#[inline(always)]
+fn lane_row<const L: usize, const FMA: bool>(r: &[f64; BAND], p: &[[f64; L]; BAND], x: &[f64; L]) -> [f64; L] {
+    let mut y = [0.0; L];
+    for l in 0..L {
+        y[l] = if FMA {
+            (-r[0]).mul_add(
+                p[0][l],
+                (-r[1]).mul_add(
+                    p[1][l],
+                    (-r[2]).mul_add(p[2][l], (-r[3]).mul_add(p[3][l], (-r[4]).mul_add(p[4][l], x[l]))),
+                ),
+            )
+        } else {
+            let s = (r[1] * p[1][l] + r[2] * p[2][l]) + (r[3] * p[3][l] + r[4] * p[4][l]);
+            (x[l] - s) - r[0] * p[0][l]
+        };
+    }
+    y
+}
+
+impl BandedFactor {
+    /// Solves for `L` right-hand sides stored lane-fastest (`x[i][lane]`): every factor entry is
+    /// loaded once for all lanes and the lanes' dependency chains run side by side, which hides
+    /// the latency that bounds a single substitution. Each lane gets bitwise the result of
+    /// [`Self::solve`] on that lane alone.
+    #[inline]
+    fn solve_lanes<const L: usize>(&self, x: &mut [[f64; L]]) {
+        assert_eq!(x.len(), self.dinv.len());
+        #[cfg(target_arch = "x86_64")]
+        if self.fma {
+            if self.avx2 {
+                // SAFETY: `avx2` is set only when the CPU reports AVX2 and FMA.
+                unsafe { self.solve_lanes_avx2(x) };
+            } else {
+                // SAFETY: `fma` is set only when the CPU reports the FMA extension.
+                unsafe { self.solve_lanes_fma(x) };
+            }
+            return;
+        }
+        self.solve_lanes_body::<L, false>(x);
+    }
+
+    #[inline(always)]
+    fn solve_lanes_body<const L: usize, const FMA: bool>(&self, x: &mut [[f64; L]]) {
+        // p[0] is the newest value (p1 of the single substitution), p[4] the oldest.
+        let mut p = [[0.0f64; L]; BAND];
+        for ((r, xi), &d) in self.lrow.iter().zip(x.iter_mut()).zip(&self.dinv) {
+            let y = lane_row::<L, FMA>(r, &p, xi);
+            for l in 0..L {
+                xi[l] = y[l] * d;
+            }
+            p = [y, p[0], p[1], p[2], p[3]];
+        }
+        let mut p = [[0.0f64; L]; BAND];
+        for (c, xi) in self.lcol.iter().zip(x.iter_mut()).rev() {
+            let y = lane_row::<L, FMA>(c, &p, xi);
+            *xi = y;
+            p = [y, p[0], p[1], p[2], p[3]];
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn solve_lanes_avx2<const L: usize>(&self, x: &mut [[f64; L]]) {
+        self.solve_lanes_body::<L, true>(x);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma")]
+    unsafe fn solve_lanes_fma<const L: usize>(&self, x: &mut [[f64; L]]) {
+        self.solve_lanes_body::<L, true>(x);
+    }
+}
+
 impl std::fmt::Debug for Cholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Cholesky")
@@ -222,6 +303,7 @@ impl Cholesky {
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
             fma: fma_available(),
+            avx2: avx2_fma_available(),
         });
         Cholesky {
             upper: vec![0.0; analysis.src.len()],
@@ -229,6 +311,7 @@ impl Cholesky {
             analysis,
             mem,
             band,
+            lane_tmp: Vec::new(),
             factorizations: 0,
         }
     }
@@ -309,6 +392,34 @@ impl Cholesky {
         ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack);
     }
 
+    /// Solves `A X = B` in place for `L` right-hand sides stored lane-fastest (`x[i][lane]`,
+    /// holding `B` on entry). Each lane's result is bitwise that of [`Self::solve_in_place`] on
+    /// that lane alone; for a banded factor the lanes advance together (one load of each factor
+    /// entry, `L` independent dependency chains), otherwise lane by lane through faer.
+    #[inline]
+    pub fn solve_lanes<const L: usize>(&mut self, x: &mut [[f64; L]]) {
+        if L == 1 {
+            return self.solve_in_place(x.as_flattened_mut());
+        }
+        match self.band.as_ref() {
+            Some(b) => b.solve_lanes(x),
+            None => {
+                let mut col = std::mem::take(&mut self.lane_tmp);
+                col.resize(x.len(), 0.0);
+                for l in 0..L {
+                    for (c, xi) in col.iter_mut().zip(x.iter()) {
+                        *c = xi[l];
+                    }
+                    self.solve_in_place_faer(&mut col);
+                    for (c, xi) in col.iter().zip(x.iter_mut()) {
+                        xi[l] = *c;
+                    }
+                }
+                self.lane_tmp = col;
+            }
+        }
+    }
+
     /// True when [`Self::solve_in_place`] uses the banded substitution.
     pub fn is_banded(&self) -> bool {
         self.band.is_some()
@@ -369,6 +480,18 @@ fn fma_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// True when the CPU has AVX2 and fused multiply-add (x86_64).
+fn avx2_fma_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
