@@ -187,7 +187,7 @@ impl LaneBand {
         assert!(xpad.len() == self.padded_len() && y.len() >= self.n);
         if width == 11 {
             #[cfg(target_arch = "x86_64")]
-            if L > 1 && self.avx2 {
+            if L.is_multiple_of(4) && self.avx2 {
                 // SAFETY: the CPU reports AVX2.
                 return unsafe { self.mul_fixed_avx2::<11, L>(xpad, y) };
             }
@@ -213,10 +213,58 @@ impl LaneBand {
         }
     }
 
+    /// [`Self::mul_fixed`] for `L` a multiple of 4 with explicit 256-bit vectors across lanes
+    /// (left to itself, the compiler vectorizes across rows instead, with shuffles and spills).
+    /// The same IEEE additions and multiplications in the same order, so bitwise the same.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn mul_fixed_avx2<const W: usize, const L: usize>(&self, xpad: &[[f64; L]], y: &mut [[f64; L]]) {
-        self.mul_fixed::<W, L>(xpad, y)
+        use std::arch::x86_64::{
+            _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+        };
+        assert!(L.is_multiple_of(4) && xpad.len() >= self.n + W - 1 && y.len() >= self.n);
+        for (r, (row, yr)) in self.vals.chunks_exact(W).zip(y.iter_mut()).enumerate() {
+            let x = &xpad[r..r + W];
+            let mut c = 0;
+            while c < L {
+                // SAFETY: c + 4 <= L, so every load and the store stay within one [f64; L].
+                unsafe {
+                    macro_rules! term {
+                        ($k:expr) => {
+                            _mm256_mul_pd(
+                                _mm256_set1_pd(row[$k]),
+                                _mm256_loadu_pd(x[$k].as_ptr().add(c)),
+                            )
+                        };
+                    }
+                    let (mut a0, mut a1, mut b0, mut b1) = (
+                        _mm256_setzero_pd(),
+                        _mm256_setzero_pd(),
+                        _mm256_setzero_pd(),
+                        _mm256_setzero_pd(),
+                    );
+                    let mut k = 0;
+                    while k + 4 <= W {
+                        a0 = _mm256_add_pd(a0, term!(k));
+                        a1 = _mm256_add_pd(a1, term!(k + 1));
+                        b0 = _mm256_add_pd(b0, term!(k + 2));
+                        b1 = _mm256_add_pd(b1, term!(k + 3));
+                        k += 4;
+                    }
+                    while k + 2 <= W {
+                        a0 = _mm256_add_pd(a0, term!(k));
+                        a1 = _mm256_add_pd(a1, term!(k + 1));
+                        k += 2;
+                    }
+                    let mut t = _mm256_add_pd(_mm256_add_pd(a0, b0), _mm256_add_pd(a1, b1));
+                    if k < W {
+                        t = _mm256_add_pd(t, term!(k));
+                    }
+                    _mm256_storeu_pd(yr.as_mut_ptr().add(c), t);
+                }
+                c += 4;
+            }
+        }
     }
 
     #[inline(always)]
@@ -1109,7 +1157,25 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// Runs every lane to the end (or to its failure) and returns the lanes' outcomes in order.
     /// `control(fraction_done)` is called every few thousand steps; when it returns `false`
     /// every running lane stops with [`Error::Interrupted`].
-    pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
+    pub fn run(self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
+        #[cfg(target_arch = "x86_64")]
+        if L > 1 && std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU reports AVX2 and FMA.
+            return unsafe { self.run_avx2(control) };
+        }
+        self.run_body(control)
+    }
+
+    /// [`Self::run`] compiled for AVX2, so that the lane loops use 256-bit vectors. Enabling the
+    /// feature changes no result: Rust never fuses a multiply and an add on its own.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn run_avx2(self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
+        self.run_body(control)
+    }
+
+    #[inline(always)]
+    fn run_body(mut self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
         let steps = self.sh.steps;
         let dt = self.sh.dt;
         while self.step < steps && self.active.iter().any(|&a| a) {
@@ -1169,6 +1235,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     }
 
     /// One step of every active lane to `t1`.
+    #[inline(always)]
     fn advance(&mut self, t1: f64) {
         let sh = &mut self.sh;
         let (dt, c1, c2) = (sh.dt, sh.c1, sh.c2);
@@ -1177,17 +1244,17 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             Some(c) => {
                 // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
                 // in one pass, then r = K w
-                for ((u, v), (a, w)) in self
+                // (lane by lane the same operations; flat, the loop vectorizes across lanes)
+                for ((u, v), (&a, w)) in self
                     .u
+                    .as_flattened_mut()
                     .iter_mut()
-                    .zip(self.v.iter_mut())
-                    .zip(self.a.iter().zip(self.tmp.iter_mut()))
+                    .zip(self.v.as_flattened_mut().iter_mut())
+                    .zip(self.a.as_flattened().iter().zip(self.tmp.as_flattened_mut().iter_mut()))
                 {
-                    for l in 0..L {
-                        u[l] += dt * v[l] + c1 * a[l];
-                        v[l] += c2 * a[l];
-                        w[l] = -(u[l] + c * v[l]); // negated here so that r = K w needs no extra pass
-                    }
+                    *u += dt * *v + c1 * a;
+                    *v += c2 * a;
+                    *w = -(*u + c * *v); // negated here so that r = K w needs no extra pass
                 }
                 matvec(
                     pat,
@@ -1201,11 +1268,15 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 );
             }
             None => {
-                for ((u, v), a) in self.u.iter_mut().zip(self.v.iter_mut()).zip(&self.a) {
-                    for l in 0..L {
-                        u[l] += dt * v[l] + c1 * a[l];
-                        v[l] += c2 * a[l];
-                    }
+                for ((u, v), &a) in self
+                    .u
+                    .as_flattened_mut()
+                    .iter_mut()
+                    .zip(self.v.as_flattened_mut().iter_mut())
+                    .zip(self.a.as_flattened())
+                {
+                    *u += dt * *v + c1 * a;
+                    *v += c2 * a;
                 }
                 matvec(
                     pat,
@@ -1227,10 +1298,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     &mut self.lanes[0].col,
                     &mut self.col_y,
                 );
-                for (x, t) in self.r.iter_mut().zip(&self.tmp) {
-                    for l in 0..L {
-                        x[l] = -x[l] - t[l];
-                    }
+                for (x, t) in self.r.as_flattened_mut().iter_mut().zip(self.tmp.as_flattened()) {
+                    *x = -*x - t;
                 }
             }
         }
@@ -1326,14 +1395,18 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     }
 
     /// Updates the state from the new acceleration, evaluates joints, records and checks.
-    #[inline]
+    #[inline(always)]
     fn complete(&mut self, t1: f64) {
         let (bdt2, gdt) = (self.sh.bdt2, self.sh.gdt);
-        for ((u, v), a) in self.u.iter_mut().zip(self.v.iter_mut()).zip(&self.a) {
-            for l in 0..L {
-                u[l] += bdt2 * a[l];
-                v[l] += gdt * a[l];
-            }
+        for ((u, v), &a) in self
+            .u
+            .as_flattened_mut()
+            .iter_mut()
+            .zip(self.v.as_flattened_mut().iter_mut())
+            .zip(self.a.as_flattened())
+        {
+            *u += bdt2 * a;
+            *v += gdt * a;
         }
         let mut failed: [Option<Error>; L] = std::array::from_fn(|_| None);
         for (l, lane) in self.lanes.iter_mut().enumerate() {
