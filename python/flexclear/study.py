@@ -564,8 +564,9 @@ class Study:
         threads : int
             Worker threads of the local Rust pool (0 = one per core). On Dask, threads per task.
         chunk_size : int, optional
-            Samples per part (and per Dask task). Default: about 2 s of work per chunk locally,
-            and enough chunks to keep a cluster busy.
+            Samples per part (and per Dask task). Default: about 16 s of single-thread work
+            (estimated at 1 us per step) per chunk locally, chunks of even size, and enough
+            chunks to keep a cluster busy.
         client : dask.distributed.Client, optional
             Run the chunks on this cluster.
         progress : bool or callable
@@ -619,10 +620,13 @@ class Study:
     def _default_chunk(self, total: int, client: Any) -> int:
         steps = self.t_end / self.dt
         per_sample = max(steps * 1e-6, 1e-3)  # about 1 us per step
-        chunk = int(max(8, min(1024, 4.0 / per_sample)))
+        # Locally a chunk is one batch, which ends with its slowest lockstep group while the other
+        # threads idle (about half a group each): ~16 s of work per chunk keeps that to a few %.
+        chunk = int(max(8, min(1024, 16.0 / per_sample)))
         if client is not None:
             chunk = max(1, min(chunk, math.ceil(total / 32)))
-        return chunk
+        # as even as possible: no short last chunk
+        return math.ceil(total / math.ceil(total / chunk)) if total > 0 else chunk
 
     def _run_local(self, inputs, chunks, pool, store_, frames, bar) -> None:
         for ids in chunks:

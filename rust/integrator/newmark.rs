@@ -442,6 +442,8 @@ struct Lane<'m> {
     reads_u: bool,
     /// Set when the lane has finished (failed, or at the end of the run).
     outcome: Option<RunResult>,
+    /// The error of a lane failing in the current step, until it is retired.
+    pending: Option<Error>,
 }
 
 /// `L` runs stepped together on one shared contact-free factorization (see the module
@@ -540,6 +542,7 @@ impl<'m> Lane<'m> {
             refactored: false,
             reads_u,
             outcome: None,
+            pending: None,
             sys,
         }
     }
@@ -1234,6 +1237,16 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         self.active[l] = false;
     }
 
+    /// Retires every lane with a pending error (see [`Self::retire`]).
+    #[cold]
+    fn retire_pending(&mut self, step: u64, t: f64) {
+        for l in 0..self.lanes.len() {
+            if let Some(e) = self.lanes[l].pending.take() {
+                self.retire(l, Some(e), step, t);
+            }
+        }
+    }
+
     /// One step of every active lane to `t1`.
     #[inline(always)]
     fn advance(&mut self, t1: f64) {
@@ -1350,19 +1363,18 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
         }
         sh.chol0.solve_lanes(&mut self.r); // r = z = A0^-1 rhs
-        let mut failed: [Option<Error>; L] = std::array::from_fn(|_| None);
+        let mut failed = false;
         for (l, lane) in self.lanes.iter_mut().enumerate() {
             if self.active[l] {
                 if let Err(e) = lane.post_solve(sh, &self.r, l, self.t, self.step) {
-                    failed[l] = Some(e);
+                    lane.pending = Some(e);
+                    failed = true;
                 }
             }
         }
-        for (l, f) in failed.iter_mut().enumerate() {
-            if let Some(e) = f.take() {
-                // the failed lane keeps its predictors and the last acceleration
-                self.retire(l, Some(e), self.step, self.t);
-            }
+        if failed {
+            // the failed lanes keep their predictors and the last acceleration
+            self.retire_pending(self.step, self.t);
         }
         // a = z + Z (h - s) on the Woodbury lanes; z is not needed after this step
         std::mem::swap(&mut self.a, &mut self.r);
@@ -1408,18 +1420,17 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             *u += bdt2 * a;
             *v += gdt * a;
         }
-        let mut failed: [Option<Error>; L] = std::array::from_fn(|_| None);
+        let mut failed = false;
         for (l, lane) in self.lanes.iter_mut().enumerate() {
             if self.active[l] {
                 if let Err(e) = lane.complete_joints(&self.a, l, bdt2, gdt, t1, self.step) {
-                    failed[l] = Some(e);
+                    lane.pending = Some(e);
+                    failed = true;
                 }
             }
         }
-        for (l, f) in failed.iter_mut().enumerate() {
-            if let Some(e) = f.take() {
-                self.retire(l, Some(e), self.step, self.t);
-            }
+        if failed {
+            self.retire_pending(self.step, self.t);
         }
         self.step += 1;
         self.t = t1;
