@@ -12,7 +12,7 @@ radial clearance uniform in [0, 1e-3] m, 0.5 s at dt 1e-5 s, 1000 samples, modif
    Newton fails), samples/s against flexclear's 2-thread samples/s, and the outputs of both side
    by side.
 
-    python benches/montecarlo.py [--samples 1000] [--repeats 3] [--exudyn-samples 8] [--lanes 1,4]
+    python benches/montecarlo.py [--samples 1000] [--repeats 3] [--exudyn-samples 8] [--lanes 1,8]
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-memory", action="store_true")
     ap.add_argument(
         "--lanes",
-        default="1,4",
+        default="1,8",
         help="comma-separated lockstep lane counts to compare (1 = no lockstep; the largest is the "
         "configuration compared with Exudyn)",
     )

@@ -70,8 +70,9 @@ pub struct BatchOptions {
     pub lanes: usize,
 }
 
-/// Lockstep lanes used when [`BatchOptions::lanes`] is 0.
-pub const DEFAULT_LANES: usize = 4;
+/// Lockstep lanes used when [`BatchOptions::lanes`] is 0: two 256-bit vectors per operation,
+/// measured a few per cent faster per sample-step than 4 on the reference study.
+pub const DEFAULT_LANES: usize = 8;
 /// Largest accepted [`BatchOptions::lanes`].
 pub const MAX_LANES: usize = 8;
 
@@ -163,7 +164,7 @@ pub fn run_batch(
                     done.fetch_add(1, Ordering::Relaxed);
                     vec![out]
                 } else {
-                    run_group(&samples[g.clone()], lanes, options.retry, &cache, stop, done)
+                    run_group(&samples[g.clone()], options.retry, &cache, stop, done)
                 }
             })
             .collect();
@@ -206,12 +207,11 @@ fn lockstep_groups(
     groups
 }
 
-/// Runs 2 ..= `lanes` samples that share their factor as one lockstep group; a lane that
+/// Runs 2 ..= 8 samples that share their factor as one lockstep group; a lane that
 /// diverges is retried alone (at smaller steps) as [`run_one`] would. Each sample's wall time is
 /// the group's time divided by its size, plus its own retries.
 fn run_group(
     group: &[(Model, Settings)],
-    lanes: usize,
     retry: Retry,
     cache: &AnalysisCache,
     stop: &AtomicBool,
@@ -231,7 +231,8 @@ fn run_group(
     let start = Instant::now();
     let runs: Vec<(&Model, &Settings)> = group.iter().map(|(m, s)| (m, s)).collect();
     let mut control = |_: f64| !stop.load(Ordering::Relaxed);
-    let results = match lanes {
+    // the narrowest lockstep that holds the group (a short group does not step idle lanes)
+    let results = match group.len() {
         ..=2 => lockstep::<2>(&runs, cache, &mut control),
         3..=4 => lockstep::<4>(&runs, cache, &mut control),
         _ => lockstep::<8>(&runs, cache, &mut control),

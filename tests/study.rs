@@ -52,7 +52,7 @@ fn batch_equals_single_runs_on_any_number_of_threads() {
         assert_eq!(stats.threads, threads);
         // two element counts, two sparsity patterns: exactly two symbolic analyses
         assert_eq!(stats.analyses, 2);
-        // input order 13, 12, 12, 13, 12, 12, 13, 12 elements: lockstep groups (default 4 lanes)
+        // input order 13, 12, 12, 13, 12, 12, 13, 12 elements: lockstep groups (default 8 lanes)
         // of consecutive samples with one pattern: [1, 2], [4, 5], the rest alone
         assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (2, 4));
         for (o, e) in outcomes.iter().zip(&single) {
@@ -183,7 +183,7 @@ fn lockstep_lanes_are_bitwise_single_runs() {
         .iter()
         .map(|(m, s)| text(&simulate(m, s, &mut |_| true)))
         .collect();
-    for (threads, lanes) in [(1, 1), (1, 2), (2, 4), (3, 8), (2, 3)] {
+    for (threads, lanes) in [(1, 1), (1, 2), (2, 4), (3, 8), (2, 3), (2, 5)] {
         let options = BatchOptions {
             threads,
             lanes,
@@ -192,7 +192,7 @@ fn lockstep_lanes_are_bitwise_single_runs() {
         let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
         let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
         assert_eq!(done.load(Ordering::Relaxed), samples.len());
-        // groups of consecutive samples, `lanes` at most (3 lanes run as 4-lane groups of 3)
+        // groups of consecutive samples, `lanes` at most (a group of 3 runs 4 lanes, one idle)
         let n = samples.len();
         let expect = if lanes == 1 {
             0

@@ -142,5 +142,5 @@ def run_batch(
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes,
     time, joints), the batch counters (analyses, threads, lockstep_groups, lockstep_samples) and
     the exception that stopped the batch (KeyboardInterrupt, or one raised by `progress(done)`),
-    else None. `lanes` is the largest lockstep group (0 = default 4, 1 = none, at most 8).
+    else None. `lanes` is the largest lockstep group (0 = default 8, 1 = none, at most 8).
     """

@@ -575,7 +575,7 @@ class Study:
             Largest lockstep group: consecutive samples with the same contact-free effective
             matrix and step (e.g. differing only in clearance or bearing law) that record no
             history are stepped together on one thread, sharing one factorization (0 = default,
-            4; 1 = every sample alone; at most 8). Results are bitwise the same for any value.
+            8; 1 = every sample alone; at most 8). Results are bitwise the same for any value.
 
         Returns
         -------
