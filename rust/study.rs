@@ -86,7 +86,8 @@ pub struct SampleOutcome {
     pub dt: f64,
     /// Retries made (0 when the first attempt stood).
     pub retries: u32,
-    /// Wall-clock time of all attempts, s.
+    /// Wall-clock time of all attempts, s; a sample run in a lockstep group of k samples counts
+    /// the group's time divided by k.
     pub wall_time: f64,
 }
 

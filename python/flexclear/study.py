@@ -629,22 +629,30 @@ class Study:
         return math.ceil(total / math.ceil(total / chunk)) if total > 0 else chunk
 
     def _run_local(self, inputs, chunks, pool, store_, frames, bar) -> None:
-        for ids in chunks:
-            rows = inputs.loc[ids].to_dict("records")
-            base = bar.n
-            frame, pending = _run_rows(self, ids, rows, pool, lambda d, b=base: bar.update_to(b + d))
-            if len(frame):
-                frames.append(frame)
-                if store_:
-                    store_.write(frame)
-            bar.update_to(base + len(frame))
-            if pending is not None:
-                if isinstance(pending, KeyboardInterrupt):
-                    raise SimulationInterrupted(
-                        f"study interrupted: {sum(len(f) for f in frames)} of {len(inputs)} samples finished"
-                        + (f" and saved in {store_.path}" if store_ else "")
-                    )
-                raise pending
+        def interrupted() -> SimulationInterrupted:
+            return SimulationInterrupted(
+                f"study interrupted: {sum(len(f) for f in frames)} of {len(inputs)} samples finished"
+                + (f" and saved in {store_.path}" if store_ else "")
+            )
+
+        try:
+            for ids in chunks:
+                rows = inputs.loc[ids].to_dict("records")
+                base = bar.n
+                frame, pending = _run_rows(self, ids, rows, pool, lambda d, b=base: bar.update_to(b + d))
+                if len(frame):
+                    frames.append(frame)
+                    if store_:
+                        store_.write(frame)
+                bar.update_to(base + len(frame))
+                if pending is not None:
+                    if isinstance(pending, KeyboardInterrupt):
+                        raise interrupted()
+                    raise pending
+        except KeyboardInterrupt:
+            # Ctrl-C outside a batch (between chunks, in Python code): the same as within one.
+            # A part being written is either complete or absent (written whole, then renamed).
+            raise interrupted() from None
 
     def _run_dask(self, client, inputs, chunks, pool, store_, frames, bar) -> None:
         from dask.distributed import as_completed
@@ -827,8 +835,12 @@ class _Store:
 
 def _write_parquet(frame, path: Path) -> None:
     tmp = path.with_name(path.name + ".tmp")
-    frame.to_parquet(tmp)
-    os.replace(tmp, path)
+    try:
+        frame.to_parquet(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)  # e.g. Ctrl-C mid-write: leave no half-written file
+        raise
 
 
 class _Progress:
