@@ -3,9 +3,10 @@
 
 use std::hint::black_box;
 
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use flexclear::assembly::System;
 use flexclear::contact::Coupling;
+use flexclear::integrator::newmark::Lockstep;
 use flexclear::linsolve::Cholesky;
 use flexclear::scenes::SliderYoke;
 use flexclear::{simulate, Settings};
@@ -111,5 +112,47 @@ fn full_run(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, elements, assembly, linsolve, steps, full_run);
+/// Lockstep: 8 samples of the reference study (Table 1 slider-yoke, clearances spread over
+/// [0, 1e-3] m, modified method, dt 1e-5 s, 2000 steps, extremes only) run one by one and as
+/// lockstep groups of 2, 4 and 8 lanes on one factorization. Throughput is in sample-steps, so
+/// the per-step cost of one sample is the inverse of the reported rate.
+fn lockstep(c: &mut Criterion) {
+    const SAMPLES: usize = 8;
+    let samples: Vec<_> = (0..SAMPLES)
+        .map(|i| {
+            let model = SliderYoke {
+                clearance: 1e-3 * (i as f64 + 0.5) / SAMPLES as f64,
+                ..Default::default()
+            }
+            .build()
+            .unwrap();
+            let mut s = Settings::new(0.02, 1e-5);
+            s.record.histories = false;
+            (model, s)
+        })
+        .collect();
+    let mut g = c.benchmark_group("lockstep");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements((SAMPLES as u64) * samples[0].1.steps()));
+    g.bench_function("8 samples x 2000 steps, one by one", |b| {
+        b.iter(|| {
+            for (m, s) in &samples {
+                black_box(simulate(m, s, &mut |_| true).unwrap());
+            }
+        })
+    });
+    fn groups<const L: usize>(samples: &[(flexclear::model::Model, Settings)]) {
+        for chunk in samples.chunks(L) {
+            let runs: Vec<_> = chunk.iter().map(|(m, s)| (m, s)).collect();
+            let out = Lockstep::<L>::with_analysis(&runs, None).unwrap().run(&mut |_| true);
+            black_box(out);
+        }
+    }
+    g.bench_function("8 samples x 2000 steps, 2 lanes", |b| b.iter(|| groups::<2>(&samples)));
+    g.bench_function("8 samples x 2000 steps, 4 lanes", |b| b.iter(|| groups::<4>(&samples)));
+    g.bench_function("8 samples x 2000 steps, 8 lanes", |b| b.iter(|| groups::<8>(&samples)));
+    g.finish();
+}
+
+criterion_group!(benches, elements, assembly, linsolve, steps, full_run, lockstep);
 criterion_main!(benches);

@@ -12,7 +12,7 @@ radial clearance uniform in [0, 1e-3] m, 0.5 s at dt 1e-5 s, 1000 samples, modif
    Newton fails), samples/s against flexclear's 2-thread samples/s, and the outputs of both side
    by side.
 
-    python benches/montecarlo.py [--samples 1000] [--repeats 3] [--exudyn-samples 8]
+    python benches/montecarlo.py [--samples 1000] [--repeats 3] [--exudyn-samples 8] [--lanes 1,8]
 """
 
 from __future__ import annotations
@@ -38,27 +38,40 @@ def reference_study(samples: int, t_end: float = 0.5, dt: float = 1e-5):
     return Study.from_dict(d)
 
 
-def throughput(samples: int, repeats: int) -> dict:
+def throughput(samples: int, repeats: int, lanes: list[int]) -> dict:
+    """Samples/s on 1 and 2 threads for each lockstep lane count (1 = every sample alone), the
+    configurations alternating (their order reversed every other repeat) so that load from other
+    processes spreads over all of them; medians over the repeats."""
     study = reference_study(samples)
-    times = {1: [], 2: []}
-    result = None
+    configs = [(th, ln) for ln in lanes for th in (1, 2)]
+    times: dict = {c: [] for c in configs}
+    frames = {}
     for r in range(repeats):
-        order = (1, 2) if r % 2 == 0 else (2, 1)
-        for th in order:
+        order = configs if r % 2 == 0 else configs[::-1]
+        for th, ln in order:
             t0 = time.perf_counter()
-            result = study.run(threads=th, progress=False)
-            times[th].append(time.perf_counter() - t0)
-            print(f"  threads={th}: {samples / times[th][-1]:.1f} samples/s", flush=True)
-    med = {th: statistics.median(v) for th, v in times.items()}
+            result = study.run(threads=th, lanes=ln, progress=False)
+            times[(th, ln)].append(time.perf_counter() - t0)
+            frames[(th, ln)] = result.frame
+            print(f"  threads={th} lanes={ln}: {samples / times[(th, ln)][-1]:.1f} samples/s", flush=True)
+    # every configuration computed the same thing, bit for bit
+    first = frames[configs[0]].drop(columns="wall_time")
+    for c in configs[1:]:
+        other = frames[c].drop(columns="wall_time")
+        assert first.equals(other), f"threads/lanes {c} differ from {configs[0]}"
+    med = {c: statistics.median(v) for c, v in times.items()}
+    rate = {c: samples / t for c, t in med.items()}
+    best = max(lanes)
     return {
         "samples": samples,
-        "seconds_1": med[1],
-        "seconds_2": med[2],
-        "rate_1": samples / med[1],
-        "rate_2": samples / med[2],
-        "scaling": med[1] / med[2],
-        "cpu_per_sample_ms": 1e3 * float(result.frame["wall_time"].mean()),
-        "frame": result.frame,
+        "lanes": lanes,
+        "rate": rate,
+        "rate_1": rate[(1, best)],
+        "rate_2": rate[(2, best)],
+        "scaling": {ln: med[(1, ln)] / med[(2, ln)] for ln in lanes},
+        "lockstep_gain": {th: med[(th, min(lanes))] / med[(th, best)] for th in (1, 2)},
+        "cpu_per_sample_ms": {c: 1e3 * float(f["wall_time"].mean()) for c, f in frames.items()},
+        "frame": frames[(2, best)],
     }
 
 
@@ -119,17 +132,33 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="alternating 1- and 2-thread runs")
     ap.add_argument("--exudyn-samples", type=int, default=8, help="0 skips Exudyn")
     ap.add_argument("--skip-memory", action="store_true")
+    ap.add_argument(
+        "--lanes",
+        default="1,8",
+        help="comma-separated lockstep lane counts to compare (1 = no lockstep; the largest is the "
+        "configuration compared with Exudyn)",
+    )
     args = ap.parse_args(argv)
     import flexclear
 
     print(f"flexclear {flexclear.__version__}; reference study {STUDY_FILE}")
     print(f"== throughput: {args.samples} samples, T = 0.5 s, dt = 1e-5 s (5e4 steps each)")
-    tp = throughput(args.samples, args.repeats)
-    print(
-        f"median: 1 thread {tp['rate_1']:.1f} samples/s ({tp['seconds_1']:.2f} s), "
-        f"2 threads {tp['rate_2']:.1f} samples/s ({tp['seconds_2']:.2f} s); "
-        f"scaling 2/1 = {tp['scaling']:.2f}x; CPU per sample {tp['cpu_per_sample_ms']:.1f} ms"
-    )
+    print(f"load average before: {os.getloadavg()}")
+    lanes = sorted({int(x) for x in args.lanes.split(",")})
+    tp = throughput(args.samples, args.repeats, lanes)
+    for ln in lanes:
+        r1, r2 = tp["rate"][(1, ln)], tp["rate"][(2, ln)]
+        print(
+            f"median, lanes={ln}: 1 thread {r1:.1f} samples/s, 2 threads {r2:.1f} samples/s; "
+            f"scaling 2/1 = {tp['scaling'][ln]:.2f}x; CPU per sample "
+            f"{tp['cpu_per_sample_ms'][(1, ln)]:.1f} ms"
+        )
+    if len(lanes) > 1:
+        g = tp["lockstep_gain"]
+        print(
+            f"lockstep gain (lanes={max(lanes)} vs {min(lanes)}): 1 thread {g[1]:.2f}x, 2 threads {g[2]:.2f}x"
+        )
+    print(f"load average after: {os.getloadavg()}")
     if not args.skip_memory:
         print("== memory (peak RSS of fresh processes, 2 threads)")
         m = memory()
@@ -146,7 +175,7 @@ def main(argv=None) -> int:
         print(f"== Exudyn ParameterVariation, first {n} clearances, 2 processes")
         ex = exudyn_subset(tp["frame"], n)
         print(f"Exudyn: {ex['rate']:.3f} samples/s ({ex['seconds']:.1f} s for {n})")
-        print(f"flexclear (2 threads, whole study): {tp['rate_2']:.1f} samples/s")
+        print(f"flexclear (2 threads, lanes={max(lanes)}, whole study): {tp['rate_2']:.1f} samples/s")
         print(f"ratio flexclear / Exudyn: {tp['rate_2'] / ex['rate']:.1f}x")
         print(
             "clearance [m] | max penetration [m] flexclear / Exudyn | "

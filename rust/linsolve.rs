@@ -33,6 +33,8 @@ pub struct Cholesky {
     /// The factor copied into a dense band after each factorization, when it fits in
     /// half-bandwidth [`BAND`] (every chain of beam elements does).
     band: Option<BandedFactor>,
+    /// One lane's right-hand side, for [`Self::solve_lanes`] without a band.
+    lane_tmp: Vec<f64>,
     /// Number of numeric factorizations done.
     pub factorizations: u64,
 }
@@ -134,6 +136,8 @@ struct BandedFactor {
     dinv: Vec<f64>,
     /// The CPU has fused multiply-add (x86_64): use [`BandedFactor::solve_fma`].
     fma: bool,
+    /// The CPU also has AVX2: the lane substitution uses 256-bit registers.
+    avx2: bool,
 }
 
 impl BandedFactor {
@@ -198,6 +202,83 @@ impl BandedFactor {
     }
 }
 
+/// One row of the lane substitution: `y = x - (r0 p1 + r1 p2 + ... + r4 p5)` for every lane,
+/// with exactly the operations (and their order) of the single-vector substitution, so that each
+/// lane's result is bitwise that of [`BandedFactor::solve_plain`] or [`BandedFactor::solve_fma`].
+#[inline(always)]
+fn lane_row<const L: usize, const FMA: bool>(r: &[f64; BAND], p: &[[f64; L]; BAND], x: &[f64; L]) -> [f64; L] {
+    let mut y = [0.0; L];
+    for l in 0..L {
+        y[l] = if FMA {
+            (-r[0]).mul_add(
+                p[0][l],
+                (-r[1]).mul_add(
+                    p[1][l],
+                    (-r[2]).mul_add(p[2][l], (-r[3]).mul_add(p[3][l], (-r[4]).mul_add(p[4][l], x[l]))),
+                ),
+            )
+        } else {
+            let s = (r[1] * p[1][l] + r[2] * p[2][l]) + (r[3] * p[3][l] + r[4] * p[4][l]);
+            (x[l] - s) - r[0] * p[0][l]
+        };
+    }
+    y
+}
+
+impl BandedFactor {
+    /// Solves for `L` right-hand sides stored lane-fastest (`x[i][lane]`): every factor entry is
+    /// loaded once for all lanes and the lanes' dependency chains run side by side, which hides
+    /// the latency that bounds a single substitution. Each lane gets bitwise the result of
+    /// [`Self::solve`] on that lane alone.
+    #[inline]
+    fn solve_lanes<const L: usize>(&self, x: &mut [[f64; L]]) {
+        assert_eq!(x.len(), self.dinv.len());
+        #[cfg(target_arch = "x86_64")]
+        if self.fma {
+            if self.avx2 {
+                // SAFETY: `avx2` is set only when the CPU reports AVX2 and FMA.
+                unsafe { self.solve_lanes_avx2(x) };
+            } else {
+                // SAFETY: `fma` is set only when the CPU reports the FMA extension.
+                unsafe { self.solve_lanes_fma(x) };
+            }
+            return;
+        }
+        self.solve_lanes_body::<L, false>(x);
+    }
+
+    #[inline(always)]
+    fn solve_lanes_body<const L: usize, const FMA: bool>(&self, x: &mut [[f64; L]]) {
+        // p[0] is the newest value (p1 of the single substitution), p[4] the oldest.
+        let mut p = [[0.0f64; L]; BAND];
+        for ((r, xi), &d) in self.lrow.iter().zip(x.iter_mut()).zip(&self.dinv) {
+            let y = lane_row::<L, FMA>(r, &p, xi);
+            for l in 0..L {
+                xi[l] = y[l] * d;
+            }
+            p = [y, p[0], p[1], p[2], p[3]];
+        }
+        let mut p = [[0.0f64; L]; BAND];
+        for (c, xi) in self.lcol.iter().zip(x.iter_mut()).rev() {
+            let y = lane_row::<L, FMA>(c, &p, xi);
+            *xi = y;
+            p = [y, p[0], p[1], p[2], p[3]];
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn solve_lanes_avx2<const L: usize>(&self, x: &mut [[f64; L]]) {
+        self.solve_lanes_body::<L, true>(x);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma")]
+    unsafe fn solve_lanes_fma<const L: usize>(&self, x: &mut [[f64; L]]) {
+        self.solve_lanes_body::<L, true>(x);
+    }
+}
+
 impl std::fmt::Debug for Cholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Cholesky")
@@ -222,6 +303,7 @@ impl Cholesky {
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
             fma: fma_available(),
+            avx2: avx2_fma_available(),
         });
         Cholesky {
             upper: vec![0.0; analysis.src.len()],
@@ -229,6 +311,7 @@ impl Cholesky {
             analysis,
             mem,
             band,
+            lane_tmp: Vec::new(),
             factorizations: 0,
         }
     }
@@ -309,6 +392,34 @@ impl Cholesky {
         ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack);
     }
 
+    /// Solves `A X = B` in place for `L` right-hand sides stored lane-fastest (`x[i][lane]`,
+    /// holding `B` on entry). Each lane's result is bitwise that of [`Self::solve_in_place`] on
+    /// that lane alone; for a banded factor the lanes advance together (one load of each factor
+    /// entry, `L` independent dependency chains), otherwise lane by lane through faer.
+    #[inline]
+    pub fn solve_lanes<const L: usize>(&mut self, x: &mut [[f64; L]]) {
+        if L == 1 {
+            return self.solve_in_place(x.as_flattened_mut());
+        }
+        match self.band.as_ref() {
+            Some(b) => b.solve_lanes(x),
+            None => {
+                let mut col = std::mem::take(&mut self.lane_tmp);
+                col.resize(x.len(), 0.0);
+                for l in 0..L {
+                    for (c, xi) in col.iter_mut().zip(x.iter()) {
+                        *c = xi[l];
+                    }
+                    self.solve_in_place_faer(&mut col);
+                    for (c, xi) in col.iter().zip(x.iter_mut()) {
+                        xi[l] = *c;
+                    }
+                }
+                self.lane_tmp = col;
+            }
+        }
+    }
+
     /// True when [`Self::solve_in_place`] uses the banded substitution.
     pub fn is_banded(&self) -> bool {
         self.band.is_some()
@@ -320,6 +431,9 @@ impl Cholesky {
 /// magnitude (0 when singular), a cheap conditioning indicator.
 #[inline]
 pub fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
+    if m == 2 {
+        return solve_dense_2(a, b);
+    }
     let (mut pmin, mut pmax) = (f64::INFINITY, 0.0f64);
     for k in 0..m {
         let mut p = k;
@@ -364,11 +478,62 @@ pub fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
     }
 }
 
+/// [`solve_dense_in_place`] for `m = 2` (one joint) unrolled: the same operations in the same
+/// order, so the same `b` and pivot ratio bit for bit (`a` is left partly eliminated).
+#[inline]
+fn solve_dense_2(a: &mut [f64], b: &mut [f64]) -> f64 {
+    let (mut a00, mut a01, mut a10, mut a11) = (a[0], a[1], a[2], a[3]);
+    let (mut b0, mut b1) = (b[0], b[1]);
+    if a10.abs() > a00.abs() {
+        std::mem::swap(&mut a00, &mut a10);
+        std::mem::swap(&mut a01, &mut a11);
+        std::mem::swap(&mut b0, &mut b1);
+    }
+    let (mut pmin, mut pmax) = (f64::INFINITY.min(a00.abs()), 0.0f64.max(a00.abs()));
+    if a00 == 0.0 || !a00.is_finite() {
+        (b[0], b[1]) = (b0, b1);
+        return 0.0;
+    }
+    let f = a10 / a00;
+    if f != 0.0 {
+        a10 -= f * a00;
+        a11 -= f * a01;
+        b1 -= f * b0;
+    }
+    pmin = pmin.min(a11.abs());
+    pmax = pmax.max(a11.abs());
+    (a[0], a[1], a[2], a[3]) = (a00, a01, a10, a11);
+    if a11 == 0.0 || !a11.is_finite() {
+        (b[0], b[1]) = (b0, b1);
+        return 0.0;
+    }
+    b1 /= a11;
+    b0 = (b0 - a01 * b1) / a00;
+    (b[0], b[1]) = (b0, b1);
+    if pmax > 0.0 {
+        pmin / pmax
+    } else {
+        0.0
+    }
+}
+
 /// True when the CPU has fused multiply-add (detected once per factorization object).
 fn fma_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// True when the CPU has AVX2 and fused multiply-add (x86_64).
+fn avx2_fma_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -528,6 +693,76 @@ impl BandLu {
                 s -= self.a[row + j] * x[j];
             }
             x[i] = s / self.a[row + i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod dense_tests {
+    /// The unrolled 2 x 2 solve is bitwise the general elimination (pivoting both ways, a
+    /// singular matrix, a zero off-diagonal).
+    #[test]
+    fn unrolled_2x2_is_the_general_elimination() {
+        let cases = [
+            [4.0, 1.5, 0.3, 2.0, 1.0, -2.0],
+            [0.3, 2.0, 4.0, 1.5, 1.0, -2.0],
+            [1.0, 2.0, 2.0, 4.0, 1.0, 1.0],
+            [1.0 + 1e-9, 0.0, 0.0, 1.0 + 3e-7, 0.7, 0.1],
+            [0.0, 0.0, 0.0, 0.0, 1.0, 1.0],
+        ];
+        for c in cases {
+            let (mut a1, mut b1) = ([c[0], c[1], c[2], c[3]], [c[4], c[5]]);
+            let (mut a2, mut b2) = (a1, b1);
+            let r1 = super::solve_dense_2(&mut a1, &mut b1);
+            let r2 = general(&mut a2, &mut b2, 2);
+            assert_eq!(r1.to_bits(), r2.to_bits(), "{c:?}");
+            assert_eq!(b1.map(f64::to_bits), b2.map(f64::to_bits), "{c:?}");
+        }
+    }
+
+    /// The general elimination of `solve_dense_in_place`, without its `m = 2` shortcut.
+    fn general(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
+        let (mut pmin, mut pmax) = (f64::INFINITY, 0.0f64);
+        for k in 0..m {
+            let mut p = k;
+            for i in k + 1..m {
+                if a[i * m + k].abs() > a[p * m + k].abs() {
+                    p = i;
+                }
+            }
+            if p != k {
+                for j in 0..m {
+                    a.swap(k * m + j, p * m + j);
+                }
+                b.swap(k, p);
+            }
+            let piv = a[k * m + k];
+            pmin = pmin.min(piv.abs());
+            pmax = pmax.max(piv.abs());
+            if piv == 0.0 || !piv.is_finite() {
+                return 0.0;
+            }
+            for i in k + 1..m {
+                let f = a[i * m + k] / piv;
+                if f != 0.0 {
+                    for j in k..m {
+                        a[i * m + j] -= f * a[k * m + j];
+                    }
+                    b[i] -= f * b[k];
+                }
+            }
+        }
+        for k in (0..m).rev() {
+            let mut s = b[k];
+            for j in k + 1..m {
+                s -= a[k * m + j] * b[j];
+            }
+            b[k] = s / a[k * m + k];
+        }
+        if pmax > 0.0 {
+            pmin / pmax
+        } else {
+            0.0
         }
     }
 }

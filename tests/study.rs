@@ -3,7 +3,8 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use flexclear::contact::Coupling;
+use flexclear::contact::{Coupling, DampingLaw};
+use flexclear::integrator::newmark::Lockstep;
 use flexclear::recorder::RecordSpec;
 use flexclear::scenes::SliderYoke;
 use flexclear::study::{run_batch, BatchOptions, Retry};
@@ -51,6 +52,9 @@ fn batch_equals_single_runs_on_any_number_of_threads() {
         assert_eq!(stats.threads, threads);
         // two element counts, two sparsity patterns: exactly two symbolic analyses
         assert_eq!(stats.analyses, 2);
+        // input order 13, 12, 12, 13, 12, 12, 13, 12 elements: lockstep groups (default 8 lanes)
+        // of consecutive samples with one pattern: [1, 2], [4, 5], the rest alone
+        assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (2, 4));
         for (o, e) in outcomes.iter().zip(&single) {
             let out = o.result.as_ref().unwrap().as_ref().unwrap();
             // bitwise: a run is sequential on one thread, whatever the pool
@@ -95,6 +99,7 @@ fn failures_are_data_and_retries_are_recorded() {
             attempts: 2,
             factor: 0.1,
         },
+        ..Default::default()
     };
     let (out, _) = run_batch(&samples[..1], &options, &stop, &done).unwrap();
     assert!(out[0].result.as_ref().unwrap().is_ok());
@@ -118,8 +123,190 @@ fn bad_retry_factor_is_refused() {
             attempts: 1,
             factor: 1.5,
         },
+        ..Default::default()
     };
     let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
     let e = run_batch(&[], &options, &stop, &done).unwrap_err();
     assert!(matches!(e, Error::InvalidParameter { ref name, .. } if name == "retry_factor"));
+}
+
+/// Everything a run produced, for bitwise comparisons (`RunOutput: PartialEq` compares f64 with
+/// `==`, which would also accept -0.0 for 0.0; the debug text does not).
+fn text(r: &Result<flexclear::RunOutput, Box<flexclear::RunFailure>>) -> String {
+    format!("{r:?}")
+}
+
+/// Samples that share one effective matrix: clearances, bearing laws, couplings and motions
+/// differ, M, K, C and dt do not.
+fn shared_factor_samples(n: usize) -> Vec<(flexclear::model::Model, Settings)> {
+    (0..n)
+        .map(|i| {
+            let scene = SliderYoke {
+                clearance: 1e-3 * (i as f64 + 0.5) / n as f64,
+                bearing_stiffness: if i % 5 == 1 { Some(1e9) } else { None },
+                damping_law: if i % 4 == 2 {
+                    DampingLaw::Radial
+                } else {
+                    DampingLaw::Viscous
+                },
+                amplitude: if i % 6 == 3 {
+                    0.2
+                } else {
+                    SliderYoke::default().amplitude
+                },
+                ..Default::default()
+            };
+            let mut s = settings(0.02, 1e-5);
+            s.coupling = match i % 7 {
+                3 => Coupling::Modified {
+                    iterate: true,
+                    tol: 1e-10,
+                    max_iter: 50,
+                },
+                5 => Coupling::Force,
+                6 => Coupling::Gap {
+                    stiffness: None,
+                    damping: 5.0,
+                    max_iter: 20,
+                },
+                _ => Coupling::default(),
+            };
+            (scene.build().unwrap(), s)
+        })
+        .collect()
+}
+
+#[test]
+fn lockstep_lanes_are_bitwise_single_runs() {
+    let samples = shared_factor_samples(11);
+    let single: Vec<String> = samples
+        .iter()
+        .map(|(m, s)| text(&simulate(m, s, &mut |_| true)))
+        .collect();
+    for (threads, lanes) in [(1, 1), (1, 2), (2, 4), (3, 8), (2, 3), (2, 5)] {
+        let options = BatchOptions {
+            threads,
+            lanes,
+            ..Default::default()
+        };
+        let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+        let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+        assert_eq!(done.load(Ordering::Relaxed), samples.len());
+        // groups of consecutive samples, `lanes` at most (a group of 3 runs 4 lanes, one idle)
+        let n = samples.len();
+        let expect = if lanes == 1 {
+            0
+        } else {
+            n / lanes + usize::from(n % lanes > 1)
+        };
+        assert_eq!(stats.lockstep_groups, expect, "lanes {lanes}");
+        for (i, (o, e)) in out.iter().zip(&single).enumerate() {
+            assert_eq!(
+                &text(o.result.as_ref().unwrap()),
+                e,
+                "sample {i}, {threads} threads, {lanes} lanes"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_diverging_lane_fails_alone_and_the_others_finish() {
+    // force method on the stiff bearing diverges at 1e-5 s steps (step 512); the others finish
+    let mut samples = shared_factor_samples(4);
+    let mut stiff = SliderYoke {
+        clearance: 1e-5,
+        bearing_stiffness: Some(1e10),
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
+    std::mem::swap(&mut samples[1].0, &mut stiff);
+    samples[1].1.coupling = Coupling::Force;
+    let single: Vec<_> = samples.iter().map(|(m, s)| simulate(m, s, &mut |_| true)).collect();
+    // mid-run: after some steps and well before the end (2000 steps)
+    assert!(
+        matches!(&single[1], Err(f) if matches!(f.error, Error::Diverged { step, .. } if step > 100 && step < 1000))
+    );
+    assert!(single.iter().enumerate().all(|(i, r)| (i == 1) != r.is_ok()));
+    let runs: Vec<_> = samples.iter().map(|(m, s)| (m, s)).collect();
+    let group = Lockstep::<4>::with_analysis(&runs, None).unwrap();
+    let out = group.run(&mut |_| true);
+    for (i, (o, e)) in out.iter().zip(&single).enumerate() {
+        // the failed lane keeps its own error, partial record and state
+        assert_eq!(text(o), text(e), "lane {i}");
+    }
+    // in a batch, with a retry at dt / 10 where the force method is stable
+    let options = BatchOptions {
+        threads: 2,
+        retry: Retry {
+            attempts: 1,
+            factor: 0.1,
+        },
+        ..Default::default()
+    };
+    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+    let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+    assert_eq!(stats.lockstep_samples, 4);
+    assert_eq!(out[1].retries, 1);
+    let mut retried = samples[1].1.clone();
+    retried.dt *= 0.1;
+    let alone = simulate(&samples[1].0, &retried, &mut |_| true);
+    assert!(alone.is_ok());
+    assert_eq!(text(out[1].result.as_ref().unwrap()), text(&alone));
+    for i in [0, 2, 3] {
+        assert_eq!(out[i].retries, 0);
+        assert_eq!(text(out[i].result.as_ref().unwrap()), text(&single[i]));
+    }
+}
+
+#[test]
+fn samples_that_cannot_share_run_alone() {
+    // histories asked, another step, another Young's modulus: no lockstep with their neighbours
+    let mut samples = shared_factor_samples(8);
+    samples[1].1.record.histories = true;
+    samples[3].1.dt = 2e-5;
+    samples[5].0 = SliderYoke {
+        first_frequency: 150.0,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
+    let options = BatchOptions {
+        threads: 2,
+        lanes: 8,
+        ..Default::default()
+    };
+    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+    let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+    // groups: [0] [1] [2] [3] [4] [5] [6, 7]
+    assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (1, 2));
+    for (o, (m, s)) in out.iter().zip(&samples) {
+        assert_eq!(text(o.result.as_ref().unwrap()), text(&simulate(m, s, &mut |_| true)));
+    }
+    let e = run_batch(
+        &samples,
+        &BatchOptions {
+            lanes: 9,
+            ..Default::default()
+        },
+        &stop,
+        &done,
+    )
+    .unwrap_err();
+    assert!(matches!(e, Error::InvalidParameter { ref name, .. } if name == "lanes"));
+}
+
+#[test]
+fn lanes_that_do_not_share_the_factor_are_refused() {
+    let a = SliderYoke::default().build().unwrap();
+    let b = SliderYoke {
+        elements: 10,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
+    let s = settings(0.001, 1e-5);
+    assert!(Lockstep::<2>::with_analysis(&[(&a, &s), (&b, &s)], None).is_err());
+    assert!(Lockstep::<2>::with_analysis(&[(&a, &s), (&a, &s), (&a, &s)], None).is_err());
 }

@@ -264,6 +264,7 @@ def run_batch(
     dt: list[float],
     *,
     threads: int = ...,
+    lanes: int = ...,
     retries: int = ...,
     retry_factor: float = ...,
     method: str = ...,
@@ -285,6 +286,7 @@ def run_batch(
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
 
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes,
-    time, joints), the batch counters (analyses, threads) and the exception that stopped the
-    batch (KeyboardInterrupt, or one raised by `progress(done)`), else None.
+    time, joints), the batch counters (analyses, threads, lockstep_groups, lockstep_samples) and
+    the exception that stopped the batch (KeyboardInterrupt, or one raised by `progress(done)`),
+    else None. `lanes` is the largest lockstep group (0 = default 8, 1 = none, at most 8).
     """

@@ -12,8 +12,19 @@
 //! correction `a = z + Z (h - s)`, `z = A0^-1 r`, `Z = A0^-1 P^T`, `s = (I + G W)^-1 G (P z + W h)`,
 //! `W = P Z`: an open contact has `G = 0` and costs nothing extra, and iterating the contact within
 //! a step needs no further sparse solve. The loop does not allocate.
+//!
+//! **Lockstep.** Runs whose `A0` is the same (same M, C, K, dt, beta, gamma: e.g. samples of a
+//! study that differ only in clearance or bearing law) share that factorization and can step
+//! together: [`Lockstep`] advances `L` such runs ("lanes") at once, with the global vectors stored
+//! lane-fastest (`u[dof][lane]`), so the banded substitution and the band product load each matrix
+//! entry once and run `L` independent dependency chains side by side (the single substitution is
+//! latency-bound). The joint work (contact law, Woodbury correction, iterations, recording,
+//! divergence checks) is per lane. Every lane does exactly the floating-point operations of a
+//! single run, in the same order, so its result is bitwise that of [`NewmarkRun`] (which is the
+//! one-lane case of the same code). A lane that fails (divergence, a contact matrix that is not
+//! positive definite) is finished with its own error and what it recorded, and the others go on.
 
-use crate::assembly::{Band, Frames, Pattern, System};
+use crate::assembly::{Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linsolve::{solve_dense_in_place, Analysis, AnalysisCache, Cholesky};
@@ -58,82 +69,13 @@ const CHECK_STRIDE: u64 = 16;
 /// Woodbury is abandoned for a step whose capacitance pivot ratio is below this.
 const WOODBURY_RCOND: f64 = 1e-12;
 
-/// A run in progress: the assembled system, factorizations, state and workspace.
+/// One run's outcome: its output, or why it stopped with what it recorded until then.
+pub type RunResult = std::result::Result<RunOutput, Box<RunFailure>>;
+
+/// A run in progress: the assembled system, factorizations, state and workspace. The one-lane
+/// case of [`Lockstep`].
 pub struct NewmarkRun<'m> {
-    model: &'m Model,
-    sys: System,
-    settings: Settings,
-    bdt2: f64,
-    gdt: f64,
-    chol0: Cholesky,
-    chol_c: Option<Cholesky>,
-    a0_values: Vec<f64>,
-    ac_values: Vec<f64>,
-    /// Positions of each joint's DOF block in the pattern, `[a][b]`.
-    joint_pos: Vec<[[usize; 4]; 4]>,
-    m: usize,
-    zcols: Vec<f64>,
-    wmat: Vec<f64>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    a: Vec<f64>,
-    r: Vec<f64>,
-    rb: Vec<f64>,
-    tmp: Vec<f64>,
-    terms: Vec<ContactTerms>,
-    g: Vec<Mat2>,
-    g_factored: Vec<Mat2>,
-    h: Vec<f64>,
-    yb: Vec<f64>,
-    s: Vec<f64>,
-    pa: Vec<f64>,
-    pa_old: Vec<f64>,
-    cap: Vec<f64>,
-    frames: Frames,
-    q: Vec<[f64; 2]>,
-    qd: Vec<[f64; 2]>,
-    qt: Vec<[f64; 2]>,
-    qdt: Vec<[f64; 2]>,
-    pen: Vec<f64>,
-    fmag: Vec<f64>,
-    gap_closed: Vec<bool>,
-    gap_normal: Vec<[f64; 2]>,
-    gap_k: Vec<f64>,
-    limit: f64,
-    /// Banded copies of K and C for the per-step products, when the pattern is banded.
-    k_band: Option<Band>,
-    c_band: Option<Band>,
-    xpad: Vec<f64>,
-    translational: Vec<bool>,
-    stats: RunStats,
-    rec: Recorder,
-    t: f64,
-    step: u64,
-}
-
-/// `y = A x` through the band when there is one (faster for chains), else the sparse pattern.
-#[inline]
-fn matvec(pattern: &Pattern, band: Option<&Band>, a: &[f64], x: &[f64], xpad: &mut [f64], y: &mut [f64]) {
-    match band {
-        Some(b) => {
-            let w = b.half_bandwidth();
-            xpad[w..w + x.len()].copy_from_slice(x);
-            b.mul(xpad, y);
-        }
-        None => pattern.mul(a, x, y),
-    }
-}
-
-/// Euclidean length of a 2-vector. Plain `sqrt(x^2 + y^2)`: `f64::hypot` is a slow library call,
-/// and the overflow it guards against (|v| > 1e154 m) only happens in a divergence, which the
-/// finite checks report.
-#[inline]
-fn norm2(v: [f64; 2]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1]).sqrt()
-}
-
-fn mat2_is_zero(m: &Mat2) -> bool {
-    m[0][0] == 0.0 && m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][1] == 0.0
+    inner: Lockstep<'m, 1>,
 }
 
 impl<'m> NewmarkRun<'m> {
@@ -148,69 +90,389 @@ impl<'m> NewmarkRun<'m> {
     /// (shared among the samples of a study) when given; otherwise the analysis is done here.
     /// One analysis serves all of the run's factorizations.
     pub fn with_analysis(model: &'m Model, settings: &Settings, cache: Option<&AnalysisCache>) -> Result<Self> {
-        let sys = System::assemble(model);
+        let mut inner = Lockstep::<1>::with_analysis(&[(model, settings)], cache)?;
+        if let Some(Err(f)) = inner.lanes[0].outcome.take() {
+            return Err(f.error);
+        }
+        Ok(NewmarkRun { inner })
+    }
+
+    /// Runs to the end. See [`crate::simulation::simulate`].
+    pub fn run(self, control: &mut dyn FnMut(f64) -> bool) -> RunResult {
+        self.inner.run(control).pop().expect("a one-lane run has one outcome")
+    }
+}
+
+/// True when two validated runs have the same contact-free effective matrix and step, so that
+/// they can run as lanes of one [`Lockstep`]: same pattern, bitwise equal M, K and C (and the
+/// same proportional-damping ratio), the same joint DOFs and projections, the same dt, Newmark
+/// parameters and number of steps. Clearances, contact laws, couplings, motions, initial
+/// conditions and what is recorded may differ.
+pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
+    let ((sa, ta), (sb, tb)) = (a, b);
+    let bits = |x: &[f64], y: &[f64]| x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
+    ta.dt.to_bits() == tb.dt.to_bits()
+        && ta.newmark.beta.to_bits() == tb.newmark.beta.to_bits()
+        && ta.newmark.gamma.to_bits() == tb.newmark.gamma.to_bits()
+        && ta.steps() == tb.steps()
+        && sa.pattern.n == sb.pattern.n
+        && sa.pattern.col_ptr == sb.pattern.col_ptr
+        && sa.pattern.row_idx == sb.pattern.row_idx
+        && bits(&sa.mass, &sb.mass)
+        && bits(&sa.stiffness, &sb.stiffness)
+        && bits(&sa.damping, &sb.damping)
+        && sa.proportional_damping.map(f64::to_bits) == sb.proportional_damping.map(f64::to_bits)
+        && sa.links.len() == sb.links.len()
+        && sa
+            .links
+            .iter()
+            .zip(&sb.links)
+            .all(|(x, y)| x.offset == y.offset && x.ndof == y.ndof)
+        && sa.joints.len() == sb.joints.len()
+        && sa
+            .joints
+            .iter()
+            .zip(&sb.joints)
+            .all(|(x, y)| x.ndof == y.ndof && x.dofs == y.dofs && bits(x.coef.as_flattened(), y.coef.as_flattened()))
+}
+
+/// A symmetric matrix stored as a dense band (row `r` holds columns `r - w ..= r + w`), for the
+/// per-step products `K x` and `C x` on lane-fastest vectors; the sums are formed in the order of
+/// [`crate::assembly::Band::mul`], lane by lane.
+struct LaneBand {
+    n: usize,
+    w: usize,
+    vals: Vec<f64>,
+    /// The CPU has AVX2 (x86_64): products of several lanes use 256-bit registers.
+    avx2: bool,
+}
+
+impl LaneBand {
+    /// The band of values `a` on `pattern`, or `None` when the band would hold more than twice
+    /// the pattern's entries (the same rule as [`crate::assembly::Band::from_csc`]).
+    fn from_csc(pattern: &Pattern, a: &[f64]) -> Option<LaneBand> {
+        let n = pattern.n;
+        let mut w = 0;
+        for c in 0..n {
+            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                w = w.max(pattern.row_idx[p].abs_diff(c));
+            }
+        }
+        let width = 2 * w + 1;
+        if n * width > 2 * pattern.nnz().max(1) {
+            return None;
+        }
+        let mut vals = vec![0.0; n * width];
+        for c in 0..n {
+            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+                let r = pattern.row_idx[p];
+                vals[r * width + (c + w - r)] = a[p];
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = false;
+        Some(LaneBand { n, w, vals, avx2 })
+    }
+
+    fn padded_len(&self) -> usize {
+        self.n + 2 * self.w
+    }
+
+    /// `y = A x` for every lane, `xpad` holding `x` at `xpad[w .. w + n]` and zeros at the ends.
+    #[inline]
+    fn mul<const L: usize>(&self, xpad: &[[f64; L]], y: &mut [[f64; L]]) {
+        let width = 2 * self.w + 1;
+        assert!(xpad.len() == self.padded_len() && y.len() >= self.n);
+        if width == 11 {
+            #[cfg(target_arch = "x86_64")]
+            if L.is_multiple_of(4) && self.avx2 {
+                // SAFETY: the CPU reports AVX2.
+                return unsafe { self.mul_fixed_avx2::<11, L>(xpad, y) };
+            }
+            return self.mul_fixed::<11, L>(xpad, y);
+        }
+        for (r, (row, yr)) in self.vals.chunks_exact(width).zip(y.iter_mut()).enumerate() {
+            let x = &xpad[r..r + width];
+            for l in 0..L {
+                let mut s = [0.0; 4];
+                let (rc, xc) = (row.chunks_exact(4), x.chunks_exact(4));
+                let (rr, xr) = (rc.remainder(), xc.remainder());
+                for (a, b) in rc.zip(xc) {
+                    for k in 0..4 {
+                        s[k] += a[k] * b[k][l];
+                    }
+                }
+                let mut t = (s[0] + s[1]) + (s[2] + s[3]);
+                for (a, b) in rr.iter().zip(xr) {
+                    t += a * b[l];
+                }
+                yr[l] = t;
+            }
+        }
+    }
+
+    /// [`Self::mul_fixed`] for `L` a multiple of 4 with explicit 256-bit vectors across lanes
+    /// (left to itself, the compiler vectorizes across rows instead, with shuffles and spills).
+    /// The same IEEE additions and multiplications in the same order, so bitwise the same.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn mul_fixed_avx2<const W: usize, const L: usize>(&self, xpad: &[[f64; L]], y: &mut [[f64; L]]) {
+        use std::arch::x86_64::{
+            _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+        };
+        assert!(L.is_multiple_of(4) && xpad.len() >= self.n + W - 1 && y.len() >= self.n);
+        for (r, (row, yr)) in self.vals.chunks_exact(W).zip(y.iter_mut()).enumerate() {
+            let x = &xpad[r..r + W];
+            let mut c = 0;
+            while c < L {
+                // SAFETY: c + 4 <= L, so every load and the store stay within one [f64; L].
+                unsafe {
+                    macro_rules! term {
+                        ($k:expr) => {
+                            _mm256_mul_pd(
+                                _mm256_set1_pd(row[$k]),
+                                _mm256_loadu_pd(x[$k].as_ptr().add(c)),
+                            )
+                        };
+                    }
+                    let (mut a0, mut a1, mut b0, mut b1) = (
+                        _mm256_setzero_pd(),
+                        _mm256_setzero_pd(),
+                        _mm256_setzero_pd(),
+                        _mm256_setzero_pd(),
+                    );
+                    let mut k = 0;
+                    while k + 4 <= W {
+                        a0 = _mm256_add_pd(a0, term!(k));
+                        a1 = _mm256_add_pd(a1, term!(k + 1));
+                        b0 = _mm256_add_pd(b0, term!(k + 2));
+                        b1 = _mm256_add_pd(b1, term!(k + 3));
+                        k += 4;
+                    }
+                    while k + 2 <= W {
+                        a0 = _mm256_add_pd(a0, term!(k));
+                        a1 = _mm256_add_pd(a1, term!(k + 1));
+                        k += 2;
+                    }
+                    let mut t = _mm256_add_pd(_mm256_add_pd(a0, b0), _mm256_add_pd(a1, b1));
+                    if k < W {
+                        t = _mm256_add_pd(t, term!(k));
+                    }
+                    _mm256_storeu_pd(yr.as_mut_ptr().add(c), t);
+                }
+                c += 4;
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn mul_fixed<const W: usize, const L: usize>(&self, xpad: &[[f64; L]], y: &mut [[f64; L]]) {
+        for (r, (row, yr)) in self.vals.chunks_exact(W).zip(y.iter_mut()).enumerate() {
+            let row: &[f64; W] = row.try_into().expect("chunk of width W");
+            let x: &[[f64; L]; W] = xpad[r..r + W].try_into().expect("window of width W");
+            // the accumulators and order of `Band::mul_fixed`, lane by lane
+            let (mut a0, mut a1, mut b0, mut b1) = ([0.0f64; L], [0.0f64; L], [0.0f64; L], [0.0f64; L]);
+            let mut k = 0;
+            while k + 4 <= W {
+                for l in 0..L {
+                    a0[l] += row[k] * x[k][l];
+                    a1[l] += row[k + 1] * x[k + 1][l];
+                    b0[l] += row[k + 2] * x[k + 2][l];
+                    b1[l] += row[k + 3] * x[k + 3][l];
+                }
+                k += 4;
+            }
+            while k + 2 <= W {
+                for l in 0..L {
+                    a0[l] += row[k] * x[k][l];
+                    a1[l] += row[k + 1] * x[k + 1][l];
+                }
+                k += 2;
+            }
+            for l in 0..L {
+                let mut t = (a0[l] + b0[l]) + (a1[l] + b1[l]);
+                if k < W {
+                    t += row[k] * x[k][l];
+                }
+                yr[l] = t;
+            }
+        }
+    }
+}
+
+/// `y = A x` on every lane through the band when there is one, else lane by lane on the pattern.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn matvec<const L: usize>(
+    pattern: &Pattern,
+    band: Option<&LaneBand>,
+    a: &[f64],
+    x: &[[f64; L]],
+    xpad: &mut [[f64; L]],
+    y: &mut [[f64; L]],
+    col_x: &mut [f64],
+    col_y: &mut [f64],
+) {
+    match band {
+        Some(b) => {
+            let w = b.w;
+            xpad[w..w + x.len()].copy_from_slice(x);
+            b.mul(xpad, y);
+        }
+        None if L == 1 => pattern.mul(a, x.as_flattened(), y.as_flattened_mut()),
+        None => {
+            for l in 0..L {
+                get_lane(x, l, col_x);
+                pattern.mul(a, col_x, col_y);
+                set_lane(y, l, col_y);
+            }
+        }
+    }
+}
+
+/// Copies lane `l` of `x` into `out`.
+#[inline]
+fn get_lane<const L: usize>(x: &[[f64; L]], l: usize, out: &mut [f64]) {
+    for (o, xi) in out.iter_mut().zip(x) {
+        *o = xi[l];
+    }
+}
+
+/// Copies `v` into lane `l` of `x`.
+#[inline]
+fn set_lane<const L: usize>(x: &mut [[f64; L]], l: usize, v: &[f64]) {
+    for (xi, &o) in x.iter_mut().zip(v) {
+        xi[l] = o;
+    }
+}
+
+/// `P x` of joint `j` on lane `l`, with the operations of [`System::joint_project`].
+#[inline]
+fn project_lane<const L: usize>(j: &crate::assembly::JointPlan, x: &[[f64; L]], l: usize) -> [f64; 2] {
+    let mut r = [0.0; 2];
+    for k in 0..j.ndof {
+        let v = x[j.dofs[k]][l];
+        r[0] += j.coef[0][k] * v;
+        r[1] += j.coef[1][k] * v;
+    }
+    r
+}
+
+/// Euclidean length of a 2-vector. Plain `sqrt(x^2 + y^2)`: `f64::hypot` is a slow library call,
+/// and the overflow it guards against (|v| > 1e154 m) only happens in a divergence, which the
+/// finite checks report.
+#[inline]
+fn norm2(v: [f64; 2]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1]).sqrt()
+}
+
+fn mat2_is_zero(m: &Mat2) -> bool {
+    m[0][0] == 0.0 && m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][1] == 0.0
+}
+
+/// What the lanes share: the contact-free matrices, their factorization, the Woodbury columns,
+/// the step constants, and (when every lane has the same frame motions) the frames.
+struct Shared {
+    /// Lane 0's system (pattern, M, K, C, joint DOFs and projections are every lane's).
+    sys: System,
+    n: usize,
+    m: usize,
+    dt: f64,
+    c1: f64,
+    c2: f64,
+    bdt2: f64,
+    gdt: f64,
+    steps: u64,
+    chol0: Cholesky,
+    a0_values: Vec<f64>,
+    /// Positions of each joint's DOF block in the pattern, `[a][b]`.
+    joint_pos: Vec<[[usize; 4]; 4]>,
+    zcols: Vec<f64>,
+    wmat: Vec<f64>,
+    /// Banded copies of K and C for the per-step products, when the pattern is banded.
+    k_band: Option<LaneBand>,
+    c_band: Option<LaneBand>,
+    translational: Vec<bool>,
+    /// Every lane has lane 0's link and body motions and inertia loads: frames are evaluated
+    /// once per step into `frames` and the inertia load is the same on every lane.
+    frames_shared: bool,
+    frames: Frames,
+}
+
+/// What each lane has of its own: its model and settings (clearances, contact laws, coupling,
+/// recording), its contact state, the small Woodbury system, counters and recorder.
+struct Lane<'m> {
+    model: &'m Model,
+    settings: Settings,
+    sys: System,
+    frames: Frames,
+    chol_c: Option<Cholesky>,
+    ac_values: Vec<f64>,
+    /// Full right-hand side, for refactorized steps.
+    rb: Vec<f64>,
+    /// This lane's solution of a refactorized step; also scratch for lane extraction.
+    sol: Vec<f64>,
+    col: Vec<f64>,
+    terms: Vec<ContactTerms>,
+    g: Vec<Mat2>,
+    g_factored: Vec<Mat2>,
+    h: Vec<f64>,
+    yb: Vec<f64>,
+    s: Vec<f64>,
+    pa: Vec<f64>,
+    pa_old: Vec<f64>,
+    cap: Vec<f64>,
+    q: Vec<[f64; 2]>,
+    qd: Vec<[f64; 2]>,
+    qt: Vec<[f64; 2]>,
+    qdt: Vec<[f64; 2]>,
+    pen: Vec<f64>,
+    fmag: Vec<f64>,
+    gap_closed: Vec<bool>,
+    gap_normal: Vec<[f64; 2]>,
+    gap_k: Vec<f64>,
+    limit: f64,
+    stats: RunStats,
+    rec: Recorder,
+    /// The last step of this lane was solved by refactorization (solution in `sol`).
+    refactored: bool,
+    /// The recorder reads node displacements (needs this lane's `u`).
+    reads_u: bool,
+    /// Set when the lane has finished (failed, or at the end of the run).
+    outcome: Option<RunResult>,
+    /// The error of a lane failing in the current step, until it is retired.
+    pending: Option<Error>,
+}
+
+/// `L` runs stepped together on one shared contact-free factorization (see the module
+/// documentation). Build it with [`Lockstep::with_analysis`] from 1 to `L` runs for which
+/// [`shares_factor`] holds; missing lanes are idle.
+pub struct Lockstep<'m, const L: usize> {
+    sh: Shared,
+    lanes: Vec<Lane<'m>>,
+    active: [bool; L],
+    u: Vec<[f64; L]>,
+    v: Vec<[f64; L]>,
+    a: Vec<[f64; L]>,
+    r: Vec<[f64; L]>,
+    tmp: Vec<[f64; L]>,
+    xpad: Vec<[f64; L]>,
+    col_y: Vec<f64>,
+    t: f64,
+    step: u64,
+}
+
+impl<'m> Lane<'m> {
+    fn new(model: &'m Model, settings: &Settings, sys: System) -> Self {
         let n = sys.n();
         let nj = sys.joints.len();
         let m = 2 * nj;
-        let dt = settings.dt;
-        let bdt2 = settings.newmark.beta * dt * dt;
-        let gdt = settings.newmark.gamma * dt;
-        let nnz = sys.pattern.nnz();
-        let a0_values: Vec<f64> = (0..nnz)
-            .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
-            .collect();
-        let analysis = match cache {
-            Some(c) => c.get(&sys.pattern)?,
-            None => Analysis::new(&sys.pattern)?,
-        };
-        let mut chol0 = Cholesky::with_analysis(Arc::clone(&analysis));
-        chol0.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
         let needs_refactor = nj > 0 && !matches!(settings.coupling, Coupling::Force);
-        let chol_c = if needs_refactor {
-            Some(Cholesky::with_analysis(Arc::clone(&analysis)))
-        } else {
-            None
-        };
-        let joint_pos = sys
-            .joints
-            .iter()
-            .map(|j| {
-                let mut p = [[0usize; 4]; 4];
-                for (a, row) in p.iter_mut().enumerate().take(j.ndof) {
-                    for (b, cell) in row.iter_mut().enumerate().take(j.ndof) {
-                        *cell = sys.pattern.position(j.dofs[a], j.dofs[b]);
-                    }
-                }
-                p
-            })
-            .collect();
-        // Z = A0^-1 P^T, W = P Z.
-        let mut zcols = vec![0.0; n * m];
-        for (jj, j) in sys.joints.iter().enumerate() {
-            for r in 0..2 {
-                let col = &mut zcols[(2 * jj + r) * n..(2 * jj + r + 1) * n];
-                for k in 0..j.ndof {
-                    col[j.dofs[k]] += j.coef[r][k];
-                }
-                chol0.solve_in_place(col);
-            }
-        }
-        let mut wmat = vec![0.0; m * m];
-        for (jr, j) in sys.joints.iter().enumerate() {
-            for c in 0..m {
-                let p = System::joint_project(j, &zcols[c * n..(c + 1) * n]);
-                wmat[(2 * jr) * m + c] = p[0];
-                wmat[(2 * jr + 1) * m + c] = p[1];
-            }
-        }
         let limit = settings
             .divergence_limit
             .unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.length).fold(0.0, f64::max));
-        let mut translational = vec![true; n];
-        for (i, t) in translational.iter_mut().enumerate() {
-            // every link has 3 DOFs per node and starts at a multiple of 3
-            *t = i % 3 != 2;
-        }
         let gap_k = sys
             .joints
             .iter()
@@ -239,26 +501,20 @@ impl<'m> NewmarkRun<'m> {
         }
         let node_dof = |l: usize, node: usize| sys.links[l].offset + 3 * node;
         let rec = Recorder::new(&settings.record, nj, node_dof, settings.steps());
-        let k_band = Band::from_csc(&sys.pattern, &sys.stiffness);
-        let mut run = NewmarkRun {
+        let reads_u = settings.record.histories && !settings.record.nodes.is_empty();
+        Lane {
             model,
             settings: settings.clone(),
-            bdt2,
-            gdt,
-            chol0,
-            chol_c,
-            ac_values: a0_values.clone(),
-            a0_values,
-            joint_pos,
-            m,
-            zcols,
-            wmat,
-            u: vec![0.0; n],
-            v: vec![0.0; n],
-            a: vec![0.0; n],
-            r: vec![0.0; n],
+            frames: sys.frames(),
+            chol_c: None,
+            ac_values: if needs_refactor {
+                vec![0.0; sys.pattern.nnz()]
+            } else {
+                Vec::new()
+            },
             rb: vec![0.0; n],
-            tmp: vec![0.0; n],
+            sol: vec![0.0; n],
+            col: vec![0.0; n],
             terms: vec![ContactTerms::default(); nj],
             g: vec![[[0.0; 2]; 2]; nj],
             g_factored: vec![[[f64::NAN; 2]; 2]; nj],
@@ -268,7 +524,6 @@ impl<'m> NewmarkRun<'m> {
             pa: vec![0.0; m],
             pa_old: vec![0.0; m],
             cap: vec![0.0; m * m],
-            frames: sys.frames(),
             q: vec![[0.0; 2]; nj],
             qd: vec![[0.0; 2]; nj],
             qt: vec![[0.0; 2]; nj],
@@ -279,51 +534,51 @@ impl<'m> NewmarkRun<'m> {
             gap_normal: vec![[1.0, 0.0]; nj],
             gap_k,
             limit,
-            xpad: vec![0.0; k_band.as_ref().map_or(0, Band::padded_len)],
-            c_band: if sys.proportional_damping.is_some() {
-                None
-            } else {
-                Band::from_csc(&sys.pattern, &sys.damping)
-            },
-            k_band,
-            translational,
             stats: RunStats {
                 terms: terms_desc,
                 ..Default::default()
             },
             rec,
-            t: 0.0,
-            step: 0,
+            refactored: false,
+            reads_u,
+            outcome: None,
+            pending: None,
             sys,
-        };
-        run.initialize()?;
-        Ok(run)
+        }
     }
 
     /// Initial state from the links' initial conditions and the initial acceleration from
-    /// `M a0 = F(0) - K u0 - C v0 + contact(u0, v0)`.
-    fn initialize(&mut self) -> Result<()> {
+    /// `M a0 = F(0) - K u0 - C v0 + contact(u0, v0)`, into `u`, `v`, `a` (this lane's vectors).
+    fn initialize(
+        &mut self,
+        mchol: &mut Cholesky,
+        translational: &[bool],
+        u: &mut [f64],
+        v: &mut [f64],
+        a: &mut [f64],
+    ) -> Result<()> {
         for (l, plan) in self.model.links.iter().zip(&self.sys.links) {
             if let Some(u0) = &l.initial_displacement {
-                self.u[plan.offset..plan.offset + plan.ndof].copy_from_slice(u0);
+                u[plan.offset..plan.offset + plan.ndof].copy_from_slice(u0);
             }
             if let Some(v0) = &l.initial_velocity {
-                self.v[plan.offset..plan.offset + plan.ndof].copy_from_slice(v0);
+                v[plan.offset..plan.offset + plan.ndof].copy_from_slice(v0);
             }
         }
         let pat = &self.sys.pattern;
-        pat.mul(&self.sys.stiffness, &self.u, &mut self.r);
-        pat.mul(&self.sys.damping, &self.v, &mut self.tmp);
-        for (r, t) in self.r.iter_mut().zip(&self.tmp) {
+        let r = a;
+        pat.mul(&self.sys.stiffness, u, r);
+        pat.mul(&self.sys.damping, v, &mut self.col);
+        for (r, t) in r.iter_mut().zip(&self.col) {
             *r = -*r - t;
         }
         self.sys.frames_at(0.0, &mut self.frames);
-        self.sys.add_inertia_load(&self.frames, &mut self.r);
+        self.sys.add_inertia_load(&self.frames, r);
         for jj in 0..self.sys.joints.len() {
             let j = &self.sys.joints[jj];
             let (qo, qdo) = self.sys.joint_offset(j, &self.frames);
-            let pu = System::joint_project(j, &self.u);
-            let pv = System::joint_project(j, &self.v);
+            let pu = System::joint_project(j, u);
+            let pv = System::joint_project(j, v);
             self.q[jj] = [qo[0] + pu[0], qo[1] + pu[1]];
             self.qd[jj] = [qdo[0] + pv[0], qdo[1] + pv[1]];
             let q = self.q[jj];
@@ -336,35 +591,19 @@ impl<'m> NewmarkRun<'m> {
             let terms = self.contact_terms(jj, q, self.qd[jj]);
             let f = terms.force(q, self.qd[jj]);
             self.fmag[jj] = norm2(f);
+            let j = &self.sys.joints[jj];
             for k in 0..j.ndof {
-                self.r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
+                r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
             }
         }
-        let mut mchol = Cholesky::with_analysis(Arc::clone(self.chol0.analysis()));
-        mchol.factorize(&self.sys.mass, "the mass matrix")?;
-        self.a.copy_from_slice(&self.r);
-        mchol.solve_in_place(&mut self.a);
-        self.check_state()?;
-        self.record(0, 0.0);
+        mchol.solve_in_place(r);
+        self.check_state(&*u, &*v, translational, 0.0, 0)?;
+        let dt = self.settings.dt;
+        self.rec.record(0, 0.0, dt, &self.pen, &self.fmag, &self.q, &self.qd, u);
         Ok(())
     }
 
-    /// Hands the current joint and node state of step `step` (time `t`, s) to the recorder.
-    #[inline]
-    fn record(&mut self, step: u64, t: f64) {
-        self.rec.record(
-            step,
-            t,
-            self.settings.dt,
-            &self.pen,
-            &self.fmag,
-            &self.q,
-            &self.qd,
-            &self.u,
-        );
-    }
-
-    /// Contact terms of joint `jj` at state `(q, qd)` under the run's coupling (the gap coupling
+    /// Contact terms of joint `jj` at state `(q, qd)` under the lane's coupling (the gap coupling
     /// uses its status and normal instead of the law).
     #[inline]
     fn contact_terms(&self, jj: usize, q: [f64; 2], qd: [f64; 2]) -> ContactTerms {
@@ -395,123 +634,33 @@ impl<'m> NewmarkRun<'m> {
         }
     }
 
-    /// Runs to the end. See [`crate::simulation::simulate`].
-    pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<RunOutput, Box<RunFailure>> {
-        let steps = self.settings.steps();
-        let dt = self.settings.dt;
-        while self.step < steps {
-            let t1 = (self.step + 1) as f64 * dt;
-            if let Err(e) = self.advance(t1) {
-                return Err(self.fail(e));
-            }
-            if self.step.is_multiple_of(CONTROL_STRIDE) && !control(self.step as f64 / steps as f64) {
-                let e = Error::Interrupted {
-                    time: self.t,
-                    step: self.step,
-                };
-                return Err(self.fail(e));
-            }
-        }
-        Ok(self.finish())
-    }
-
-    fn fail(self, error: Error) -> Box<RunFailure> {
-        Box::new(RunFailure {
-            error,
-            output: self.finish(),
-        })
-    }
-
-    fn finish(mut self) -> RunOutput {
-        self.stats.steps = self.step;
-        self.stats.factorizations = self.chol0.factorizations + self.chol_c.as_ref().map_or(0, |c| c.factorizations);
-        RunOutput {
-            record: self.rec,
-            stats: self.stats,
-            state: [self.u, self.v, self.a],
-            time: self.t,
-        }
-    }
-
-    /// One step to `t1`.
-    fn advance(&mut self, t1: f64) -> Result<()> {
-        let dt = self.settings.dt;
-        let beta = self.settings.newmark.beta;
-        let gamma = self.settings.newmark.gamma;
-        let c1 = dt * dt * (0.5 - beta);
-        let c2 = dt * (1.0 - gamma);
-        let pat = &self.sys.pattern;
-        match self.sys.proportional_damping {
-            Some(c) => {
-                // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
-                // in one pass, then r = K w
-                for ((u, v), (&a, w)) in self
-                    .u
-                    .iter_mut()
-                    .zip(self.v.iter_mut())
-                    .zip(self.a.iter().zip(self.tmp.iter_mut()))
-                {
-                    *u += dt * *v + c1 * a;
-                    *v += c2 * a;
-                    *w = -(*u + c * *v); // negated here so that r = K w needs no extra pass
-                }
-                matvec(
-                    pat,
-                    self.k_band.as_ref(),
-                    &self.sys.stiffness,
-                    &self.tmp,
-                    &mut self.xpad,
-                    &mut self.r,
-                );
-            }
-            None => {
-                for ((u, v), &a) in self.u.iter_mut().zip(self.v.iter_mut()).zip(&self.a) {
-                    *u += dt * *v + c1 * a;
-                    *v += c2 * a;
-                }
-                matvec(
-                    pat,
-                    self.k_band.as_ref(),
-                    &self.sys.stiffness,
-                    &self.u,
-                    &mut self.xpad,
-                    &mut self.r,
-                );
-                matvec(
-                    pat,
-                    self.c_band.as_ref(),
-                    &self.sys.damping,
-                    &self.v,
-                    &mut self.xpad,
-                    &mut self.tmp,
-                );
-                for (x, t) in self.r.iter_mut().zip(&self.tmp) {
-                    *x = -*x - t;
-                }
-            }
-        }
-        self.sys.frames_at(t1, &mut self.frames);
-        self.sys.add_inertia_load(&self.frames, &mut self.r);
+    /// Before the shared solve: predicted joint states, contact terms from the last state
+    /// (lagged), the loads `h` and `G`, and the full right-hand side when refactorizing.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn pre_solve<const L: usize>(
+        &mut self,
+        frames: &Frames,
+        u: &[[f64; L]],
+        v: &[[f64; L]],
+        r: &[[f64; L]],
+        l: usize,
+        bdt2: f64,
+        gdt: f64,
+    ) {
         let nj = self.sys.joints.len();
-        if nj == 0 {
-            self.chol0.solve_in_place(&mut self.r);
-            std::mem::swap(&mut self.a, &mut self.r);
-            return self.complete(t1);
-        }
         for jj in 0..nj {
             let j = &self.sys.joints[jj];
-            let (qo, qdo) = self.sys.joint_offset(j, &self.frames);
-            let pu = System::joint_project(j, &self.u);
-            let pv = System::joint_project(j, &self.v);
+            let (qo, qdo) = self.sys.joint_offset(j, frames);
+            let pu = project_lane(j, u, l);
+            let pv = project_lane(j, v, l);
             self.qt[jj] = [qo[0] + pu[0], qo[1] + pu[1]];
             self.qdt[jj] = [qdo[0] + pv[0], qdo[1] + pv[1]];
         }
-        // Contact terms from the last state (lagged); iterations refine them below.
         for jj in 0..nj {
             self.terms[jj] = self.contact_terms(jj, self.q[jj], self.qd[jj]);
         }
-        let explicit = matches!(self.settings.coupling, Coupling::Force);
-        if explicit {
+        if matches!(self.settings.coupling, Coupling::Force) {
             for jj in 0..nj {
                 let f = self.terms[jj].force(self.q[jj], self.qd[jj]);
                 self.h[2 * jj] = f[0];
@@ -519,19 +668,23 @@ impl<'m> NewmarkRun<'m> {
                 self.g[jj] = [[0.0; 2]; 2];
             }
         } else {
-            self.load_implicit_terms();
+            self.load_implicit_terms(bdt2, gdt);
         }
         // the right-hand side is kept only where a full solve needs it; a Woodbury fallback
         // rebuilds it from z (rb = A0 z) instead of copying it every step
-        let mut rb_valid = self.settings.solver == SolverMode::Refactor;
-        if rb_valid {
-            self.rb.copy_from_slice(&self.r);
+        if self.settings.solver == SolverMode::Refactor {
+            get_lane(r, l, &mut self.rb);
         }
-        self.chol0.solve_in_place(&mut self.r); // r = z = A0^-1 rhs
-        let m = self.m;
-        let n = self.u.len();
-        for jj in 0..nj {
-            let p = System::joint_project(&self.sys.joints[jj], &self.r);
+    }
+
+    /// After the shared solve (`z` = lane `l` of `r`): the joints' accelerations, iterating the
+    /// contact terms when asked; leaves `h - s` for the Woodbury correction or, when the step
+    /// was refactorized, the solution in `sol`.
+    #[inline]
+    fn post_solve<const L: usize>(&mut self, sh: &Shared, z: &[[f64; L]], l: usize, t: f64, step: u64) -> Result<()> {
+        let m = sh.m;
+        for jj in 0..self.sys.joints.len() {
+            let p = project_lane(&self.sys.joints[jj], z, l);
             self.yb[2 * jj] = p[0];
             self.yb[2 * jj + 1] = p[1];
         }
@@ -540,24 +693,27 @@ impl<'m> NewmarkRun<'m> {
             Coupling::Modified { iterate, tol, max_iter } => (iterate, tol, max_iter),
             Coupling::Gap { max_iter, .. } => (true, 1e-12, max_iter),
         };
+        let mut rb_valid = self.settings.solver == SolverMode::Refactor;
         let mut refactored;
         let mut iters = 0u64;
         loop {
             iters += 1;
             let closed = self.g.iter().any(|g| !mat2_is_zero(g));
-            refactored = closed && (self.settings.solver == SolverMode::Refactor || !self.woodbury_joint_solve());
+            refactored =
+                closed && (self.settings.solver == SolverMode::Refactor || !self.woodbury_joint_solve(&sh.wmat, m));
             if refactored {
                 if !rb_valid {
-                    self.sys.pattern.mul(&self.a0_values, &self.r, &mut self.rb);
+                    get_lane(z, l, &mut self.col);
+                    self.sys.pattern.mul(&sh.a0_values, &self.col, &mut self.rb);
                     rb_valid = true;
                 }
-                self.refactor_joint_solve()?;
+                self.refactor_joint_solve(sh, t, step)?;
             } else if !closed {
                 // pa = yb + W h
                 for r in 0..m {
                     let mut s = self.yb[r];
                     for c in 0..m {
-                        s += self.wmat[r * m + c] * self.h[c];
+                        s += sh.wmat[r * m + c] * self.h[c];
                     }
                     self.pa[r] = s;
                     self.s[r] = 0.0;
@@ -569,43 +725,29 @@ impl<'m> NewmarkRun<'m> {
                 }
                 break;
             }
-            if self.update_iterated_terms(tol) {
+            if self.update_iterated_terms(tol, sh.bdt2, sh.gdt, m) {
                 break;
             }
         }
         self.stats.iterations += iters;
         self.stats.max_iterations = self.stats.max_iterations.max(iters);
-        if refactored {
-            std::mem::swap(&mut self.a, &mut self.tmp);
-        } else {
-            if self.g.iter().any(|g| !mat2_is_zero(g)) {
-                self.stats.woodbury_steps += 1;
-            }
-            // a = z + Z (h - s); z is not needed after this step
-            std::mem::swap(&mut self.a, &mut self.r);
-            for c in 0..m {
-                let w = self.h[c] - self.s[c];
-                if w != 0.0 {
-                    let col = &self.zcols[c * n..(c + 1) * n];
-                    for (ai, zi) in self.a.iter_mut().zip(col) {
-                        *ai += w * zi;
-                    }
-                }
-            }
+        self.refactored = refactored;
+        if !refactored && self.g.iter().any(|g| !mat2_is_zero(g)) {
+            self.stats.woodbury_steps += 1;
         }
-        self.complete(t1)
+        Ok(())
     }
 
     /// Builds `G_j = beta dt^2 k + gamma dt c` and `h_j = -k q~ - c qd~ + f_explicit` from the
     /// current terms.
     #[inline]
-    fn load_implicit_terms(&mut self) {
+    fn load_implicit_terms(&mut self, bdt2: f64, gdt: f64) {
         for jj in 0..self.sys.joints.len() {
             let t = &self.terms[jj];
             let mut g = [[0.0; 2]; 2];
             for r in 0..2 {
                 for c in 0..2 {
-                    g[r][c] = self.bdt2 * t.k[r][c] + self.gdt * t.c[r][c];
+                    g[r][c] = bdt2 * t.k[r][c] + gdt * t.c[r][c];
                 }
             }
             self.g[jj] = g;
@@ -618,13 +760,12 @@ impl<'m> NewmarkRun<'m> {
     /// Woodbury solve for the joints' accelerations `pa` and the correction `s`. Returns false
     /// when the capacitance is too ill-conditioned to trust.
     #[inline]
-    fn woodbury_joint_solve(&mut self) -> bool {
-        let m = self.m;
+    fn woodbury_joint_solve(&mut self, wmat: &[f64], m: usize) -> bool {
         // y = yb + W h (kept in pa), cap = I + G W, s = G y
         for r in 0..m {
             let mut s = self.yb[r];
             for c in 0..m {
-                s += self.wmat[r * m + c] * self.h[c];
+                s += wmat[r * m + c] * self.h[c];
             }
             self.pa[r] = s;
         }
@@ -633,7 +774,7 @@ impl<'m> NewmarkRun<'m> {
             for rr in 0..2 {
                 let row = 2 * jj + rr;
                 for c in 0..m {
-                    let gw = g[rr][0] * self.wmat[(2 * jj) * m + c] + g[rr][1] * self.wmat[(2 * jj + 1) * m + c];
+                    let gw = g[rr][0] * wmat[(2 * jj) * m + c] + g[rr][1] * wmat[(2 * jj + 1) * m + c];
                     self.cap[row * m + c] = if row == c { 1.0 + gw } else { gw };
                 }
                 self.s[row] = g[rr][0] * self.pa[2 * jj] + g[rr][1] * self.pa[2 * jj + 1];
@@ -648,7 +789,7 @@ impl<'m> NewmarkRun<'m> {
         for r in 0..m {
             let mut x = self.pa[r];
             for c in 0..m {
-                x -= self.wmat[r * m + c] * self.s[c];
+                x -= wmat[r * m + c] * self.s[c];
             }
             self.pa[r] = x;
         }
@@ -656,14 +797,13 @@ impl<'m> NewmarkRun<'m> {
     }
 
     /// Full solve with the contact terms in the matrix (numeric refactorization when they
-    /// changed); the solution goes to `tmp`, the joints' accelerations to `pa`.
-    fn refactor_joint_solve(&mut self) -> Result<()> {
+    /// changed); the solution goes to `sol`, the joints' accelerations to `pa`.
+    fn refactor_joint_solve(&mut self, sh: &Shared, t: f64, step: u64) -> Result<()> {
         let chol = self
             .chol_c
-            .as_mut()
-            .expect("contact factorization exists for implicit couplings");
+            .get_or_insert_with(|| Cholesky::with_analysis(Arc::clone(sh.chol0.analysis())));
         if self.g != self.g_factored {
-            self.ac_values.copy_from_slice(&self.a0_values);
+            self.ac_values.copy_from_slice(&sh.a0_values);
             for (jj, j) in self.sys.joints.iter().enumerate() {
                 let g = &self.g[jj];
                 for a in 0..j.ndof {
@@ -674,15 +814,15 @@ impl<'m> NewmarkRun<'m> {
                                 x += j.coef[r][a] * g[r][c] * j.coef[c][b];
                             }
                         }
-                        self.ac_values[self.joint_pos[jj][a][b]] += x;
+                        self.ac_values[sh.joint_pos[jj][a][b]] += x;
                     }
                 }
             }
             chol.factorize(&self.ac_values, "the effective matrix with contact terms")
                 .map_err(|e| match e {
                     Error::Singular { what, index } => Error::Diverged {
-                        time: self.t + self.settings.dt,
-                        step: self.step + 1,
+                        time: t + self.settings.dt,
+                        step: step + 1,
                         dof: format!("pivot {index}"),
                         reason: format!("{what} is not positive definite"),
                     },
@@ -690,15 +830,15 @@ impl<'m> NewmarkRun<'m> {
                 })?;
             self.g_factored.clone_from(&self.g);
         }
-        self.tmp.copy_from_slice(&self.rb);
+        self.sol.copy_from_slice(&self.rb);
         for (jj, j) in self.sys.joints.iter().enumerate() {
             for k in 0..j.ndof {
-                self.tmp[j.dofs[k]] += j.coef[0][k] * self.h[2 * jj] + j.coef[1][k] * self.h[2 * jj + 1];
+                self.sol[j.dofs[k]] += j.coef[0][k] * self.h[2 * jj] + j.coef[1][k] * self.h[2 * jj + 1];
             }
         }
-        chol.solve_in_place(&mut self.tmp);
+        chol.solve_in_place(&mut self.sol);
         for (jj, j) in self.sys.joints.iter().enumerate() {
-            let p = System::joint_project(j, &self.tmp);
+            let p = System::joint_project(j, &self.sol);
             self.pa[2 * jj] = p[0];
             self.pa[2 * jj + 1] = p[1];
         }
@@ -708,24 +848,24 @@ impl<'m> NewmarkRun<'m> {
     /// Re-evaluates the contact terms at the end-of-step state implied by `pa`; returns true
     /// when converged (kappa: relative change of `pa` below `tol`; gap: status unchanged and the
     /// normal settled).
-    fn update_iterated_terms(&mut self, tol: f64) -> bool {
+    fn update_iterated_terms(&mut self, tol: f64, bdt2: f64, gdt: f64, m: usize) -> bool {
         let nj = self.sys.joints.len();
         let mut converged = true;
         let is_gap = matches!(self.settings.coupling, Coupling::Gap { .. });
         let mut scale = 0.0f64;
         let mut change = 0.0f64;
-        for r in 0..self.m {
+        for r in 0..m {
             scale = scale.max(self.pa[r].abs());
             change = change.max((self.pa[r] - self.pa_old[r]).abs());
         }
         for jj in 0..nj {
             let q1 = [
-                self.qt[jj][0] + self.bdt2 * self.pa[2 * jj],
-                self.qt[jj][1] + self.bdt2 * self.pa[2 * jj + 1],
+                self.qt[jj][0] + bdt2 * self.pa[2 * jj],
+                self.qt[jj][1] + bdt2 * self.pa[2 * jj + 1],
             ];
             let qd1 = [
-                self.qdt[jj][0] + self.gdt * self.pa[2 * jj],
-                self.qdt[jj][1] + self.gdt * self.pa[2 * jj + 1],
+                self.qdt[jj][0] + gdt * self.pa[2 * jj],
+                self.qdt[jj][1] + gdt * self.pa[2 * jj + 1],
             ];
             if is_gap {
                 let dr = norm2(q1);
@@ -760,25 +900,29 @@ impl<'m> NewmarkRun<'m> {
                     self.terms[jj] = self.contact_terms(jj, self.qt[jj], self.qdt[jj]);
                 }
             }
-            self.load_implicit_terms();
+            self.load_implicit_terms(bdt2, gdt);
         }
         converged
     }
 
-    /// Updates the state from the new acceleration, evaluates joints, records and checks.
+    /// After the state update: the joints' positions, forces and penetrations from the new
+    /// acceleration (lane `l` of `a`). Fails when a joint position is not finite.
     #[inline]
-    fn complete(&mut self, t1: f64) -> Result<()> {
-        let (bdt2, gdt) = (self.bdt2, self.gdt);
-        for ((u, v), &a) in self.u.iter_mut().zip(self.v.iter_mut()).zip(&self.a) {
-            *u += bdt2 * a;
-            *v += gdt * a;
-        }
+    fn complete_joints<const L: usize>(
+        &mut self,
+        a: &[[f64; L]],
+        l: usize,
+        bdt2: f64,
+        gdt: f64,
+        t1: f64,
+        step: u64,
+    ) -> Result<()> {
         let explicit = matches!(self.settings.coupling, Coupling::Force);
         for jj in 0..self.sys.joints.len() {
             let j = &self.sys.joints[jj];
-            let pu = System::joint_project(j, &self.a);
-            let q = [self.qt[jj][0] + self.bdt2 * pu[0], self.qt[jj][1] + self.bdt2 * pu[1]];
-            let qd = [self.qdt[jj][0] + self.gdt * pu[0], self.qdt[jj][1] + self.gdt * pu[1]];
+            let pu = project_lane(j, a, l);
+            let q = [self.qt[jj][0] + bdt2 * pu[0], self.qt[jj][1] + bdt2 * pu[1]];
+            let qd = [self.qdt[jj][0] + gdt * pu[0], self.qdt[jj][1] + gdt * pu[1]];
             let f = if explicit {
                 [self.h[2 * jj], self.h[2 * jj + 1]]
             } else {
@@ -790,11 +934,12 @@ impl<'m> NewmarkRun<'m> {
             self.fmag[jj] = norm2(f);
             if !self.pen[jj].is_finite() {
                 let jname = self.model.joints[jj].name.clone();
-                return Err(self.diverged(
-                    t1,
-                    format!("joint {jname:?} position"),
-                    "non-finite joint position".into(),
-                ));
+                return Err(Error::Diverged {
+                    time: t1,
+                    step: step + 1,
+                    dof: format!("joint {jname:?} position"),
+                    reason: "non-finite joint position".into(),
+                });
             }
             if let Coupling::Gap { .. } = self.settings.coupling {
                 // the status for the next step follows the state just reached
@@ -805,35 +950,18 @@ impl<'m> NewmarkRun<'m> {
                 }
             }
         }
-        self.step += 1;
-        self.t = t1;
-        if self.step.is_multiple_of(CHECK_STRIDE) {
-            self.check_state()?;
-        }
-        self.record(self.step, t1);
         Ok(())
     }
 
-    fn diverged(&self, t: f64, dof: String, reason: String) -> Error {
-        Error::Diverged {
-            time: t,
-            step: self.step + 1,
-            dof,
-            reason,
-        }
-    }
-
-    /// Finite and within-limit check of the whole state.
-    fn check_state(&self) -> Result<()> {
-        let bad = self
-            .u
-            .iter()
-            .zip(&self.v)
-            .zip(&self.translational)
-            .position(|((&u, &v), &tr)| !(u.is_finite() && v.is_finite()) || (tr && u.abs() > self.limit));
+    /// Finite and within-limit check of this lane's state (`u`, `v` give the lane's entries).
+    fn check_state(&self, u: impl DofAt, v: impl DofAt, translational: &[bool], t: f64, step: u64) -> Result<()> {
+        let bad = (0..translational.len()).position(|i| {
+            let (x, y) = (u.at(i), v.at(i));
+            !(x.is_finite() && y.is_finite()) || (translational[i] && x.abs() > self.limit)
+        });
         if let Some(d) = bad {
-            let x = self.u[d];
-            let reason = if x.is_finite() && self.v[d].is_finite() {
+            let x = u.at(d);
+            let reason = if x.is_finite() && v.at(d).is_finite() {
                 format!(
                     "|displacement| = {:.3e} m exceeds the divergence limit {:.3e} m",
                     x.abs(),
@@ -843,12 +971,513 @@ impl<'m> NewmarkRun<'m> {
                 "non-finite displacement or velocity".to_string()
             };
             return Err(Error::Diverged {
-                time: self.t,
-                step: self.step,
+                time: t,
+                step,
                 dof: self.sys.describe_dof(self.model, d),
                 reason,
             });
         }
         Ok(())
+    }
+}
+
+/// Read access to one lane's entries of a global vector.
+trait DofAt: Copy {
+    fn at(&self, i: usize) -> f64;
+}
+
+impl DofAt for &[f64] {
+    #[inline]
+    fn at(&self, i: usize) -> f64 {
+        self[i]
+    }
+}
+
+/// Lane `.1` of lane-fastest vector `.0`.
+#[derive(Clone, Copy)]
+struct LaneOf<'a, const L: usize>(&'a [[f64; L]], usize);
+
+impl<const L: usize> DofAt for LaneOf<'_, L> {
+    #[inline]
+    fn at(&self, i: usize) -> f64 {
+        self.0[i][self.1]
+    }
+}
+
+impl<'m, const L: usize> Lockstep<'m, L> {
+    /// Assembles and factorizes once for all `runs` (1 to `L` pairs of a validated model and
+    /// validated settings, every pair sharing the factor of the first: [`shares_factor`]), and
+    /// initializes every lane. Fails (for every lane) when the runs do not share the factor or
+    /// when the mass or the contact-free effective matrix is not positive definite; a lane whose
+    /// initial state fails its check is finished at once with that error and an empty output.
+    pub fn with_analysis(runs: &[(&'m Model, &Settings)], cache: Option<&AnalysisCache>) -> Result<Self> {
+        if runs.is_empty() || runs.len() > L {
+            return Err(Error::InvalidModel {
+                message: format!("a lockstep run takes 1 to {L} runs, not {}", runs.len()),
+            });
+        }
+        let systems: Vec<System> = runs.iter().map(|(m, _)| System::assemble(m)).collect();
+        for (k, (sys, (_, s))) in systems.iter().zip(runs).enumerate().skip(1) {
+            if !shares_factor((&systems[0], runs[0].1), (sys, s)) {
+                return Err(Error::InvalidModel {
+                    message: format!("lockstep lane {k} does not share lane 0's effective matrix and step"),
+                });
+            }
+        }
+        let sys = systems[0].clone();
+        let settings = runs[0].1;
+        let n = sys.n();
+        let nj = sys.joints.len();
+        let m = 2 * nj;
+        let dt = settings.dt;
+        let (beta, gamma) = (settings.newmark.beta, settings.newmark.gamma);
+        let bdt2 = beta * dt * dt;
+        let gdt = gamma * dt;
+        let nnz = sys.pattern.nnz();
+        let a0_values: Vec<f64> = (0..nnz)
+            .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
+            .collect();
+        let analysis = match cache {
+            Some(c) => c.get(&sys.pattern)?,
+            None => Analysis::new(&sys.pattern)?,
+        };
+        let mut chol0 = Cholesky::with_analysis(Arc::clone(&analysis));
+        chol0.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
+        let joint_pos = sys
+            .joints
+            .iter()
+            .map(|j| {
+                let mut p = [[0usize; 4]; 4];
+                for (a, row) in p.iter_mut().enumerate().take(j.ndof) {
+                    for (b, cell) in row.iter_mut().enumerate().take(j.ndof) {
+                        *cell = sys.pattern.position(j.dofs[a], j.dofs[b]);
+                    }
+                }
+                p
+            })
+            .collect();
+        // Z = A0^-1 P^T, W = P Z.
+        let mut zcols = vec![0.0; n * m];
+        for (jj, j) in sys.joints.iter().enumerate() {
+            for r in 0..2 {
+                let col = &mut zcols[(2 * jj + r) * n..(2 * jj + r + 1) * n];
+                for k in 0..j.ndof {
+                    col[j.dofs[k]] += j.coef[r][k];
+                }
+                chol0.solve_in_place(col);
+            }
+        }
+        let mut wmat = vec![0.0; m * m];
+        for (jr, j) in sys.joints.iter().enumerate() {
+            for c in 0..m {
+                let p = System::joint_project(j, &zcols[c * n..(c + 1) * n]);
+                wmat[(2 * jr) * m + c] = p[0];
+                wmat[(2 * jr + 1) * m + c] = p[1];
+            }
+        }
+        let mut translational = vec![true; n];
+        for (i, t) in translational.iter_mut().enumerate() {
+            // every link has 3 DOFs per node and starts at a multiple of 3
+            *t = i % 3 != 2;
+        }
+        let k_band = LaneBand::from_csc(&sys.pattern, &sys.stiffness);
+        let c_band = if sys.proportional_damping.is_some() {
+            None
+        } else {
+            LaneBand::from_csc(&sys.pattern, &sys.damping)
+        };
+        let frames_shared = systems.iter().skip(1).all(|s| {
+            s.bodies == sys.bodies
+                && s.body_as_link == sys.body_as_link
+                && s.links
+                    .iter()
+                    .zip(&sys.links)
+                    .all(|(x, y)| x.motion == y.motion && x.rotation == y.rotation && x.inertia_load == y.inertia_load)
+        });
+        let mut mchol = Cholesky::with_analysis(Arc::clone(&analysis));
+        mchol.factorize(&sys.mass, "the mass matrix")?;
+        let mut run = Lockstep {
+            sh: Shared {
+                frames: sys.frames(),
+                n,
+                m,
+                dt,
+                c1: dt * dt * (0.5 - beta),
+                c2: dt * (1.0 - gamma),
+                bdt2,
+                gdt,
+                steps: settings.steps(),
+                chol0,
+                a0_values,
+                joint_pos,
+                zcols,
+                wmat,
+                k_band,
+                c_band,
+                translational,
+                frames_shared,
+                sys,
+            },
+            lanes: Vec::with_capacity(L),
+            active: [false; L],
+            u: vec![[0.0; L]; n],
+            v: vec![[0.0; L]; n],
+            a: vec![[0.0; L]; n],
+            r: vec![[0.0; L]; n],
+            tmp: vec![[0.0; L]; n],
+            xpad: Vec::new(),
+            col_y: vec![0.0; n],
+            t: 0.0,
+            step: 0,
+        };
+        let pad = run.sh.k_band.as_ref().map_or(0, LaneBand::padded_len);
+        run.xpad = vec![[0.0; L]; pad];
+        let (mut u0, mut v0, mut a0) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for (l, ((model, settings), sys)) in runs.iter().zip(systems).enumerate() {
+            let mut lane = Lane::new(model, settings, sys);
+            u0.fill(0.0);
+            v0.fill(0.0);
+            a0.fill(0.0);
+            match lane.initialize(&mut mchol, &run.sh.translational, &mut u0, &mut v0, &mut a0) {
+                Ok(()) => {
+                    set_lane(&mut run.u, l, &u0);
+                    set_lane(&mut run.v, l, &v0);
+                    set_lane(&mut run.a, l, &a0);
+                    run.active[l] = true;
+                }
+                Err(error) => {
+                    lane.outcome = Some(Err(Box::new(RunFailure {
+                        error,
+                        output: RunOutput::default(),
+                    })))
+                }
+            }
+            run.lanes.push(lane);
+        }
+        Ok(run)
+    }
+
+    /// Runs every lane to the end (or to its failure) and returns the lanes' outcomes in order.
+    /// `control(fraction_done)` is called every few thousand steps; when it returns `false`
+    /// every running lane stops with [`Error::Interrupted`].
+    pub fn run(self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
+        #[cfg(target_arch = "x86_64")]
+        if L > 1 && std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU reports AVX2 and FMA.
+            return unsafe { self.run_avx2(control) };
+        }
+        self.run_body(control)
+    }
+
+    /// [`Self::run`] compiled for AVX2, so that the lane loops use 256-bit vectors. Enabling the
+    /// feature changes no result: Rust never fuses a multiply and an add on its own.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn run_avx2(self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
+        self.run_body(control)
+    }
+
+    #[inline(always)]
+    fn run_body(mut self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
+        let steps = self.sh.steps;
+        let dt = self.sh.dt;
+        while self.step < steps && self.active.iter().any(|&a| a) {
+            let t1 = (self.step + 1) as f64 * dt;
+            self.advance(t1);
+            if self.step.is_multiple_of(CONTROL_STRIDE) && !control(self.step as f64 / steps as f64) {
+                for l in 0..self.lanes.len() {
+                    if self.active[l] {
+                        let e = Error::Interrupted {
+                            time: self.t,
+                            step: self.step,
+                        };
+                        self.retire(l, Some(e), self.step, self.t);
+                    }
+                }
+            }
+        }
+        for l in 0..self.lanes.len() {
+            if self.active[l] {
+                self.retire(l, None, self.step, self.t);
+            }
+        }
+        self.lanes
+            .into_iter()
+            .map(|lane| lane.outcome.expect("every lane has finished"))
+            .collect()
+    }
+
+    /// Finishes lane `l` at `step`, time `t` (s): with `error`, as a failure keeping what it
+    /// recorded; without, as a completed run. Its vectors are zeroed (an idle lane).
+    fn retire(&mut self, l: usize, error: Option<Error>, step: u64, t: f64) {
+        let lane = &mut self.lanes[l];
+        let n = self.sh.n;
+        let (mut u, mut v, mut a) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        get_lane(&self.u, l, &mut u);
+        get_lane(&self.v, l, &mut v);
+        get_lane(&self.a, l, &mut a);
+        for x in [&mut self.u, &mut self.v, &mut self.a, &mut self.r] {
+            for xi in x.iter_mut() {
+                xi[l] = 0.0;
+            }
+        }
+        let mut stats = std::mem::take(&mut lane.stats);
+        stats.steps = step;
+        stats.factorizations = self.sh.chol0.factorizations + lane.chol_c.as_ref().map_or(0, |c| c.factorizations);
+        let output = RunOutput {
+            record: std::mem::take(&mut lane.rec),
+            stats,
+            state: [u, v, a],
+            time: t,
+        };
+        lane.outcome = Some(match error {
+            None => Ok(output),
+            Some(error) => Err(Box::new(RunFailure { error, output })),
+        });
+        self.active[l] = false;
+    }
+
+    /// Retires every lane with a pending error (see [`Self::retire`]).
+    #[cold]
+    fn retire_pending(&mut self, step: u64, t: f64) {
+        for l in 0..self.lanes.len() {
+            if let Some(e) = self.lanes[l].pending.take() {
+                self.retire(l, Some(e), step, t);
+            }
+        }
+    }
+
+    /// One step of every active lane to `t1`.
+    #[inline(always)]
+    fn advance(&mut self, t1: f64) {
+        let sh = &mut self.sh;
+        let (dt, c1, c2) = (sh.dt, sh.c1, sh.c2);
+        let pat = &sh.sys.pattern;
+        match sh.sys.proportional_damping {
+            Some(c) => {
+                // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
+                // in one pass, then r = K w
+                // (lane by lane the same operations; flat, the loop vectorizes across lanes)
+                for ((u, v), (&a, w)) in self
+                    .u
+                    .as_flattened_mut()
+                    .iter_mut()
+                    .zip(self.v.as_flattened_mut().iter_mut())
+                    .zip(self.a.as_flattened().iter().zip(self.tmp.as_flattened_mut().iter_mut()))
+                {
+                    *u += dt * *v + c1 * a;
+                    *v += c2 * a;
+                    *w = -(*u + c * *v); // negated here so that r = K w needs no extra pass
+                }
+                matvec(
+                    pat,
+                    sh.k_band.as_ref(),
+                    &sh.sys.stiffness,
+                    &self.tmp,
+                    &mut self.xpad,
+                    &mut self.r,
+                    &mut self.lanes[0].col,
+                    &mut self.col_y,
+                );
+            }
+            None => {
+                for ((u, v), &a) in self
+                    .u
+                    .as_flattened_mut()
+                    .iter_mut()
+                    .zip(self.v.as_flattened_mut().iter_mut())
+                    .zip(self.a.as_flattened())
+                {
+                    *u += dt * *v + c1 * a;
+                    *v += c2 * a;
+                }
+                matvec(
+                    pat,
+                    sh.k_band.as_ref(),
+                    &sh.sys.stiffness,
+                    &self.u,
+                    &mut self.xpad,
+                    &mut self.r,
+                    &mut self.lanes[0].col,
+                    &mut self.col_y,
+                );
+                matvec(
+                    pat,
+                    sh.c_band.as_ref(),
+                    &sh.sys.damping,
+                    &self.v,
+                    &mut self.xpad,
+                    &mut self.tmp,
+                    &mut self.lanes[0].col,
+                    &mut self.col_y,
+                );
+                for (x, t) in self.r.as_flattened_mut().iter_mut().zip(self.tmp.as_flattened()) {
+                    *x = -*x - t;
+                }
+            }
+        }
+        if sh.frames_shared {
+            sh.sys.frames_at(t1, &mut sh.frames);
+            // -M_R a_R, the same on every lane (System::add_inertia_load, lane by lane)
+            for (lp, k) in sh.sys.links.iter().zip(&sh.frames.links) {
+                if let Some([bx, by]) = &lp.inertia_load {
+                    let acc = k.acc;
+                    let rot = &lp.rotation;
+                    let ax = rot[0][0] * acc[0] + rot[1][0] * acc[1];
+                    let ay = rot[0][1] * acc[0] + rot[1][1] * acc[1];
+                    let seg = &mut self.r[lp.offset..lp.offset + lp.ndof];
+                    for ((fi, x), y) in seg.iter_mut().zip(bx).zip(by) {
+                        let f = ax * x + ay * y;
+                        for l in 0..L {
+                            fi[l] -= f;
+                        }
+                    }
+                }
+            }
+        } else {
+            for (l, lane) in self.lanes.iter_mut().enumerate() {
+                if !self.active[l] {
+                    continue;
+                }
+                lane.sys.frames_at(t1, &mut lane.frames);
+                get_lane(&self.r, l, &mut lane.col);
+                lane.sys.add_inertia_load(&lane.frames, &mut lane.col);
+                set_lane(&mut self.r, l, &lane.col);
+            }
+        }
+        let nj = sh.sys.joints.len();
+        if nj == 0 {
+            sh.chol0.solve_lanes(&mut self.r);
+            std::mem::swap(&mut self.a, &mut self.r);
+            return self.complete(t1);
+        }
+        for (l, lane) in self.lanes.iter_mut().enumerate() {
+            if self.active[l] {
+                if sh.frames_shared {
+                    lane.pre_solve(&sh.frames, &self.u, &self.v, &self.r, l, sh.bdt2, sh.gdt);
+                } else {
+                    let frames = std::mem::take(&mut lane.frames);
+                    lane.pre_solve(&frames, &self.u, &self.v, &self.r, l, sh.bdt2, sh.gdt);
+                    lane.frames = frames;
+                }
+            }
+        }
+        sh.chol0.solve_lanes(&mut self.r); // r = z = A0^-1 rhs
+        let mut failed = false;
+        for (l, lane) in self.lanes.iter_mut().enumerate() {
+            if self.active[l] {
+                if let Err(e) = lane.post_solve(sh, &self.r, l, self.t, self.step) {
+                    lane.pending = Some(e);
+                    failed = true;
+                }
+            }
+        }
+        if failed {
+            // the failed lanes keep their predictors and the last acceleration
+            self.retire_pending(self.step, self.t);
+        }
+        // a = z + Z (h - s) on the Woodbury lanes; z is not needed after this step
+        std::mem::swap(&mut self.a, &mut self.r);
+        let sh = &self.sh;
+        let (n, m) = (sh.n, sh.m);
+        for c in 0..m {
+            let mut w = [0.0f64; L];
+            let mut any = false;
+            for (l, lane) in self.lanes.iter().enumerate() {
+                if self.active[l] && !lane.refactored {
+                    w[l] = lane.h[c] - lane.s[c];
+                    any |= w[l] != 0.0;
+                }
+            }
+            if any {
+                let col = &sh.zcols[c * n..(c + 1) * n];
+                for (ai, &zi) in self.a.iter_mut().zip(col) {
+                    for l in 0..L {
+                        ai[l] = if w[l] != 0.0 { ai[l] + w[l] * zi } else { ai[l] };
+                    }
+                }
+            }
+        }
+        for (l, lane) in self.lanes.iter().enumerate() {
+            if self.active[l] && lane.refactored {
+                set_lane(&mut self.a, l, &lane.sol);
+            }
+        }
+        self.complete(t1)
+    }
+
+    /// Updates the state from the new acceleration, evaluates joints, records and checks.
+    #[inline(always)]
+    fn complete(&mut self, t1: f64) {
+        let (bdt2, gdt) = (self.sh.bdt2, self.sh.gdt);
+        for ((u, v), &a) in self
+            .u
+            .as_flattened_mut()
+            .iter_mut()
+            .zip(self.v.as_flattened_mut().iter_mut())
+            .zip(self.a.as_flattened())
+        {
+            *u += bdt2 * a;
+            *v += gdt * a;
+        }
+        let mut failed = false;
+        for (l, lane) in self.lanes.iter_mut().enumerate() {
+            if self.active[l] {
+                if let Err(e) = lane.complete_joints(&self.a, l, bdt2, gdt, t1, self.step) {
+                    lane.pending = Some(e);
+                    failed = true;
+                }
+            }
+        }
+        if failed {
+            self.retire_pending(self.step, self.t);
+        }
+        self.step += 1;
+        self.t = t1;
+        let (step, t) = (self.step, self.t);
+        let check = step.is_multiple_of(CHECK_STRIDE);
+        for l in 0..self.lanes.len() {
+            if !self.active[l] {
+                continue;
+            }
+            let lane = &mut self.lanes[l];
+            if check {
+                let r = if L == 1 {
+                    lane.check_state(
+                        self.u.as_flattened(),
+                        self.v.as_flattened(),
+                        &self.sh.translational,
+                        t,
+                        step,
+                    )
+                } else {
+                    lane.check_state(LaneOf(&self.u, l), LaneOf(&self.v, l), &self.sh.translational, t, step)
+                };
+                if let Err(e) = r {
+                    self.retire(l, Some(e), step, t);
+                    continue;
+                }
+            }
+            let dt = lane.settings.dt;
+            if L == 1 {
+                lane.rec.record(
+                    step,
+                    t,
+                    dt,
+                    &lane.pen,
+                    &lane.fmag,
+                    &lane.q,
+                    &lane.qd,
+                    self.u.as_flattened(),
+                );
+            } else if lane.reads_u {
+                get_lane(&self.u, l, &mut lane.col);
+                lane.rec
+                    .record(step, t, dt, &lane.pen, &lane.fmag, &lane.q, &lane.qd, &lane.col);
+            } else {
+                lane.rec
+                    .record(step, t, dt, &lane.pen, &lane.fmag, &lane.q, &lane.qd, &[]);
+            }
+        }
     }
 }

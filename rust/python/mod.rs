@@ -649,7 +649,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
 /// (KeyboardInterrupt or one raised by `progress`), else None. The GIL is released throughout;
 /// `progress(done)` is called from the calling thread as samples finish.
 #[pyfunction]
-#[pyo3(signature = (models, t_end, dt, *, threads=0, retries=0, retry_factor=0.5, method="modified", iterate=false,
+#[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=false,
                     tol=1e-10, max_iter=50, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
                     progress=None))]
@@ -660,6 +660,7 @@ fn run_batch<'py>(
     t_end: Vec<f64>,
     dt: Vec<f64>,
     threads: i64,
+    lanes: i64,
     retries: i64,
     retry_factor: f64,
     method: &str,
@@ -693,6 +694,12 @@ fn run_batch<'py>(
         err(
             py,
             Error::param("threads", threads, "an integer >= 0 (0 = one per core)"),
+        )
+    })?;
+    let lanes = usize::try_from(lanes).map_err(|_| {
+        err(
+            py,
+            Error::param("lanes", lanes, "an integer in 0 ..= 8 (0 = default, 1 = no lockstep)"),
         )
     })?;
     let attempts = u32::try_from(retries).map_err(|_| err(py, Error::param("retries", retries, "an integer >= 0")))?;
@@ -731,6 +738,7 @@ fn run_batch<'py>(
             attempts,
             factor: retry_factor,
         },
+        lanes,
     };
     let stop = AtomicBool::new(false);
     let done = AtomicUsize::new(0);
@@ -776,6 +784,8 @@ fn run_batch<'py>(
     }
     let st = PyDict::new(py);
     st.set_item("analyses", stats.analyses)?;
+    st.set_item("lockstep_groups", stats.lockstep_groups)?;
+    st.set_item("lockstep_samples", stats.lockstep_samples)?;
     st.set_item("threads", stats.threads)?;
     Ok((list, st, pending))
 }
