@@ -34,6 +34,12 @@ def main(argv: Optional[list] = None) -> int:
     mc.add_argument("study", help="the study file (TOML)")
     mc.add_argument("--out", default=None, help="results and report folder (default: the study file's name)")
     mc.add_argument("--threads", type=int, default=0, help="worker threads (default: one per core)")
+    mc.add_argument(
+        "--lanes",
+        type=int,
+        default=0,
+        help="largest lockstep group of samples sharing a factorization, 1..8 (default: 8; 1 = no lockstep)",
+    )
     mc.add_argument("--chunk-size", type=int, default=None, help="samples per Parquet part / Dask task")
     mc.add_argument("--scheduler", default=None, help="address of a Dask scheduler to run on")
     mc.add_argument(
@@ -210,6 +216,7 @@ def _montecarlo(args) -> int:
         result = study.run(
             store=out,
             threads=args.threads,
+            lanes=args.lanes,
             chunk_size=args.chunk_size,
             client=client,
             progress=not args.no_progress,
