@@ -906,7 +906,8 @@ impl<'m> Lane<'m> {
     }
 
     /// After the state update: the joints' positions, forces and penetrations from the new
-    /// acceleration (lane `l` of `a`). Fails when a joint position is not finite.
+    /// acceleration (lane `l` of `a`). Fails when a joint's penetration is not finite or its
+    /// magnitude exceeds the divergence limit (checked every step: one comparison per joint).
     #[inline]
     fn complete_joints<const L: usize>(
         &mut self,
@@ -932,14 +933,9 @@ impl<'m> Lane<'m> {
             self.qd[jj] = qd;
             self.pen[jj] = norm2(q) - j.clearance;
             self.fmag[jj] = norm2(f);
-            if !self.pen[jj].is_finite() {
-                let jname = self.model.joints[jj].name.clone();
-                return Err(Error::Diverged {
-                    time: t1,
-                    step: step + 1,
-                    dof: format!("joint {jname:?} position"),
-                    reason: "non-finite joint position".into(),
-                });
+            // one comparison per joint and step: false for NaN, so it is also the finite check
+            if !(self.pen[jj].abs() <= self.limit) {
+                return Err(self.joint_diverged(jj, t1, step + 1));
             }
             if let Coupling::Gap { .. } = self.settings.coupling {
                 // the status for the next step follows the state just reached
@@ -951,6 +947,28 @@ impl<'m> Lane<'m> {
             }
         }
         Ok(())
+    }
+
+    /// The divergence error of joint `jj` whose penetration is not finite or beyond the limit.
+    #[cold]
+    fn joint_diverged(&self, jj: usize, time: f64, step: u64) -> Error {
+        let jname = &self.model.joints[jj].name;
+        let pen = self.pen[jj];
+        let reason = if pen.is_finite() {
+            format!(
+                "|penetration| = {:.3e} m exceeds the divergence limit {:.3e} m",
+                pen.abs(),
+                self.limit
+            )
+        } else {
+            "non-finite joint position".to_string()
+        };
+        Error::Diverged {
+            time,
+            step,
+            dof: format!("joint {jname:?} position"),
+            reason,
+        }
     }
 
     /// Finite and within-limit check of this lane's state (`u`, `v` give the lane's entries).
