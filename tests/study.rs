@@ -349,3 +349,14 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
     assert_eq!(text(&out[0]), text(&simulate(&calm, &s, &mut |_| true)));
     assert_eq!(text(&out[1]), text(&alone));
 }
+
+#[test]
+fn event_aware_runs_do_not_share_a_factor() {
+    let model = SliderYoke::default().build().unwrap();
+    let s = settings(0.001, 1e-5);
+    let mut e = s.clone();
+    e.events = true;
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &s)], None).is_ok());
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &e)], None).is_err());
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &e), (&model, &e)], None).is_err());
+}
