@@ -29,8 +29,9 @@
 //! two substeps cut at `theta dt`, `theta = delta_0 / (delta_0 - delta_1)` (linear interpolation
 //! between the step's ends, earliest joint), each with the contact-free factorization of its own
 //! size (numeric refactorization on the shared analysis; the Woodbury columns are rebuilt). The
-//! next step is at the nominal size again, so output stays on the `dt` grid; the state at the cut
-//! is not recorded. A step without a status change is bitwise the fixed-step one.
+//! next step is at the nominal size again, so output stays on the `dt` grid; of the state at the
+//! cut only the contact force enters the running largest force (it is the peak of an entry with
+//! contact damping). A step without a status change is bitwise the fixed-step one.
 //!
 //! **Divergence checks.** Every step, each joint's `|delta|` is compared with the divergence limit
 //! (one comparison per joint, which is also the finite check); every `CHECK_STRIDE` steps the
@@ -1724,6 +1725,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
             }
         }
+        // the right-limit force at the cut (the dashpot spike at entry) lies between output steps
+        lane.rec.record_event_force(t, &lane.fmag);
         sh.mchol.solve_in_place(&mut r);
         set_lane(&mut self.a, 0, &r);
     }
