@@ -38,8 +38,8 @@ pub struct Settings {
     /// What to record.
     pub record: RecordSpec,
     /// Event-aware stepping: a step that changes a joint's contact status (open/closed) is redone
-    /// as two substeps cut at the crossing, estimated by linear interpolation of the penetration
-    /// (see [`crate::integrator::newmark`]). Output stays on the `dt` grid. Such runs do not share
+    /// as two substeps cut at the located crossing, with the acceleration restarted there (see
+    /// [`crate::integrator::newmark`]). Output stays on the `dt` grid. Such runs do not share
     /// a lockstep factorization.
     pub events: bool,
 }

@@ -46,9 +46,8 @@ def test_events_cut_the_trajectory_error_of_iterated_kappa():
     # Table 1 scene, clearance 1e-4 m, 30 ms (5 contact entries/exits), against iterated kappa at
     # dt = 1e-7 s. Fixed steps smear the dashpot force jump at entry over a step (first order);
     # cutting the step at the crossing and restarting the acceleration there removes that.
-    # Measured (fig6_std, the paper's error density): 0.14 -> 0.017 at 3e-5 s, 0.053 -> 0.0021 at
-    # 1e-5 s; asserted: at least 3x lower. The peak force is NOT improved (it is the entry spike
-    # c v sampled on the dt grid, first order whatever the integrator; see docs/stability.md).
+    # Measured (fig6_std, the paper's error density, against 1e-8 s): 0.14 -> 0.011 at 3e-5 s,
+    # 0.053 -> 0.0031 at 1e-5 s; asserted: at least 3x lower.
     from flexclear.accuracy import errors_against
 
     model = flexclear.scenes.slider_yoke(clearance=1e-4)

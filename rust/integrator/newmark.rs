@@ -26,8 +26,10 @@
 //!
 //! **Event-aware stepping** ([`Settings::events`], one-lane runs only). A step that changes a
 //! joint's contact status (sign of the penetration `delta = |q| - c`) is redone from its start as
-//! two substeps cut at `theta dt`, `theta = delta_0 / (delta_0 - delta_1)` (linear interpolation
-//! between the step's ends, earliest joint), each with the contact-free factorization of its own
+//! two substeps cut at `theta dt` (first estimate `theta = delta_0 / (delta_0 - delta_1)`, linear
+//! interpolation between the step's ends, earliest joint; refined by regula falsi on the first
+//! substep's end penetration so that it ends just short of the circle), the acceleration restarted
+//! at the cut with the new status, each with the contact-free factorization of its own
 //! size (numeric refactorization on the shared analysis; the Woodbury columns are rebuilt). The
 //! next step is at the nominal size again, so output stays on the `dt` grid; of the state at the
 //! cut only the contact force enters the running largest force (it is the peak of an entry with
@@ -510,6 +512,11 @@ struct Snapshot {
 
 /// A substep shorter than this fraction of `dt` is not cut off: the step is kept as computed.
 const EVENT_MIN_FRACTION: f64 = 1e-3;
+/// The cut is accepted when the first substep ends on the old side of the clearance circle, within
+/// this fraction of the step's change of penetration from it.
+const EVENT_PEN_TOL: f64 = 1e-3;
+/// At most this many first substeps per event (the first from the trial step's end).
+const EVENT_MAX_CUTS: usize = 6;
 
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
 #[derive(Default)]
@@ -1573,13 +1580,13 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     }
 
     /// One step of the (single) lane to `t1` with event location: the step is taken; when it
-    /// changes a joint's contact status (sign of the penetration), the crossing is placed at
-    /// `theta dt` by linear interpolation of the penetration between the two ends (the earliest
-    /// over the joints), and the step is redone from its start as two substeps `theta dt` and
-    /// `(1 - theta) dt`, each with the contact-free factorization of its own size (two numeric
-    /// factorizations with the shared analysis). A step without a status change, or whose cut
-    /// would leave a substep shorter than `EVENT_MIN_FRACTION dt`, is kept as taken: bitwise the
-    /// fixed-step result.
+    /// changes a joint's contact status (sign of the penetration), the earliest crossing (linear
+    /// interpolation of the penetration, then regula falsi on the first substep's end) places a
+    /// cut, the step is redone from its start as two substeps, each with the contact-free
+    /// factorization of its own size, and the acceleration is restarted at the cut
+    /// ([`Self::restart_at_event`]). A step without a status change, or whose cut would leave a
+    /// substep shorter than `EVENT_MIN_FRACTION dt`, is kept as taken: bitwise the fixed-step
+    /// result.
     fn advance_with_events(&mut self, t1: f64, ev: &mut Events) {
         debug_assert!(L == 1);
         let t0 = self.t;
@@ -1605,9 +1612,14 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             return;
         }
         let mut theta = f64::INFINITY;
-        for (&p0, &p1) in snap.pen.iter().zip(&self.lanes[0].pen) {
+        let mut jstar = 0;
+        for (jj, (&p0, &p1)) in snap.pen.iter().zip(&self.lanes[0].pen).enumerate() {
             if (p0 > 0.0) != (p1 > 0.0) {
-                theta = theta.min(p0 / (p0 - p1));
+                let th = p0 / (p0 - p1);
+                if th < theta {
+                    theta = th;
+                    jstar = jj;
+                }
             }
         }
         if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&theta) {
@@ -1615,32 +1627,78 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         }
         ev.pen1.clone_from(&self.lanes[0].pen);
         let dt = self.sh.dt;
-        let h1 = theta * dt;
-        let h2 = dt - h1;
         let settings = &self.lanes[0].settings;
         let (beta, gamma) = (settings.newmark.beta, settings.newmark.gamma);
-        let analysis = self.sh.chol0.analysis();
-        let subs = StepConsts::new(
-            &self.sh.sys,
-            h1,
-            beta,
-            gamma,
-            Cholesky::with_analysis(Arc::clone(analysis)),
-        )
-        .and_then(|a| {
-            let b = StepConsts::new(
-                &self.sh.sys,
-                h2,
-                beta,
-                gamma,
-                Cholesky::with_analysis(Arc::clone(analysis)),
-            )?;
-            Ok([a, b])
-        });
-        let Ok([mut s1, mut s2]) = subs else {
-            return; // cannot happen for h > 0 (M is positive definite); keep the step as taken
+        let analysis = Arc::clone(self.sh.chol0.analysis());
+        let consts =
+            |sys: &System, h: f64| StepConsts::new(sys, h, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)));
+        self.lanes[0].stats.event_steps += 1;
+        let nan = [[f64::NAN; 2]; 2];
+        // the crossing of joint `jstar` by regula falsi (Illinois) on the first substep's end
+        // penetration, bracketed by the step's ends; the trial step's end (contact forces acting
+        // over the whole step) gives only a first estimate
+        // aim just short of the circle (on the old side, within `tol`): a first substep that ended
+        // across it would carry the new status (for an entry, the dashpot force) over its length
+        let (p0, p1) = (snap.pen[jstar], ev.pen1[jstar]);
+        let tol = EVENT_PEN_TOL * (p1 - p0).abs();
+        let target = if p0 > 0.0 { 0.5 * tol } else { -0.5 * tol };
+        let (mut lo, mut hi) = ((0.0, p0 - target), (1.0, p1 - target));
+        let mut side = 0i8;
+        let mut factorizations = 0;
+        let mut h1 = theta * dt;
+        for it in 0..EVENT_MAX_CUTS {
+            h1 = theta * dt;
+            let Ok(mut s1) = consts(&self.sh.sys, h1) else {
+                return; // cannot happen for h > 0 (M is positive definite)
+            };
+            factorizations += 1;
+            self.restore(snap);
+            self.lanes[0].g_factored.fill(nan);
+            self.sh.swap_step(&mut s1);
+            self.advance(t0 + h1);
+            self.sh.swap_step(&mut s1);
+            if !self.active[0] {
+                self.sh.chol0.factorizations += factorizations;
+                return;
+            }
+            let pc = self.lanes[0].pen[jstar] - target;
+            if pc.abs() <= 0.5 * tol || it + 1 == EVENT_MAX_CUTS {
+                break;
+            }
+            if (pc > 0.0) == (p0 - target > 0.0) {
+                lo = (theta, pc);
+                if side == -1 {
+                    hi.1 *= 0.5;
+                }
+                side = -1;
+            } else {
+                hi = (theta, pc);
+                if side == 1 {
+                    lo.1 *= 0.5;
+                }
+                side = 1;
+            }
+            let next = lo.0 - lo.1 * (hi.0 - lo.0) / (hi.1 - lo.1);
+            if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&next) {
+                break;
+            }
+            theta = next;
+        }
+        self.restart_at_event(t0 + h1, &snap.pen, &ev.pen1);
+        let Ok(mut s2) = consts(&self.sh.sys, dt - h1) else {
+            return;
         };
-        // back to the start of the step
+        factorizations += 1;
+        self.lanes[0].g_factored.fill(nan);
+        self.sh.swap_step(&mut s2);
+        self.advance(t1);
+        self.sh.swap_step(&mut s2);
+        self.lanes[0].g_factored.fill(nan);
+        self.sh.chol0.factorizations += factorizations;
+    }
+
+    /// Puts the single lane back to the start-of-step state `snap`.
+    fn restore(&mut self, snap: &Snapshot) {
         set_lane(&mut self.u, 0, &snap.u);
         set_lane(&mut self.v, 0, &snap.v);
         set_lane(&mut self.a, 0, &snap.a);
@@ -1652,23 +1710,6 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         lane.gap_closed.clone_from(&snap.gap_closed);
         lane.gap_normal.clone_from(&snap.gap_normal);
         lane.pa_old.clone_from(&snap.pa_old);
-        lane.stats.event_steps += 1;
-        let nan = [[f64::NAN; 2]; 2];
-        for (k, (t_end, sub)) in [(t0 + h1, &mut s1), (t1, &mut s2)].into_iter().enumerate() {
-            // a refactorized contact matrix of another step size must not be reused
-            self.lanes[0].g_factored.fill(nan);
-            self.sh.swap_step(sub);
-            self.advance(t_end);
-            self.sh.swap_step(sub);
-            if !self.active[0] {
-                break;
-            }
-            if k == 0 {
-                self.restart_at_event(t_end, &snap.pen, &ev.pen1);
-            }
-        }
-        self.lanes[0].g_factored.fill(nan);
-        self.sh.chol0.factorizations += 2;
     }
 
     /// At the cut `t` (s) of an event step (one lane): each joint whose status changed over the
