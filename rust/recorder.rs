@@ -224,6 +224,18 @@ impl Recorder {
         }
     }
 
+    /// Takes the force magnitudes `force[j]` (N) at an instant `t` (s) between output steps (the
+    /// cut of an event-aware step, just after a contact status change) into the running largest
+    /// force only; nothing else is recorded.
+    pub fn record_event_force(&mut self, t: f64, force: &[f64]) {
+        if t < self.spec_start {
+            return;
+        }
+        for (e, &f) in self.extremes.iter_mut().zip(force) {
+            e.max_force = e.max_force.max(f);
+        }
+    }
+
     /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]`, `q[j]`
     /// and `qd[j]` are every joint's penetration (m), force magnitude (N), position (m) and
     /// velocity (m/s); `u` the global displacement vector.

@@ -37,6 +37,11 @@ pub struct Settings {
     pub divergence_limit: Option<f64>,
     /// What to record.
     pub record: RecordSpec,
+    /// Event-aware stepping: a step that changes a joint's contact status (open/closed) is redone
+    /// as two substeps cut at the located crossing, with the acceleration restarted there (see
+    /// [`crate::integrator::newmark`]). Output stays on the `dt` grid. Such runs do not share
+    /// a lockstep factorization.
+    pub events: bool,
 }
 
 impl Settings {
@@ -51,6 +56,7 @@ impl Settings {
             solver: SolverMode::default(),
             divergence_limit: None,
             record: RecordSpec::default(),
+            events: false,
         }
     }
 
@@ -123,6 +129,8 @@ pub struct RunStats {
     pub max_iterations: u64,
     /// Steps that hit the iteration cap without converging.
     pub unconverged_steps: u64,
+    /// Event-aware stepping: steps redone as two substeps cut at a contact status change.
+    pub event_steps: u64,
     /// Terms active in the equations, in words.
     pub terms: Vec<String>,
 }

@@ -310,3 +310,53 @@ fn lanes_that_do_not_share_the_factor_are_refused() {
     assert!(Lockstep::<2>::with_analysis(&[(&a, &s), (&b, &s)], None).is_err());
     assert!(Lockstep::<2>::with_analysis(&[(&a, &s), (&a, &s), (&a, &s)], None).is_err());
 }
+
+#[test]
+fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
+    // lagged kappa at K_B = 1e13 N/m and dt = 1e-5 s chatters with a one-step spike of 4.67 m of
+    // penetration at step 713 (between two strided state checks); the per-step joint check must
+    // stop that lane there, and only that lane
+    let build = |kb: f64| {
+        SliderYoke {
+            clearance: 1e-6,
+            bearing_stiffness: Some(kb),
+            ..Default::default()
+        }
+        .build()
+        .unwrap()
+    };
+    let (spiky, calm) = (build(1e13), build(1e8));
+    let mut s = settings(0.01, 1e-5);
+    s.divergence_limit = Some(1.0);
+    let alone = simulate(&spiky, &s, &mut |_| true);
+    match &alone {
+        Err(f) => match &f.error {
+            Error::Diverged { step, dof, reason, .. } => {
+                assert_eq!(*step, 713);
+                assert!(
+                    dof.contains("bearing") && reason.contains("penetration"),
+                    "{dof}: {reason}"
+                );
+            }
+            e => panic!("expected a divergence, got {e}"),
+        },
+        Ok(_) => panic!("the spike was not detected"),
+    }
+    let out = Lockstep::<2>::with_analysis(&[(&calm, &s), (&spiky, &s)], None)
+        .unwrap()
+        .run(&mut |_| true);
+    assert!(out[0].is_ok());
+    assert_eq!(text(&out[0]), text(&simulate(&calm, &s, &mut |_| true)));
+    assert_eq!(text(&out[1]), text(&alone));
+}
+
+#[test]
+fn event_aware_runs_do_not_share_a_factor() {
+    let model = SliderYoke::default().build().unwrap();
+    let s = settings(0.001, 1e-5);
+    let mut e = s.clone();
+    e.events = true;
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &s)], None).is_ok());
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &e)], None).is_err());
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &e), (&model, &e)], None).is_err());
+}

@@ -89,29 +89,26 @@ def test_clearance_larger_than_any_motion_never_touches(kw):
     assert np.all(j.force == 0.0) and j.max_penetration < -0.07
 
 
-DETECTION_GAP = pytest.mark.xfail(
-    strict=True,
-    reason="divergence check gap (rust/integrator/newmark.rs, not edited here): the lagged-kappa run "
-    "at K_B = 1e13, dt = 1e-5 chatters with a one-step spike of 4.67 m penetration at step 713 and "
-    "completes. The state is compared with the divergence limit only every CHECK_STRIDE = 16 steps "
-    "and the joint position only for finiteness every step; checking |penetration| <= limit in "
-    "complete() (2 flops per joint per step) would raise SimulationDivergedError here.",
-)
-
-
 @pytest.mark.parametrize(
     "stiffness, kw",
-    [
-        pytest.param(
-            k, v.values[0], id=f"{v.id}-{k:g}", marks=DETECTION_GAP if (k, v.id) == (1e13, "modified") else ()
-        )
-        for k in (1e3, 1e8, 1e13)
-        for v in VARIANTS
-    ],
+    [pytest.param(k, v.values[0], id=f"{v.id}-{k:g}") for k in (1e3, 1e8, 1e13) for v in VARIANTS],
 )
 def test_bearing_stiffness_extremes(stiffness, kw):
     model = flexclear.scenes.slider_yoke(clearance=1e-6, bearing_stiffness=stiffness)
     check_outcome(model, 0.01, 1e-5, **gap_kw(model, kw))
+
+
+def test_one_step_penetration_spike_is_caught_at_its_step():
+    # lagged kappa at K_B = 1e13 N/m, dt = 1e-5 s chatters: step 713 reaches 4.67 m of penetration
+    # for one step and falls back (the state is compared with the limit only every 16 steps, so
+    # only the per-step joint check sees it); the run must stop there, naming the joint
+    model = flexclear.scenes.slider_yoke(clearance=1e-6, bearing_stiffness=1e13)
+    with pytest.raises(SimulationDivergedError) as info:
+        model.simulate(0.01, 1e-5, method="modified", divergence_limit=LIMIT)
+    e = info.value
+    assert e.step == 713 and e.time == pytest.approx(713e-5, rel=1e-9)
+    assert "bearing" in e.dof and "penetration" in e.reason
+    assert np.all(np.abs(e.result.joint("bearing").penetration) <= LIMIT)
 
 
 @pytest.mark.parametrize("ratio", [0.0, 100.0])

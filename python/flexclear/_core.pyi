@@ -94,6 +94,7 @@ class Model:
         histories: bool = ...,
         start: float = ...,
         progress: Optional[Callable[[float], Any]] = ...,
+        events: bool = ...,
     ) -> dict[str, Any]: ...
 
 @final

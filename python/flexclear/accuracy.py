@@ -16,6 +16,9 @@ trajectory comparison and is reported as mean and standard deviation):
 - ``energy``: relative energy drift over 20 ms of a free rattle with no external work (the yoke
   held still; see tests/test_energy.py), per coupling and step.
 
+The ``"modified, iterated, events"`` row is iterated kappa with event-aware stepping
+(``Model.simulate(..., events=True)``).
+
 CPU time is ``time.process_time()`` of separate runs that keep only running extremes (min of
 ``repeats``); the machine is shared, so times are noisy at the 10-20 % level.
 """
@@ -39,6 +42,7 @@ COUPLINGS = (
     ("force", {"method": "force"}),
     ("modified", {"method": "modified"}),
     ("modified, iterated", {"method": "modified", "iterate": True}),
+    ("modified, iterated, events", {"method": "modified", "iterate": True, "events": True}),
     ("gap", {"method": "gap"}),
 )
 METRICS = ("peak_force", "peak_penetration", "window_force", "impact_mean", "fig6_mean", "fig6_std")
@@ -66,7 +70,7 @@ def _kw(model: Model, kw: dict) -> dict:
 def _history(model: Model, t_end: float, dt: float, kw: dict):
     res = model.simulate(t_end, dt, record=Record(), divergence_limit=1.0, **_kw(model, kw))
     j = res.joint("bearing")
-    return res.time, j.penetration, j.force
+    return res.time, j.penetration, j.force, j.max_force
 
 
 def _impact_peaks(pen: np.ndarray, force: np.ndarray) -> np.ndarray:
@@ -77,11 +81,14 @@ def _impact_peaks(pen: np.ndarray, force: np.ndarray) -> np.ndarray:
 
 
 def errors_against(ref, run, windows: int = 10) -> dict:
-    """The metrics of the module docstring for ``run = (time, penetration, force)``."""
-    tr, pr, fr = ref
-    t, p, f = run
+    """The metrics of the module docstring for ``run = (time, penetration, force[, peak force])``;
+    the peak force is the run's running largest force when given (it includes the instants between
+    output steps where event-aware stepping cut a step), else the largest recorded one."""
+    tr, pr, fr = ref[:3]
+    t, p, f = run[:3]
+    peak = lambda x: x[3] if len(x) > 3 else x[2].max()  # noqa: E731
     rel = lambda a, b: abs(a - b) / abs(b) if b != 0 else (0.0 if a == 0 else math.inf)  # noqa: E731
-    out = {"peak_force": rel(f.max(), fr.max()), "peak_penetration": rel(p.max(), pr.max())}
+    out = {"peak_force": rel(peak(run), peak(ref)), "peak_penetration": rel(p.max(), pr.max())}
     edges = np.linspace(tr[0], tr[-1], windows + 1)
     werr = []
     for a, b in zip(edges[:-1], edges[1:]):
@@ -290,7 +297,11 @@ def write_report(out, quick: bool = False, log=print) -> Path:
         )
     lines += [
         "",
-        "A coupling with no row entry never met the target on this grid.",
+        'A coupling with no row entry never met the target on this grid. "events": event-aware '
+        "stepping (`simulate(..., events=True)`): a step that changes the contact status is cut at "
+        "the crossing and the acceleration restarted there; it lowers the trajectory error "
+        "(fig6_std) at large steps but not the peak-force error, which is the dashpot spike at "
+        "entry sampled on the dt grid (first order for any integrator).",
         "",
         "## All runs",
         "",

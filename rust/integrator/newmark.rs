@@ -23,6 +23,21 @@
 //! single run, in the same order, so its result is bitwise that of [`NewmarkRun`] (which is the
 //! one-lane case of the same code). A lane that fails (divergence, a contact matrix that is not
 //! positive definite) is finished with its own error and what it recorded, and the others go on.
+//!
+//! **Event-aware stepping** ([`Settings::events`], one-lane runs only). A step that changes a
+//! joint's contact status (sign of the penetration `delta = |q| - c`) is redone from its start as
+//! two substeps cut at `theta dt` (first estimate `theta = delta_0 / (delta_0 - delta_1)`, linear
+//! interpolation between the step's ends, earliest joint; refined by regula falsi on the first
+//! substep's end penetration so that it ends just short of the circle), the acceleration restarted
+//! at the cut with the new status, each with the contact-free factorization of its own
+//! size (numeric refactorization on the shared analysis; the Woodbury columns are rebuilt). The
+//! next step is at the nominal size again, so output stays on the `dt` grid; of the state at the
+//! cut only the contact force enters the running largest force (it is the peak of an entry with
+//! contact damping). A step without a status change is bitwise the fixed-step one.
+//!
+//! **Divergence checks.** Every step, each joint's `|delta|` is compared with the divergence limit
+//! (one comparison per joint, which is also the finite check); every `CHECK_STRIDE` steps the
+//! whole state is checked for finiteness and the translational DOFs against the limit.
 
 use crate::assembly::{Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
@@ -111,7 +126,9 @@ impl<'m> NewmarkRun<'m> {
 pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
     let ((sa, ta), (sb, tb)) = (a, b);
     let bits = |x: &[f64], y: &[f64]| x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
-    ta.dt.to_bits() == tb.dt.to_bits()
+    !ta.events
+        && !tb.events
+        && ta.dt.to_bits() == tb.dt.to_bits()
         && ta.newmark.beta.to_bits() == tb.newmark.beta.to_bits()
         && ta.newmark.gamma.to_bits() == tb.newmark.gamma.to_bits()
         && ta.steps() == tb.steps()
@@ -399,6 +416,114 @@ struct Shared {
     /// once per step into `frames` and the inertia load is the same on every lane.
     frames_shared: bool,
     frames: Frames,
+    /// The mass matrix factorization (initial and event restart accelerations).
+    mchol: Cholesky,
+}
+
+/// The step-size-dependent part of [`Shared`]: the Newmark constants for a step `dt`, the
+/// contact-free effective matrix `A0 = M + gamma dt C + beta dt^2 K`, its factorization and the
+/// Woodbury columns `Z = A0^-1 P^T`, `W = P Z`. Event-aware stepping swaps in those of a substep.
+struct StepConsts {
+    dt: f64,
+    c1: f64,
+    c2: f64,
+    bdt2: f64,
+    gdt: f64,
+    chol0: Cholesky,
+    a0_values: Vec<f64>,
+    zcols: Vec<f64>,
+    wmat: Vec<f64>,
+}
+
+impl StepConsts {
+    /// The constants of step `dt` (s) for `sys` under Newmark `(beta, gamma)`; factorizes `A0`
+    /// with `chol` (its analysis must be that of `sys.pattern`).
+    fn new(sys: &System, dt: f64, beta: f64, gamma: f64, mut chol: Cholesky) -> Result<Self> {
+        let n = sys.n();
+        let m = 2 * sys.joints.len();
+        let bdt2 = beta * dt * dt;
+        let gdt = gamma * dt;
+        let a0_values: Vec<f64> = (0..sys.pattern.nnz())
+            .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
+            .collect();
+        chol.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
+        // Z = A0^-1 P^T, W = P Z.
+        let mut zcols = vec![0.0; n * m];
+        for (jj, j) in sys.joints.iter().enumerate() {
+            for r in 0..2 {
+                let col = &mut zcols[(2 * jj + r) * n..(2 * jj + r + 1) * n];
+                for k in 0..j.ndof {
+                    col[j.dofs[k]] += j.coef[r][k];
+                }
+                chol.solve_in_place(col);
+            }
+        }
+        let mut wmat = vec![0.0; m * m];
+        for (jr, j) in sys.joints.iter().enumerate() {
+            for c in 0..m {
+                let p = System::joint_project(j, &zcols[c * n..(c + 1) * n]);
+                wmat[(2 * jr) * m + c] = p[0];
+                wmat[(2 * jr + 1) * m + c] = p[1];
+            }
+        }
+        Ok(StepConsts {
+            dt,
+            c1: dt * dt * (0.5 - beta),
+            c2: dt * (1.0 - gamma),
+            bdt2,
+            gdt,
+            chol0: chol,
+            a0_values,
+            zcols,
+            wmat,
+        })
+    }
+}
+
+impl Shared {
+    /// Exchanges the step constants in use with `o`.
+    fn swap_step(&mut self, o: &mut StepConsts) {
+        std::mem::swap(&mut self.dt, &mut o.dt);
+        std::mem::swap(&mut self.c1, &mut o.c1);
+        std::mem::swap(&mut self.c2, &mut o.c2);
+        std::mem::swap(&mut self.bdt2, &mut o.bdt2);
+        std::mem::swap(&mut self.gdt, &mut o.gdt);
+        std::mem::swap(&mut self.chol0, &mut o.chol0);
+        std::mem::swap(&mut self.a0_values, &mut o.a0_values);
+        std::mem::swap(&mut self.zcols, &mut o.zcols);
+        std::mem::swap(&mut self.wmat, &mut o.wmat);
+    }
+}
+
+/// The start-of-step state of a one-lane run, kept by event-aware stepping to redo the step.
+#[derive(Default)]
+struct Snapshot {
+    u: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    q: Vec<[f64; 2]>,
+    qd: Vec<[f64; 2]>,
+    pen: Vec<f64>,
+    fmag: Vec<f64>,
+    gap_closed: Vec<bool>,
+    gap_normal: Vec<[f64; 2]>,
+    pa_old: Vec<f64>,
+}
+
+/// A substep shorter than this fraction of `dt` is not cut off: the step is kept as computed.
+const EVENT_MIN_FRACTION: f64 = 1e-3;
+/// The cut is accepted when the first substep ends on the old side of the clearance circle, within
+/// this fraction of the step's change of penetration from it.
+const EVENT_PEN_TOL: f64 = 1e-3;
+/// At most this many first substeps per event (the first from the trial step's end).
+const EVENT_MAX_CUTS: usize = 6;
+
+/// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
+#[derive(Default)]
+struct Events {
+    snap: Snapshot,
+    /// Penetrations at the end of the trial step, m.
+    pen1: Vec<f64>,
 }
 
 /// What each lane has of its own: its model and settings (clearances, contact laws, coupling,
@@ -906,8 +1031,10 @@ impl<'m> Lane<'m> {
     }
 
     /// After the state update: the joints' positions, forces and penetrations from the new
-    /// acceleration (lane `l` of `a`). Fails when a joint position is not finite.
+    /// acceleration (lane `l` of `a`). Fails when a joint's penetration is not finite or its
+    /// magnitude exceeds the divergence limit (checked every step: one comparison per joint).
     #[inline]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x <= limit)` is deliberately true for NaN
     fn complete_joints<const L: usize>(
         &mut self,
         a: &[[f64; L]],
@@ -932,14 +1059,9 @@ impl<'m> Lane<'m> {
             self.qd[jj] = qd;
             self.pen[jj] = norm2(q) - j.clearance;
             self.fmag[jj] = norm2(f);
-            if !self.pen[jj].is_finite() {
-                let jname = self.model.joints[jj].name.clone();
-                return Err(Error::Diverged {
-                    time: t1,
-                    step: step + 1,
-                    dof: format!("joint {jname:?} position"),
-                    reason: "non-finite joint position".into(),
-                });
+            // one comparison per joint and step: false for NaN, so it is also the finite check
+            if !(self.pen[jj].abs() <= self.limit) {
+                return Err(self.joint_diverged(jj, t1, step + 1));
             }
             if let Coupling::Gap { .. } = self.settings.coupling {
                 // the status for the next step follows the state just reached
@@ -951,6 +1073,28 @@ impl<'m> Lane<'m> {
             }
         }
         Ok(())
+    }
+
+    /// The divergence error of joint `jj` whose penetration is not finite or beyond the limit.
+    #[cold]
+    fn joint_diverged(&self, jj: usize, time: f64, step: u64) -> Error {
+        let jname = &self.model.joints[jj].name;
+        let pen = self.pen[jj];
+        let reason = if pen.is_finite() {
+            format!(
+                "|penetration| = {:.3e} m exceeds the divergence limit {:.3e} m",
+                pen.abs(),
+                self.limit
+            )
+        } else {
+            "non-finite joint position".to_string()
+        };
+        Error::Diverged {
+            time,
+            step,
+            dof: format!("joint {jname:?} position"),
+            reason,
+        }
     }
 
     /// Finite and within-limit check of this lane's state (`u`, `v` give the lane's entries).
@@ -1006,7 +1150,8 @@ impl<const L: usize> DofAt for LaneOf<'_, L> {
 
 impl<'m, const L: usize> Lockstep<'m, L> {
     /// Assembles and factorizes once for all `runs` (1 to `L` pairs of a validated model and
-    /// validated settings, every pair sharing the factor of the first: [`shares_factor`]), and
+    /// validated settings, every pair sharing the factor of the first: [`shares_factor`]; an
+    /// event-aware run only with `L = 1`), and
     /// initializes every lane. Fails (for every lane) when the runs do not share the factor or
     /// when the mass or the contact-free effective matrix is not positive definite; a lane whose
     /// initial state fails its check is finished at once with that error and an empty output.
@@ -1014,6 +1159,11 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         if runs.is_empty() || runs.len() > L {
             return Err(Error::InvalidModel {
                 message: format!("a lockstep run takes 1 to {L} runs, not {}", runs.len()),
+            });
+        }
+        if L > 1 && runs.iter().any(|(_, s)| s.events) {
+            return Err(Error::InvalidModel {
+                message: "an event-aware run (events = true) steps alone, not as a lockstep lane".into(),
             });
         }
         let systems: Vec<System> = runs.iter().map(|(m, _)| System::assemble(m)).collect();
@@ -1031,18 +1181,21 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         let m = 2 * nj;
         let dt = settings.dt;
         let (beta, gamma) = (settings.newmark.beta, settings.newmark.gamma);
-        let bdt2 = beta * dt * dt;
-        let gdt = gamma * dt;
-        let nnz = sys.pattern.nnz();
-        let a0_values: Vec<f64> = (0..nnz)
-            .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
-            .collect();
         let analysis = match cache {
             Some(c) => c.get(&sys.pattern)?,
             None => Analysis::new(&sys.pattern)?,
         };
-        let mut chol0 = Cholesky::with_analysis(Arc::clone(&analysis));
-        chol0.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
+        let StepConsts {
+            dt,
+            c1,
+            c2,
+            bdt2,
+            gdt,
+            chol0,
+            a0_values,
+            zcols,
+            wmat,
+        } = StepConsts::new(&sys, dt, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)))?;
         let joint_pos = sys
             .joints
             .iter()
@@ -1056,25 +1209,6 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 p
             })
             .collect();
-        // Z = A0^-1 P^T, W = P Z.
-        let mut zcols = vec![0.0; n * m];
-        for (jj, j) in sys.joints.iter().enumerate() {
-            for r in 0..2 {
-                let col = &mut zcols[(2 * jj + r) * n..(2 * jj + r + 1) * n];
-                for k in 0..j.ndof {
-                    col[j.dofs[k]] += j.coef[r][k];
-                }
-                chol0.solve_in_place(col);
-            }
-        }
-        let mut wmat = vec![0.0; m * m];
-        for (jr, j) in sys.joints.iter().enumerate() {
-            for c in 0..m {
-                let p = System::joint_project(j, &zcols[c * n..(c + 1) * n]);
-                wmat[(2 * jr) * m + c] = p[0];
-                wmat[(2 * jr + 1) * m + c] = p[1];
-            }
-        }
         let mut translational = vec![true; n];
         for (i, t) in translational.iter_mut().enumerate() {
             // every link has 3 DOFs per node and starts at a multiple of 3
@@ -1102,8 +1236,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 n,
                 m,
                 dt,
-                c1: dt * dt * (0.5 - beta),
-                c2: dt * (1.0 - gamma),
+                c1,
+                c2,
                 bdt2,
                 gdt,
                 steps: settings.steps(),
@@ -1117,6 +1251,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 translational,
                 frames_shared,
                 sys,
+                mchol,
             },
             lanes: Vec::with_capacity(L),
             active: [false; L],
@@ -1138,7 +1273,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             u0.fill(0.0);
             v0.fill(0.0);
             a0.fill(0.0);
-            match lane.initialize(&mut mchol, &run.sh.translational, &mut u0, &mut v0, &mut a0) {
+            match lane.initialize(&mut run.sh.mchol, &run.sh.translational, &mut u0, &mut v0, &mut a0) {
                 Ok(()) => {
                     set_lane(&mut run.u, l, &u0);
                     set_lane(&mut run.v, l, &v0);
@@ -1181,9 +1316,18 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     fn run_body(mut self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
         let steps = self.sh.steps;
         let dt = self.sh.dt;
+        let mut ev = if L == 1 && self.lanes[0].settings.events {
+            Some(Events::default())
+        } else {
+            None
+        };
         while self.step < steps && self.active.iter().any(|&a| a) {
             let t1 = (self.step + 1) as f64 * dt;
-            self.advance(t1);
+            match ev.as_mut() {
+                None => self.advance(t1),
+                Some(ev) => self.advance_with_events(t1, ev),
+            }
+            self.finish(t1);
             if self.step.is_multiple_of(CONTROL_STRIDE) && !control(self.step as f64 / steps as f64) {
                 for l in 0..self.lanes.len() {
                     if self.active[l] {
@@ -1406,7 +1550,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         self.complete(t1)
     }
 
-    /// Updates the state from the new acceleration, evaluates joints, records and checks.
+    /// Updates the state from the new acceleration and evaluates the joints at `t1` (a lane
+    /// failing there is retired).
     #[inline(always)]
     fn complete(&mut self, t1: f64) {
         let (bdt2, gdt) = (self.sh.bdt2, self.sh.gdt);
@@ -1432,6 +1577,204 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         if failed {
             self.retire_pending(self.step, self.t);
         }
+    }
+
+    /// One step of the (single) lane to `t1` with event location: the step is taken; when it
+    /// changes a joint's contact status (sign of the penetration), the earliest crossing (linear
+    /// interpolation of the penetration, then regula falsi on the first substep's end) places a
+    /// cut, the step is redone from its start as two substeps, each with the contact-free
+    /// factorization of its own size, and the acceleration is restarted at the cut
+    /// ([`Self::restart_at_event`]). A step without a status change, or whose cut would leave a
+    /// substep shorter than `EVENT_MIN_FRACTION dt`, is kept as taken: bitwise the fixed-step
+    /// result.
+    fn advance_with_events(&mut self, t1: f64, ev: &mut Events) {
+        debug_assert!(L == 1);
+        let t0 = self.t;
+        let snap = &mut ev.snap;
+        {
+            let lane = &self.lanes[0];
+            snap.u.resize(self.sh.n, 0.0);
+            snap.v.resize(self.sh.n, 0.0);
+            snap.a.resize(self.sh.n, 0.0);
+            get_lane(&self.u, 0, &mut snap.u);
+            get_lane(&self.v, 0, &mut snap.v);
+            get_lane(&self.a, 0, &mut snap.a);
+            snap.q.clone_from(&lane.q);
+            snap.qd.clone_from(&lane.qd);
+            snap.pen.clone_from(&lane.pen);
+            snap.fmag.clone_from(&lane.fmag);
+            snap.gap_closed.clone_from(&lane.gap_closed);
+            snap.gap_normal.clone_from(&lane.gap_normal);
+            snap.pa_old.clone_from(&lane.pa_old);
+        }
+        self.advance(t1);
+        if !self.active[0] {
+            return;
+        }
+        let mut theta = f64::INFINITY;
+        let mut jstar = 0;
+        for (jj, (&p0, &p1)) in snap.pen.iter().zip(&self.lanes[0].pen).enumerate() {
+            if (p0 > 0.0) != (p1 > 0.0) {
+                let th = p0 / (p0 - p1);
+                if th < theta {
+                    theta = th;
+                    jstar = jj;
+                }
+            }
+        }
+        if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&theta) {
+            return;
+        }
+        ev.pen1.clone_from(&self.lanes[0].pen);
+        let dt = self.sh.dt;
+        let settings = &self.lanes[0].settings;
+        let (beta, gamma) = (settings.newmark.beta, settings.newmark.gamma);
+        let analysis = Arc::clone(self.sh.chol0.analysis());
+        let consts =
+            |sys: &System, h: f64| StepConsts::new(sys, h, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)));
+        self.lanes[0].stats.event_steps += 1;
+        let nan = [[f64::NAN; 2]; 2];
+        // the crossing of joint `jstar` by regula falsi (Illinois) on the first substep's end
+        // penetration, bracketed by the step's ends; the trial step's end (contact forces acting
+        // over the whole step) gives only a first estimate
+        // aim just short of the circle (on the old side, within `tol`): a first substep that ended
+        // across it would carry the new status (for an entry, the dashpot force) over its length
+        let (p0, p1) = (snap.pen[jstar], ev.pen1[jstar]);
+        let tol = EVENT_PEN_TOL * (p1 - p0).abs();
+        let target = if p0 > 0.0 { 0.5 * tol } else { -0.5 * tol };
+        let (mut lo, mut hi) = ((0.0, p0 - target), (1.0, p1 - target));
+        let mut side = 0i8;
+        let mut factorizations = 0;
+        let mut h1 = theta * dt;
+        for it in 0..EVENT_MAX_CUTS {
+            h1 = theta * dt;
+            let Ok(mut s1) = consts(&self.sh.sys, h1) else {
+                return; // cannot happen for h > 0 (M is positive definite)
+            };
+            factorizations += 1;
+            self.restore(snap);
+            self.lanes[0].g_factored.fill(nan);
+            self.sh.swap_step(&mut s1);
+            self.advance(t0 + h1);
+            self.sh.swap_step(&mut s1);
+            if !self.active[0] {
+                self.sh.chol0.factorizations += factorizations;
+                return;
+            }
+            let pc = self.lanes[0].pen[jstar] - target;
+            if pc.abs() <= 0.5 * tol || it + 1 == EVENT_MAX_CUTS {
+                break;
+            }
+            if (pc > 0.0) == (p0 - target > 0.0) {
+                lo = (theta, pc);
+                if side == -1 {
+                    hi.1 *= 0.5;
+                }
+                side = -1;
+            } else {
+                hi = (theta, pc);
+                if side == 1 {
+                    lo.1 *= 0.5;
+                }
+                side = 1;
+            }
+            let next = lo.0 - lo.1 * (hi.0 - lo.0) / (hi.1 - lo.1);
+            if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&next) {
+                break;
+            }
+            theta = next;
+        }
+        self.restart_at_event(t0 + h1, &snap.pen, &ev.pen1);
+        let Ok(mut s2) = consts(&self.sh.sys, dt - h1) else {
+            return;
+        };
+        factorizations += 1;
+        self.lanes[0].g_factored.fill(nan);
+        self.sh.swap_step(&mut s2);
+        self.advance(t1);
+        self.sh.swap_step(&mut s2);
+        self.lanes[0].g_factored.fill(nan);
+        self.sh.chol0.factorizations += factorizations;
+    }
+
+    /// Puts the single lane back to the start-of-step state `snap`.
+    fn restore(&mut self, snap: &Snapshot) {
+        set_lane(&mut self.u, 0, &snap.u);
+        set_lane(&mut self.v, 0, &snap.v);
+        set_lane(&mut self.a, 0, &snap.a);
+        let lane = &mut self.lanes[0];
+        lane.q.clone_from(&snap.q);
+        lane.qd.clone_from(&snap.qd);
+        lane.pen.clone_from(&snap.pen);
+        lane.fmag.clone_from(&snap.fmag);
+        lane.gap_closed.clone_from(&snap.gap_closed);
+        lane.gap_normal.clone_from(&snap.gap_normal);
+        lane.pa_old.clone_from(&snap.pa_old);
+    }
+
+    /// At the cut `t` (s) of an event step (one lane): each joint whose status changed over the
+    /// trial step (`pen0`, `pen1`: penetrations at its start and end, m) is put on the new side of the clearance
+    /// circle (its position projected radially to `|delta| = 1e-6 |delta_0 - delta_1|`), so that
+    /// the next substep starts with the new status, and the acceleration is recomputed from
+    /// `M a = F(t) - K u - C v + contact(u, v)`: the right limit at a force discontinuity (the
+    /// dashpot force jumps at entry), without which average acceleration integrates the jump
+    /// over the next substep at first order.
+    #[cold]
+    fn restart_at_event(&mut self, t: f64, pen0: &[f64], pen1: &[f64]) {
+        let sh = &mut self.sh;
+        let lane = &mut self.lanes[0];
+        let is_gap = matches!(lane.settings.coupling, Coupling::Gap { .. });
+        for jj in 0..lane.sys.joints.len() {
+            // the trial step's end status is in `pen1`; the cut state `q` lies near the circle
+            let (p0, p1) = (pen0[jj], pen1[jj]);
+            if (p0 > 0.0) == (p1 > 0.0) {
+                continue;
+            }
+            let entering = p1 > 0.0;
+            let c = lane.sys.joints[jj].clearance;
+            let q = lane.q[jj];
+            let dr = norm2(q);
+            let eps = 1e-6 * (p1 - p0).abs();
+            let target = if entering { c + eps } else { c - eps };
+            if dr > 0.0 && target > 0.0 {
+                lane.q[jj] = [q[0] * target / dr, q[1] * target / dr];
+                lane.pen[jj] = target - c;
+                if is_gap {
+                    lane.gap_closed[jj] = entering;
+                    lane.gap_normal[jj] = [q[0] / dr, q[1] / dr];
+                }
+            }
+        }
+        let n = sh.n;
+        let (mut u, mut v, mut r) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        get_lane(&self.u, 0, &mut u);
+        get_lane(&self.v, 0, &mut v);
+        let pat = &lane.sys.pattern;
+        pat.mul(&lane.sys.stiffness, &u, &mut r);
+        pat.mul(&lane.sys.damping, &v, &mut lane.col);
+        for (r, t) in r.iter_mut().zip(&lane.col) {
+            *r = -*r - t;
+        }
+        lane.sys.frames_at(t, &mut lane.frames);
+        lane.sys.add_inertia_load(&lane.frames, &mut r);
+        for jj in 0..lane.sys.joints.len() {
+            let (q, qd) = (lane.q[jj], lane.qd[jj]);
+            let f = lane.contact_terms(jj, q, qd).force(q, qd);
+            lane.fmag[jj] = norm2(f);
+            let j = &lane.sys.joints[jj];
+            for k in 0..j.ndof {
+                r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
+            }
+        }
+        // the right-limit force at the cut (the dashpot spike at entry) lies between output steps
+        lane.rec.record_event_force(t, &lane.fmag);
+        sh.mchol.solve_in_place(&mut r);
+        set_lane(&mut self.a, 0, &r);
+    }
+
+    /// Ends the step at `t1`: advances the step counter, checks and records every active lane.
+    #[inline(always)]
+    fn finish(&mut self, t1: f64) {
         self.step += 1;
         self.t = t1;
         let (step, t) = (self.step, self.t);

@@ -295,7 +295,7 @@ impl PyModel {
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-10, max_iter=50, gap_stiffness=None,
                         gap_damping=0.0, beta=0.25, gamma=0.5, solver="woodbury", divergence_limit=None,
                         joints=None, joint_position=false, nodes=Vec::new(), every=1, histories=true, start=0.0,
-                        progress=None))]
+                        progress=None, events=false))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -319,8 +319,9 @@ impl PyModel {
         histories: bool,
         start: f64,
         progress: Option<Py<PyAny>>,
+        events: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let settings = build_settings(
+        let mut settings = build_settings(
             py,
             t_end,
             dt,
@@ -343,6 +344,7 @@ impl PyModel {
                 start,
             },
         )?;
+        settings.events = events;
         let model = &self.inner;
         let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
         match res {
@@ -431,6 +433,7 @@ fn build_settings(
         solver,
         divergence_limit,
         record,
+        events: false,
     };
     Ok(settings)
 }
@@ -500,6 +503,7 @@ fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
     st.set_item("factorizations", s.factorizations)?;
     st.set_item("woodbury_steps", s.woodbury_steps)?;
     st.set_item("woodbury_fallbacks", s.woodbury_fallbacks)?;
+    st.set_item("event_steps", s.event_steps)?;
     st.set_item("iterations", s.iterations)?;
     st.set_item("max_iterations", s.max_iterations)?;
     st.set_item("unconverged_steps", s.unconverged_steps)?;
