@@ -434,6 +434,12 @@ pub fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
     if m == 2 {
         return solve_dense_2(a, b);
     }
+    solve_dense_general(a, b, m)
+}
+
+/// The general elimination of [`solve_dense_in_place`], without its `m = 2` shortcut.
+#[inline]
+fn solve_dense_general(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
     let (mut pmin, mut pmax) = (f64::INFINITY, 0.0f64);
     for k in 0..m {
         let mut p = k;
@@ -714,55 +720,9 @@ mod dense_tests {
             let (mut a1, mut b1) = ([c[0], c[1], c[2], c[3]], [c[4], c[5]]);
             let (mut a2, mut b2) = (a1, b1);
             let r1 = super::solve_dense_2(&mut a1, &mut b1);
-            let r2 = general(&mut a2, &mut b2, 2);
+            let r2 = super::solve_dense_general(&mut a2, &mut b2, 2);
             assert_eq!(r1.to_bits(), r2.to_bits(), "{c:?}");
             assert_eq!(b1.map(f64::to_bits), b2.map(f64::to_bits), "{c:?}");
-        }
-    }
-
-    /// The general elimination of `solve_dense_in_place`, without its `m = 2` shortcut.
-    fn general(a: &mut [f64], b: &mut [f64], m: usize) -> f64 {
-        let (mut pmin, mut pmax) = (f64::INFINITY, 0.0f64);
-        for k in 0..m {
-            let mut p = k;
-            for i in k + 1..m {
-                if a[i * m + k].abs() > a[p * m + k].abs() {
-                    p = i;
-                }
-            }
-            if p != k {
-                for j in 0..m {
-                    a.swap(k * m + j, p * m + j);
-                }
-                b.swap(k, p);
-            }
-            let piv = a[k * m + k];
-            pmin = pmin.min(piv.abs());
-            pmax = pmax.max(piv.abs());
-            if piv == 0.0 || !piv.is_finite() {
-                return 0.0;
-            }
-            for i in k + 1..m {
-                let f = a[i * m + k] / piv;
-                if f != 0.0 {
-                    for j in k..m {
-                        a[i * m + j] -= f * a[k * m + j];
-                    }
-                    b[i] -= f * b[k];
-                }
-            }
-        }
-        for k in (0..m).rev() {
-            let mut s = b[k];
-            for j in k + 1..m {
-                s -= a[k * m + j] * b[j];
-            }
-            b[k] = s / a[k * m + k];
-        }
-        if pmax > 0.0 {
-            pmin / pmax
-        } else {
-            0.0
         }
     }
 }
