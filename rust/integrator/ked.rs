@@ -291,6 +291,13 @@ struct NodeT {
     plain: bool,
 }
 
+/// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
+/// 2 acceleration) from the local states of its two nodes (see [`KedRun::local`]).
+#[inline]
+fn element_vec(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3], c: usize) -> Vec6 {
+    Vec6::new(a[c][0], a[c][1], a[c][2], b[c][0], b[c][1], b[c][2])
+}
+
 fn rot(a: f64) -> [[f64; 2]; 2] {
     let (s, c) = a.sin_cos();
     [[c, -s], [s, c]]
@@ -404,6 +411,8 @@ pub struct KedRun<'a> {
     /// (implicit contact keeps them for the step).
     damping_at_start: Vec<(Mat2, [f64; 2])>,
     contact_was: Vec<bool>,
+    /// Scratch for recording: local states of a link's nodes (reused, no allocation per record).
+    node_states: Vec<[[f64; 3]; 3]>,
     nonlinear_geometric: bool,
     stats: KedStats,
     out: KedOutput,
@@ -720,6 +729,7 @@ impl<'a> KedRun<'a> {
             implicit_contact: matches!(settings.coupling, Coupling::Modified { iterate: true, .. })
                 && !mech.joints.is_empty(),
             contact_was: vec![false; mech.joints.len()],
+            node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
             damping_at_start: vec![([[0.0; 2]; 2], [0.0; 2]); mech.joints.len()],
             nonlinear_geometric,
             stats,
@@ -895,9 +905,11 @@ impl<'a> KedRun<'a> {
             for e in 0..self.mech.links[li].elements {
                 let next = self.nt(li, e + 1);
                 let wn = Self::local(&next, &self.y, &self.yd, &self.ydd);
-                let q = Vec6::new(wprev[0][0], wprev[0][1], wprev[0][2], wn[0][0], wn[0][1], wn[0][2]);
-                let qd = Vec6::new(wprev[1][0], wprev[1][1], wprev[1][2], wn[1][0], wn[1][1], wn[1][2]);
-                let qdd = Vec6::new(wprev[2][0], wprev[2][1], wprev[2][2], wn[2][0], wn[2][1], wn[2][2]);
+                let (q, qd, qdd) = (
+                    element_vec(&wprev, &wn, 0),
+                    element_vec(&wprev, &wn, 1),
+                    element_vec(&wprev, &wn, 2),
+                );
                 let mut f = ld.m * qdd + c0 * qd + k0 * q;
                 if ld.active.geometric {
                     let fax = ld.ea_l * (q[3] - q[0]);
@@ -1102,8 +1114,7 @@ impl<'a> KedRun<'a> {
                     let w1 = Self::local(&next, &self.y, &self.yd, &self.ydd);
                     if tangent {
                         // d/dQ of F(Q) (K23 Q + D2 Qd), F = EA/l (u2 - u1): a rank-1 term.
-                        let q = Vec6::new(w0[0][0], w0[0][1], w0[0][2], w1[0][0], w1[0][1], w1[0][2]);
-                        let qd = Vec6::new(w0[1][0], w0[1][1], w0[1][2], w1[1][0], w1[1][1], w1[1][2]);
+                        let (q, qd) = (element_vec(&w0, &w1, 0), element_vec(&w0, &w1, 1));
                         let g = (ld.k2u + ld.k3u) * q + ld.k2u * (qd * ld.eta_e);
                         let mut dfax = Vec6::zeros();
                         dfax[0] = -ld.ea_l;
@@ -1486,7 +1497,9 @@ impl<'a> KedRun<'a> {
     }
 
     fn record(&mut self, t: f64) {
-        let rec = self.settings.record.clone();
+        let settings = self.settings;
+        let rec = &settings.record;
+        let mut buf = std::mem::take(&mut self.node_states);
         self.out.time.push(t);
         for li in 0..self.links.len() {
             let l = &self.mech.links[li];
@@ -1496,8 +1509,7 @@ impl<'a> KedRun<'a> {
             let nn = l.nodes();
             let need_w = rec.displacements || rec.axial_force || rec.midspan || rec.energy;
             if need_w {
-                let base = hist.displacements.len();
-                let mut buf: Vec<[[f64; 3]; 3]> = Vec::with_capacity(nn);
+                buf.clear();
                 for nd in 0..nn {
                     let nt = self.nt(li, nd);
                     buf.push(Self::local(&nt, &self.y, &self.yd, &self.ydd));
@@ -1507,7 +1519,6 @@ impl<'a> KedRun<'a> {
                         hist.displacements.extend_from_slice(&w[0]);
                     }
                 }
-                let _ = base;
                 let ld = &self.links[li];
                 let e = l.element();
                 if rec.axial_force {
@@ -1519,14 +1530,7 @@ impl<'a> KedRun<'a> {
                     let xm = 0.5 * l.elements as f64;
                     let k = (xm.floor() as usize).min(l.elements - 1);
                     let xi = xm - k as f64;
-                    let q = Vec6::new(
-                        buf[k][0][0],
-                        buf[k][0][1],
-                        buf[k][0][2],
-                        buf[k + 1][0][0],
-                        buf[k + 1][0][1],
-                        buf[k + 1][0][2],
-                    );
+                    let q = element_vec(&buf[k], &buf[k + 1], 0);
                     let vm = e.transverse_at(xi, &q);
                     hist.midspan.push(vm - 0.5 * (buf[0][0][1] + buf[nn - 1][0][1]));
                 }
@@ -1539,21 +1543,9 @@ impl<'a> KedRun<'a> {
                     let (mut te, mut ve, mut he) = (0.0, 0.0, 0.0);
                     let le = l.element_length();
                     for k in 0..l.elements {
-                        let q = Vec6::new(
-                            buf[k][0][0],
-                            buf[k][0][1],
-                            buf[k][0][2],
-                            buf[k + 1][0][0],
-                            buf[k + 1][0][1],
-                            buf[k + 1][0][2],
-                        );
-                        let qd = Vec6::new(
-                            buf[k][1][0],
-                            buf[k][1][1],
-                            buf[k][1][2],
-                            buf[k + 1][1][0],
-                            buf[k + 1][1][1],
-                            buf[k + 1][1][2],
+                        let (q, qd) = (
+                            element_vec(&buf[k], &buf[k + 1], 0),
+                            element_vec(&buf[k], &buf[k + 1], 1),
                         );
                         let (tk, hk) = e.kinetic_terms(k as f64 * le, &q, &qd, v0, f.rate);
                         te += tk;
@@ -1578,6 +1570,7 @@ impl<'a> KedRun<'a> {
             }
             self.out.links[li] = hist;
         }
+        self.node_states = buf;
         for j in 0..self.mech.joints.len() {
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
             let jt = &self.mech.joints[j];
