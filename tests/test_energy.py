@@ -17,8 +17,7 @@ from __future__ import annotations
 import flexclear
 import numpy as np
 import pytest
-from flexclear import Record
-from flexclear.linear import contact_energy, link_matrices, mechanical_energy, newmark_velocities
+from flexclear.accuracy import free_rattle, rattle_energy
 
 P = flexclear.scenes.slider_yoke().parameters
 ELEMENTS = 6
@@ -26,44 +25,16 @@ V0 = 0.05  # m/s
 
 
 def rattle(clearance=1e-4, stiffness=1e7, damping=0.0, eta=0.0):
-    n = ELEMENTS + 1
-    v0 = np.zeros(3 * n)
-    v0[1::3] = V0
-    m = flexclear.Model().add_body("yoke")
-    m.add_link(
-        "slider",
-        length=P["length"],
-        elements=ELEMENTS,
-        youngs_modulus=P["youngs_modulus"],
-        density=P["density"],
-        area=P["area"],
-        inertia=P["inertia"],
-        damping=eta,
-        initial_velocity=v0,
-    )
-    m.add_joint(
-        "bearing", "slider", 0, body="yoke", clearance=clearance, stiffness=stiffness, damping=damping
-    )
-    mats = link_matrices(
-        P["length"], ELEMENTS, P["youngs_modulus"], P["density"], P["area"], P["inertia"], eta
-    )
-    return m, mats, v0
+    return free_rattle(clearance, stiffness, damping, eta, elements=ELEMENTS, speed=V0)
 
 
 def energy_history(model, mats, v0, stiffness, t_end, dt, **kw):
-    nodes = [("slider", i) for i in range(ELEMENTS + 1)]
-    res = model.simulate(t_end, dt, record=Record(nodes=nodes), **kw)
-    u = np.stack(
-        [np.stack([res.node(*nd).u, res.node(*nd).v, res.node(*nd).theta], axis=1) for nd in nodes], 1
-    )
-    u = u.reshape(u.shape[0], -1)
-    v = newmark_velocities(u, v0, dt)
+    res, v, e = rattle_energy(model, mats, v0, stiffness, t_end, dt, **kw)
     # the velocity recurrence is exact for average acceleration: it must end at the engine's state
     assert np.max(np.abs(v[-1] - res.state[1])) <= 1e-8 * np.max(np.abs(v)), np.max(
         np.abs(v[-1] - res.state[1])
     )
     j = res.joint("bearing")
-    e = mechanical_energy(mats, u, v) + contact_energy(j.penetration, stiffness)
     crossings = int(np.count_nonzero(np.diff(np.sign(j.penetration)) != 0))
     bound = crossings * stiffness * (j.max_velocity * dt) ** 2 / 8
     return res, e, bound, crossings

@@ -162,38 +162,68 @@ def element_sweep(elements, t_end: float, dt: float, clearance: float, ref_eleme
     return cases
 
 
-def rattle_energy_error(kw: dict, dt: float, t_end: float = 0.02, stiffness: float = 1e7) -> float:
-    """Relative energy change over ``t_end`` of the free rattle of tests/test_energy.py (slider of
-    the scene, 6 elements, fixed yoke, clearance 1e-4 m, no damping, thrown at 0.05 m/s)."""
+def free_rattle(
+    clearance: float = 1e-4,
+    stiffness: float = 1e7,
+    damping: float = 0.0,
+    eta: float = 0.0,
+    elements: int = 6,
+    speed: float = 0.05,
+):
+    """A free rattle with no external work: the slider-yoke scene's slider (``elements``
+    elements, material damping ``eta`` in Pa s) with a fixed yoke, thrown at the bearing
+    (``clearance`` m, ``stiffness`` N/m, ``damping`` N s/m) with a uniform transverse velocity
+    ``speed`` (m/s). Returns ``(model, matrices, v0)``: the Model, the link's
+    :func:`flexclear.linear.link_matrices` and the initial nodal velocity vector."""
     p = scenes.slider_yoke().parameters
-    ne = 6
-    v0 = np.zeros(3 * (ne + 1))
-    v0[1::3] = 0.05
+    v0 = np.zeros(3 * (elements + 1))
+    v0[1::3] = speed
     m = Model().add_body("yoke")
     m.add_link(
         "slider",
         length=p["length"],
-        elements=ne,
+        elements=elements,
         youngs_modulus=p["youngs_modulus"],
         density=p["density"],
         area=p["area"],
         inertia=p["inertia"],
+        damping=eta,
         initial_velocity=v0,
     )
-    m.add_joint("bearing", "slider", 0, body="yoke", clearance=1e-4, stiffness=stiffness, damping=0.0)
-    mats = link_matrices(p["length"], ne, p["youngs_modulus"], p["density"], p["area"], p["inertia"])
-    nodes = [("slider", i) for i in range(ne + 1)]
+    m.add_joint(
+        "bearing", "slider", 0, body="yoke", clearance=clearance, stiffness=stiffness, damping=damping
+    )
+    mats = link_matrices(
+        p["length"], elements, p["youngs_modulus"], p["density"], p["area"], p["inertia"], eta
+    )
+    return m, mats, v0
+
+
+def rattle_energy(model, mats, v0, stiffness: float, t_end: float, dt: float, **kw):
+    """Runs a :func:`free_rattle` model and returns ``(result, velocities, energy)``: the nodal
+    velocities rebuilt by the Newmark recurrence (m/s, rad/s) and the total energy (kinetic +
+    strain + bearing potential ``K_B max(delta, 0)^2 / 2``, J) at every step. ``kw`` goes to
+    ``Model.simulate``."""
+    nodes = [("slider", i) for i in range(len(v0) // 3)]
+    res = model.simulate(t_end, dt, record=Record(nodes=nodes), **kw)
+    u = np.stack([np.stack([res.node(*n).u, res.node(*n).v, res.node(*n).theta], 1) for n in nodes], 1)
+    u = u.reshape(u.shape[0], -1)
+    v = newmark_velocities(u, v0, dt)
+    e = mechanical_energy(mats, u, v) + contact_energy(res.joint("bearing").penetration, stiffness)
+    return res, v, e
+
+
+def rattle_energy_error(kw: dict, dt: float, t_end: float = 0.02, stiffness: float = 1e7) -> float:
+    """Relative energy change over ``t_end`` of the free rattle of tests/test_energy.py
+    (:func:`free_rattle` with its defaults: 6 elements, fixed yoke, clearance 1e-4 m, no damping,
+    thrown at 0.05 m/s)."""
+    m, mats, v0 = free_rattle(stiffness=stiffness)
     if kw.get("method") == "gap":
         kw = {**kw, "gap_stiffness": stiffness}
     try:
-        res = m.simulate(t_end, dt, record=Record(nodes=nodes), divergence_limit=1.0, **kw)
+        _, _, e = rattle_energy(m, mats, v0, stiffness, t_end, dt, divergence_limit=1.0, **kw)
     except SimulationDivergedError:
         return math.inf
-    u = np.stack([np.stack([res.node(*n).u, res.node(*n).v, res.node(*n).theta], 1) for n in nodes], 1)
-    u = u.reshape(u.shape[0], -1)
-    e = mechanical_energy(mats, u, newmark_velocities(u, v0, dt)) + contact_energy(
-        res.joint("bearing").penetration, stiffness
-    )
     return float(e[-1] / e[0] - 1)
 
 
