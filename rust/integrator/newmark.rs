@@ -558,6 +558,10 @@ struct Lane<'m> {
     gap_closed: Vec<bool>,
     gap_normal: Vec<[f64; 2]>,
     gap_k: Vec<f64>,
+    /// Event-aware stepping's first substep: each joint's contact status held at its
+    /// start-of-step value (`Some(closed)`), so that the substep follows the old-status
+    /// trajectory up to the crossing; empty otherwise.
+    frozen: Vec<bool>,
     limit: f64,
     stats: RunStats,
     rec: Recorder,
@@ -658,6 +662,7 @@ impl<'m> Lane<'m> {
             gap_closed: vec![false; nj],
             gap_normal: vec![[1.0, 0.0]; nj],
             gap_k,
+            frozen: Vec::new(),
             limit,
             stats: RunStats {
                 terms: terms_desc,
@@ -992,9 +997,10 @@ impl<'m> Lane<'m> {
                 self.qdt[jj][0] + gdt * self.pa[2 * jj],
                 self.qdt[jj][1] + gdt * self.pa[2 * jj + 1],
             ];
+            let frozen = self.frozen.get(jj).copied();
             if is_gap {
                 let dr = norm2(q1);
-                let closed = dr - self.sys.joints[jj].clearance > 0.0;
+                let closed = frozen.unwrap_or(dr - self.sys.joints[jj].clearance > 0.0);
                 if closed != self.gap_closed[jj] {
                     converged = false;
                     self.gap_closed[jj] = closed;
@@ -1009,10 +1015,23 @@ impl<'m> Lane<'m> {
                 }
             } else {
                 let t = self.contact_terms(jj, q1, qd1);
-                if t.active() != self.terms[jj].active() {
-                    converged = false;
+                match frozen {
+                    // held open: no force whatever the end state
+                    Some(false) => self.terms[jj] = ContactTerms::default(),
+                    // held closed: the law's terms while the end state is inside the circle; past
+                    // it (a trial cut beyond the crossing) the last terms from inside are kept
+                    Some(true) => {
+                        if t.active() {
+                            self.terms[jj] = t;
+                        }
+                    }
+                    None => {
+                        if t.active() != self.terms[jj].active() {
+                            converged = false;
+                        }
+                        self.terms[jj] = t;
+                    }
                 }
-                self.terms[jj] = t;
             }
         }
         if !is_gap {
@@ -1646,9 +1665,17 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         let mut side = 0i8;
         let mut factorizations = 0;
         let mut h1 = theta * dt;
+        // the first substep keeps every joint's start-of-step status: it follows the old-status
+        // trajectory to the crossing (with the status iterated, an end state near the circle has
+        // no consistent status when the dashpot force jumps there, and the iteration would switch
+        // between the two until its cap)
+        let lane = &mut self.lanes[0];
+        lane.frozen.clear();
+        lane.frozen.extend(snap.pen.iter().map(|&p| p > 0.0));
         for it in 0..EVENT_MAX_CUTS {
             h1 = theta * dt;
             let Ok(mut s1) = consts(&self.sh.sys, h1) else {
+                self.lanes[0].frozen.clear();
                 return; // cannot happen for h > 0 (M is positive definite)
             };
             factorizations += 1;
@@ -1658,6 +1685,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             self.advance(t0 + h1);
             self.sh.swap_step(&mut s1);
             if !self.active[0] {
+                self.lanes[0].frozen.clear();
                 self.sh.chol0.factorizations += factorizations;
                 return;
             }
@@ -1684,6 +1712,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
             theta = next;
         }
+        self.lanes[0].frozen.clear();
         self.restart_at_event(t0 + h1, &snap.pen, &ev.pen1);
         let Ok(mut s2) = consts(&self.sh.sys, dt - h1) else {
             return;
