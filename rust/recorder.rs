@@ -1,6 +1,7 @@
 //! What a run keeps: chosen joints' penetration, force and journal position, chosen nodes'
-//! displacements, every k-th step from a start time; and running extremes of every joint, which
-//! cost O(joints) memory whatever the run length.
+//! displacements, every k-th step from a start time; running extremes of every joint, which
+//! cost O(joints) memory whatever the run length; and, when asked, an impact log per chosen joint
+//! (one entry per contact episode: memory grows with the number of impacts, not of steps).
 
 use crate::error::{Error, Result};
 
@@ -19,6 +20,8 @@ pub struct RecordSpec {
     pub histories: bool,
     /// Histories and extremes start at this time, s (e.g. to skip a transient).
     pub start: f64,
+    /// Keep an impact log ([`Impact`]) of the recorded joints (independent of `histories`).
+    pub impacts: bool,
 }
 
 impl Default for RecordSpec {
@@ -30,6 +33,7 @@ impl Default for RecordSpec {
             every: 1,
             histories: true,
             start: 0.0,
+            impacts: false,
         }
     }
 }
@@ -84,6 +88,26 @@ pub struct JointHistory {
     pub qx: Vec<f64>,
     /// See `qx`.
     pub qy: Vec<f64>,
+}
+
+/// One contact episode of a joint (open -> closed -> open).
+///
+/// On fixed steps the entry and exit are known to the step: the entry is the first step that ends
+/// closed, and the speed and peaks are those of the recorded steps. With event-aware stepping the
+/// entry (and exit) is the cut at the crossing, the speed is the approach speed there and the
+/// peak force includes the force just after the cut (the dashpot jump at entry).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Impact {
+    /// Entry time, s.
+    pub time: f64,
+    /// Normal approach speed at entry, `q' . q / |q|`, m/s.
+    pub speed: f64,
+    /// Largest contact force magnitude during the episode, N.
+    pub peak_force: f64,
+    /// Largest penetration during the episode, m.
+    pub peak_penetration: f64,
+    /// Time in contact (exit minus entry), s; NaN while still closed at the end of the run.
+    pub duration: f64,
 }
 
 /// Histories of one node (link frame).
@@ -166,6 +190,11 @@ pub struct Recorder {
     pub nodes: Vec<NodeHistory>,
     /// Extremes of every joint (indexed like the model's joints).
     pub extremes: Vec<JointExtremes>,
+    /// Impact logs of the recorded joints (parallel to `joints` of the spec; empty unless
+    /// `RecordSpec::impacts`): `(joint index, impacts)`.
+    pub impacts: Vec<(usize, Vec<Impact>)>,
+    /// For every joint, the slot in `impacts` when it is logged.
+    impact_slot: Vec<Option<usize>>,
     was_closed: Vec<bool>,
     spec_every: usize,
     spec_start: f64,
@@ -215,6 +244,20 @@ impl Recorder {
                 Vec::new()
             },
             node_dofs: spec.nodes.iter().map(|&(l, n)| node_dof(l, n)).collect(),
+            impacts: if spec.impacts {
+                js.iter().map(|&j| (j, Vec::new())).collect()
+            } else {
+                Vec::new()
+            },
+            impact_slot: (0..joints)
+                .map(|j| {
+                    if spec.impacts {
+                        js.iter().position(|&k| k == j)
+                    } else {
+                        None
+                    }
+                })
+                .collect(),
             extremes: vec![JointExtremes::default(); joints],
             was_closed: vec![false; joints],
             spec_every: spec.every,
@@ -224,15 +267,40 @@ impl Recorder {
         }
     }
 
-    /// Takes the force magnitudes `force[j]` (N) at an instant `t` (s) between output steps (the
-    /// cut of an event-aware step, just after a contact status change) into the running largest
-    /// force only; nothing else is recorded.
-    pub fn record_event_force(&mut self, t: f64, force: &[f64]) {
+    /// Takes the state at an instant `t` (s) between output steps (the cut of an event-aware
+    /// step, just after a contact status change; arguments as in [`Self::record`]): the force
+    /// enters the running largest force, and a joint whose status changed there starts its impact
+    /// (counted here, with the approach speed at the cut) or ends it (exact duration). Nothing
+    /// enters the histories or the RMS sums.
+    pub fn record_event(&mut self, t: f64, pen: &[f64], force: &[f64], q: &[[f64; 2]], qd: &[[f64; 2]]) {
         if t < self.spec_start {
             return;
         }
-        for (e, &f) in self.extremes.iter_mut().zip(force) {
-            e.max_force = e.max_force.max(f);
+        for (j, e) in self.extremes.iter_mut().enumerate() {
+            e.max_force = e.max_force.max(force[j]);
+            let closed = pen[j] > 0.0;
+            let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
+            if closed && !self.was_closed[j] {
+                let speed = normal_speed(q[j], qd[j]);
+                e.impacts += 1;
+                e.max_impact_velocity = e.max_impact_velocity.max(speed);
+                if let Some(log) = log {
+                    log.push(Impact {
+                        time: t,
+                        speed,
+                        peak_force: force[j],
+                        peak_penetration: pen[j],
+                        duration: f64::NAN,
+                    });
+                }
+            } else if let Some(last) = log.and_then(|l| l.last_mut()).filter(|l| l.duration.is_nan()) {
+                if closed {
+                    last.peak_force = last.peak_force.max(force[j]);
+                } else if self.was_closed[j] {
+                    last.duration = t - last.time;
+                }
+            }
+            self.was_closed[j] = closed;
         }
     }
 
@@ -275,17 +343,35 @@ impl Recorder {
                 e.max_velocity = v2.sqrt();
             }
             let closed = p > 0.0;
+            let slot = self.impact_slot[j];
             if closed {
                 if !self.was_closed[j] && step > 0 {
                     e.impacts += 1;
-                    let [x, y] = q[j];
-                    let r = (x * x + y * y).sqrt();
-                    if r > 0.0 {
-                        e.max_impact_velocity = e.max_impact_velocity.max((vx * x + vy * y) / r);
+                    let speed = normal_speed(q[j], qd[j]);
+                    e.max_impact_velocity = e.max_impact_velocity.max(speed);
+                    if let Some(k) = slot {
+                        self.impacts[k].1.push(Impact {
+                            time: t,
+                            speed,
+                            peak_force: f,
+                            peak_penetration: p,
+                            duration: f64::NAN,
+                        });
+                    }
+                } else if let Some(last) = slot.and_then(|k| self.impacts[k].1.last_mut()) {
+                    if last.duration.is_nan() {
+                        last.peak_force = last.peak_force.max(f);
+                        last.peak_penetration = last.peak_penetration.max(p);
                     }
                 }
                 if step > 0 {
                     e.contact_time += dt;
+                }
+            } else if self.was_closed[j] && slot.is_some() {
+                if let Some(last) = slot.and_then(|k| self.impacts[k].1.last_mut()) {
+                    if last.duration.is_nan() {
+                        last.duration = t - last.time;
+                    }
                 }
             }
             self.was_closed[j] = closed;
@@ -307,5 +393,17 @@ impl Recorder {
             h.v.push(u[d + 1]);
             h.theta.push(u[d + 2]);
         }
+    }
+}
+
+/// The normal approach speed `q' . q / |q|` (m/s) of a journal at `q` (m) moving at `qd` (m/s);
+/// zero at the bearing centre.
+#[inline]
+fn normal_speed(q: [f64; 2], qd: [f64; 2]) -> f64 {
+    let r = (q[0] * q[0] + q[1] * q[1]).sqrt();
+    if r > 0.0 {
+        (qd[0] * q[0] + qd[1] * q[1]) / r
+    } else {
+        0.0
     }
 }

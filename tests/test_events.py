@@ -97,7 +97,53 @@ def test_entry_spike_is_the_dashpot_force_at_the_approach_speed(kw):
     if kw.get("method") == "gap":
         kw = {**kw, "gap_stiffness": model.parameters["bearing_stiffness"], "gap_damping": cb}
     for dt in (1e-4, 1e-5):
-        r = model.simulate(0.0125, dt, events=True, record=Record(histories=False), divergence_limit=1.0, **kw)
+        r = model.simulate(
+            0.0125, dt, events=True, record=Record(histories=False), divergence_limit=1.0, **kw
+        )
         assert r.stats["event_steps"] >= 1
         assert r.stats["unconverged_steps"] == 0, r.stats
         assert r.joint("bearing").max_force == pytest.approx(cb * speed, rel=1e-3), dt
+
+
+def test_impact_log_with_events_has_the_crossing_and_its_speed():
+    # With events the log's first entry is the cut at the crossing: its time and approach speed
+    # are those of the contact-free trajectory (its crossing of the 1e-4 m circle, found from a
+    # run at 1e-7 s). The cut aims 5e-4 of the step's penetration change short of the circle
+    # (about 5e-4 dt early), plus the O(dt^2) error of the trajectory: measured 2.0e-3 dt at
+    # dt = 1e-4 s, 6e-4 dt at 1e-5 s; asserted 3e-3 dt. Speed: measured 4e-5 / 1e-6 relative.
+    model = flexclear.scenes.slider_yoke(clearance=1e-4)
+    speed, tc = _approach_speed({}, 1e-4, 0.0105)
+    for dt in (1e-4, 1e-5):
+        r = model.simulate(
+            0.0125, dt, iterate=True, events=True, record=Record(histories=False, impact_log=True)
+        )
+        log = r.joint("bearing").impact_log
+        assert len(log) == r.joint("bearing").impacts == 1
+        assert log.time[0] == pytest.approx(tc, abs=3e-3 * dt)
+        assert log.speed[0] == pytest.approx(speed, rel=1e-4)
+        assert log.peak_force[0] == r.joint("bearing").max_force
+
+
+@pytest.mark.parametrize("kw", [{}, {"iterate": True}, {"method": "force"}])
+def test_impact_log_on_fixed_steps_matches_the_histories(kw):
+    # Without events the log is the per-episode summary of the recorded steps: same count as
+    # `impacts`, entries at the first closed sample, peaks of each closed run of samples, and
+    # durations that add up to the contact time (the last episode is still open at the end: NaN).
+    model = flexclear.scenes.slider_yoke(clearance=1e-4)
+    dt = 1e-5
+    r = model.simulate(0.03, dt, record=Record(impact_log=True), **kw)
+    j = r.joint("bearing")
+    log = j.impact_log
+    closed = j.penetration > 0
+    edges = np.diff(np.r_[0, closed.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    assert len(log) == j.impacts == len(starts) >= 3
+    np.testing.assert_array_equal(log.time, r.time[starts])
+    np.testing.assert_array_equal(log.peak_force, [j.force[a:b].max() for a, b in zip(starts, ends)])
+    np.testing.assert_array_equal(
+        log.peak_penetration, [j.penetration[a:b].max() for a, b in zip(starts, ends)]
+    )
+    assert np.isnan(log.duration[-1]) == closed[-1]
+    finished = ~np.isnan(log.duration)
+    np.testing.assert_allclose(log.duration[finished], (ends - starts)[finished] * dt, rtol=1e-9)
+    assert np.all(log.speed > 0)

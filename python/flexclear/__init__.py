@@ -29,12 +29,13 @@ from .errors import (
     SingularMatrixError,
 )
 from .mechanism import Frame, LinkResult, Mechanism, MechanismJointResult, MechanismResult, Rotation
-from .model import JointResult, Model, NodeResult, Record, Result
+from .model import ImpactLog, JointResult, Model, NodeResult, Record, Result
 
 __all__ = [
     "ConvergenceError",
     "FlexclearError",
     "Frame",
+    "ImpactLog",
     "InvalidParameterError",
     "JointResult",
     "LinkResult",

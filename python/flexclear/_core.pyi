@@ -95,6 +95,7 @@ class Model:
         start: float = ...,
         progress: Optional[Callable[[float], Any]] = ...,
         events: bool = ...,
+        impact_log: bool = ...,
     ) -> dict[str, Any]: ...
 
 @final

@@ -34,6 +34,9 @@ class Record:
         False keeps only the running extremes per joint (memory independent of run length).
     start : float
         Histories and extremes start at this time, s.
+    impact_log : bool
+        Also keep an :class:`ImpactLog` of those joints: one entry per contact episode (memory
+        grows with the number of impacts, not of steps; independent of ``histories``).
     """
 
     joints: Optional[list[str]] = None
@@ -42,6 +45,40 @@ class Record:
     every: int = 1
     histories: bool = True
     start: float = 0.0
+    impact_log: bool = False
+
+
+@dataclasses.dataclass
+class ImpactLog:
+    """The contact episodes (open -> closed -> open) of one joint, one array entry each.
+
+    On fixed steps an entry is the first step that ends closed, and speed and peaks are those of
+    the steps. With event-aware stepping (``simulate(..., events=True)``) entry and exit are the
+    cuts at the crossings, the speed is the approach speed there and the peak force includes the
+    force just after the cut (the dashpot jump at entry).
+
+    Attributes
+    ----------
+    time : ndarray
+        Entry times, s.
+    speed : ndarray
+        Normal approach speed at entry, ``q' . q / |q|``, m/s.
+    peak_force : ndarray
+        Largest contact force magnitude of each episode, N.
+    peak_penetration : ndarray
+        Largest penetration of each episode, m.
+    duration : ndarray
+        Time in contact, s (NaN for an episode still closed at the end of the run).
+    """
+
+    time: np.ndarray
+    speed: np.ndarray
+    peak_force: np.ndarray
+    peak_penetration: np.ndarray
+    duration: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.time)
 
 
 @dataclasses.dataclass
@@ -73,6 +110,8 @@ class JointResult:
     rms_penetration, rms_force : float
         Root mean square of the penetration (m) and of the force magnitude (N) over the
         recorded steps (every step from ``Record.start``, whatever ``Record.every``).
+    impact_log : ImpactLog or None
+        Every contact episode (when ``Record(impact_log=True)``).
     """
 
     name: str
@@ -89,6 +128,7 @@ class JointResult:
     max_impact_velocity: float
     rms_penetration: float
     rms_force: float
+    impact_log: Optional[ImpactLog] = None
 
 
 @dataclasses.dataclass
@@ -162,6 +202,14 @@ class Result:
             max_impact_velocity=ext["max_impact_velocity"],
             rms_penetration=ext["rms_penetration"],
             rms_force=ext["rms_force"],
+            impact_log=next(
+                (
+                    ImpactLog(**{k: v for k, v in log.items() if k != "joint"})
+                    for log in self._raw.get("impact_log", ())
+                    if log["joint"] == idx
+                ),
+                None,
+            ),
         )
 
     def node(self, link: str, node: int) -> NodeResult:
@@ -479,6 +527,7 @@ class Model:
                 start=float(rec.start),
                 progress=cb,
                 events=bool(events),
+                impact_log=bool(rec.impact_log),
             )
         except (SimulationDivergedError, SimulationInterrupted) as exc:
             wall = _time.perf_counter() - t0

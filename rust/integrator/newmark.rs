@@ -1796,7 +1796,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
         }
         // the right-limit force at the cut (the dashpot spike at entry) lies between output steps
-        lane.rec.record_event_force(t, &lane.fmag);
+        lane.rec.record_event(t, &lane.pen, &lane.fmag, &lane.q, &lane.qd);
         sh.mchol.solve_in_place(&mut r);
         set_lane(&mut self.a, 0, &r);
     }

@@ -295,7 +295,7 @@ impl PyModel {
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-10, max_iter=50, gap_stiffness=None,
                         gap_damping=0.0, beta=0.25, gamma=0.5, solver="woodbury", divergence_limit=None,
                         joints=None, joint_position=false, nodes=Vec::new(), every=1, histories=true, start=0.0,
-                        progress=None, events=false))]
+                        progress=None, events=false, impact_log=false))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -320,6 +320,7 @@ impl PyModel {
         start: f64,
         progress: Option<Py<PyAny>>,
         events: bool,
+        impact_log: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut settings = build_settings(
             py,
@@ -342,6 +343,7 @@ impl PyModel {
                 every: count_at_least_1(py, "every", every)?,
                 histories,
                 start,
+                impacts: impact_log,
             },
         )?;
         settings.events = events;
@@ -497,6 +499,19 @@ fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
     }
     d.set_item("nodes", nodes)?;
     d.set_item("extremes", extremes_list(py, &rec.extremes)?)?;
+    let logs = PyList::empty(py);
+    for (joint, log) in rec.impacts {
+        let x = PyDict::new(py);
+        x.set_item("joint", joint)?;
+        let col = |f: fn(&crate::recorder::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
+        x.set_item("time", col(|i| i.time))?;
+        x.set_item("speed", col(|i| i.speed))?;
+        x.set_item("peak_force", col(|i| i.peak_force))?;
+        x.set_item("peak_penetration", col(|i| i.peak_penetration))?;
+        x.set_item("duration", col(|i| i.duration))?;
+        logs.append(x)?;
+    }
+    d.set_item("impact_log", logs)?;
     let s = out.stats;
     let st = PyDict::new(py);
     st.set_item("steps", s.steps)?;
@@ -714,6 +729,7 @@ fn run_batch<'py>(
         every: count_at_least_1(py, "every", every)?,
         histories,
         start,
+        impacts: false,
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {
