@@ -284,6 +284,7 @@ def run_batch(
     histories: bool = ...,
     start: float = ...,
     progress: Optional[Callable[[int], Any]] = ...,
+    events: bool = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
 

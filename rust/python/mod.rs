@@ -671,7 +671,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
 #[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=false,
                     tol=1e-10, max_iter=50, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
-                    progress=None))]
+                    progress=None, events=false))]
 #[allow(clippy::too_many_arguments)]
 fn run_batch<'py>(
     py: Python<'py>,
@@ -697,6 +697,7 @@ fn run_batch<'py>(
     histories: bool,
     start: f64,
     progress: Option<Py<PyAny>>,
+    events: bool,
 ) -> PyResult<(Bound<'py, PyList>, Bound<'py, PyDict>, Option<PyErr>)> {
     let n = models.len();
     if t_end.len() != n || dt.len() != n {
@@ -733,7 +734,7 @@ fn run_batch<'py>(
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {
-        let settings = build_settings(
+        let mut settings = build_settings(
             py,
             t_end[i],
             dt[i],
@@ -749,6 +750,8 @@ fn run_batch<'py>(
             divergence_limit,
             record.clone(),
         )?;
+        // event-aware runs step alone (never a lockstep lane: `shares_factor` is false for them)
+        settings.events = events;
         samples.push((m.inner.clone(), settings));
     }
     drop(models);
