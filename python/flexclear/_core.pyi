@@ -238,6 +238,7 @@ class Mechanism:
         midspan: bool = ...,
         energy: bool = ...,
         progress: Optional[Callable[[float], Any]] = ...,
+        events: bool = ...,
     ) -> dict[str, Any]: ...
 
 def slider_yoke(

@@ -107,7 +107,7 @@ class MechanismResult:
         Recorded times, s.
     stats : dict
         ``steps``, ``factorizations`` (numeric refactorizations of the Jacobian),
-        ``iterations``, ``max_iterations``, ``halved_substeps``, ``unknowns``, ``bandwidth`` and
+        ``iterations``, ``max_iterations``, ``halved_substeps``, ``event_steps``, ``unknowns``, ``bandwidth`` and
         ``terms`` (per link, the terms that were active).
     complete : bool
         False when the run stopped early; see :attr:`error`.
@@ -428,6 +428,7 @@ class Mechanism:
         midspan: bool = False,
         energy: bool = False,
         progress: Union[bool, Callable[[float], None], None] = None,
+        events: bool = False,
     ) -> MechanismResult:
         """Runs the mechanism from rest in its frames (or the given initial state) to ``t_end``.
 
@@ -458,6 +459,12 @@ class Mechanism:
             Channels to record (see :class:`LinkResult`).
         progress : bool or callable
             Progress bar (True) or callback ``f(fraction)``.
+        events : bool
+            Event-aware stepping: a step that opens or closes a clearance joint is redone as two
+            substeps cut at the crossing (regula falsi on the penetration), with the accelerations
+            restarted there with the new contact status; output stays on the ``dt`` grid; the
+            joints are tracked at the cut too (the dashpot spike at entry enters ``max_force``).
+            Counted in ``stats["event_steps"]``. See docs/stability.md section 6.
 
         Raises
         ------
@@ -492,6 +499,7 @@ class Mechanism:
                 midspan=midspan,
                 energy=energy,
                 progress=cb,
+                events=bool(events),
             )
         except FlexclearError as e:
             partial = getattr(e, "partial", None)

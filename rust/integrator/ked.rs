@@ -63,6 +63,10 @@ pub struct KedSettings {
     /// A translational DOF beyond this magnitude (m) means divergence; `None` = 10 x the longest
     /// link.
     pub divergence_limit: Option<f64>,
+    /// Event-aware stepping: a step that changes a clearance joint's contact status is redone as
+    /// two substeps cut at the crossing, with the accelerations restarted there (see
+    /// [`KedRun::run`]).
+    pub events: bool,
     /// What to record.
     pub record: KedRecord,
 }
@@ -109,6 +113,7 @@ impl KedSettings {
             max_iter: 25,
             step_halving: 0,
             divergence_limit: None,
+            events: false,
             record: KedRecord::default(),
         }
     }
@@ -193,6 +198,10 @@ pub struct KedStats {
     pub steps: u64,
     /// Substeps taken by step halving.
     pub halved_substeps: u64,
+    /// Steps cut at a contact status change (event-aware stepping).
+    pub event_steps: u64,
+    /// Event steps kept whole because a substep did not converge where the whole step did.
+    pub event_fallbacks: u64,
     /// Numeric factorizations: the mass matrix once for the initial accelerations, then the
     /// Jacobian each time it changes.
     pub factorizations: u64,
@@ -417,6 +426,28 @@ pub struct KedRun<'a> {
     stats: KedStats,
     out: KedOutput,
     limit: f64,
+}
+
+/// A substep shorter than this fraction of the step is not cut off (event-aware stepping).
+const EVENT_MIN_FRACTION: f64 = 1e-3;
+/// The cut is accepted within this fraction of the step's change of penetration of the circle.
+const EVENT_PEN_TOL: f64 = 1e-3;
+/// At most this many first substeps per event.
+const EVENT_MAX_CUTS: usize = 6;
+
+/// Scratch of event-aware stepping: the start-of-step state and penetrations.
+#[derive(Default)]
+struct EventScratch {
+    y: Vec<f64>,
+    yd: Vec<f64>,
+    ydd: Vec<f64>,
+    /// Penetrations at the step's start, end, and the end of the current first substep, m.
+    p0: Vec<f64>,
+    p1: Vec<f64>,
+    pc: Vec<f64>,
+    /// Joint tracking before the cut (restored when the cut step falls back to the whole step).
+    was: Vec<bool>,
+    extremes: Vec<(f64, f64, u64)>,
 }
 
 struct DofBuilder {
@@ -1599,8 +1630,141 @@ impl<'a> KedRun<'a> {
         }
     }
 
+    /// Penetrations `|q| - c` (m) of the clearance joints at the current state and frames.
+    fn penetrations(&self, out: &mut Vec<f64>) {
+        out.clear();
+        for (j, jt) in self.mech.joints.iter().enumerate() {
+            let (q, _) = self.joint_state(j, &self.y, &self.yd);
+            out.push(q[0].hypot(q[1]) - jt.clearance);
+        }
+    }
+
+    /// Accelerations restarted at time `t` (s) from the current displacements and velocities:
+    /// `M a = F - ... + contact`, the contact terms (and the implicit coupling's damping) taken at
+    /// this state: the right limit at a contact status change.
+    fn restart_accelerations(&mut self, t: f64) -> Result<()> {
+        self.update_frames(t);
+        self.evaluate_contacts_at_state();
+        self.ydd.fill(0.0);
+        self.factorize_mass()?;
+        self.residual(0.0, t);
+        let mut dx = std::mem::take(&mut self.r);
+        self.lu.solve_in_place(&mut dx);
+        for i in 0..self.n {
+            self.ydd[i] = -dx[i];
+        }
+        self.r = dx;
+        self.signature.clear();
+        Ok(())
+    }
+
+    /// Puts back the state of `ev` (the start of the step at `t`, s).
+    fn restore_from(&mut self, ev: &EventScratch, t: f64) {
+        self.y.copy_from_slice(&ev.y);
+        self.yd.copy_from_slice(&ev.yd);
+        self.ydd.copy_from_slice(&ev.ydd);
+        self.update_frames(t);
+    }
+
+    /// Step `k` from `t0` of size `h` with event location: the step is taken; when it changes a
+    /// clearance joint's status (sign of `|q| - c`), the earliest crossing (linear
+    /// interpolation, then regula falsi on the first substep's end penetration, aiming just past
+    /// the circle, within 1e-3 of the step's change of penetration) places a cut; the step is
+    /// redone from its start as a substep to the cut, the accelerations are restarted there with
+    /// the new status ([`Self::restart_accelerations`]: the dashpot force of an entry acts from
+    /// the cut on, instead of from the next step), the joints are tracked at the cut (the entry
+    /// spike enters the largest force), and a second substep ends the step on the grid.
+    fn step_with_events(&mut self, t0: f64, h: f64, k: u64, ev: &mut EventScratch) -> Result<()> {
+        self.penetrations(&mut ev.p0);
+        ev.y.clone_from(&self.y);
+        ev.yd.clone_from(&self.yd);
+        ev.ydd.clone_from(&self.ydd);
+        self.step(t0, h, k, 0)?;
+        self.penetrations(&mut ev.p1);
+        let mut theta = f64::INFINITY;
+        let mut jstar = 0;
+        for (j, (&p0, &p1)) in ev.p0.iter().zip(&ev.p1).enumerate() {
+            if (p0 > 0.0) != (p1 > 0.0) {
+                let th = p0 / (p0 - p1);
+                if th < theta {
+                    theta = th;
+                    jstar = j;
+                }
+            }
+        }
+        if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&theta) {
+            return Ok(());
+        }
+        ev.was.clone_from(&self.contact_was);
+        ev.extremes.clear();
+        ev.extremes.extend(
+            self.out
+                .joints
+                .iter()
+                .map(|j| (j.max_penetration, j.max_force, j.impacts)),
+        );
+        if self.cut_step(t0, h, k, ev, theta, jstar).is_ok() {
+            self.stats.event_steps += 1;
+            return Ok(());
+        }
+        // a substep did not converge where the whole step did: keep the whole step (and undo the
+        // tracking at the cut)
+        self.stats.event_fallbacks += 1;
+        self.contact_was.clone_from(&ev.was);
+        for (j, &(p, f, n)) in self.out.joints.iter_mut().zip(&ev.extremes) {
+            (j.max_penetration, j.max_force, j.impacts) = (p, f, n);
+        }
+        self.restore_from(ev, t0);
+        self.step(t0, h, k, 0)
+    }
+
+    /// The cut of [`Self::step_with_events`] at first estimate `theta` (fraction of `h`) for
+    /// joint `jstar`, from the start state in `ev`.
+    fn cut_step(&mut self, t0: f64, h: f64, k: u64, ev: &mut EventScratch, mut theta: f64, jstar: usize) -> Result<()> {
+        let (p0, p1) = (ev.p0[jstar], ev.p1[jstar]);
+        let tol = EVENT_PEN_TOL * (p1 - p0).abs();
+        // just past the circle: the substep after the cut starts with the new status
+        let target = if p0 > 0.0 { -0.5 * tol } else { 0.5 * tol };
+        let (mut lo, mut hi) = ((0.0, p0 - target), (1.0, p1 - target));
+        let mut side = 0i8;
+        let mut h1 = theta * h;
+        for it in 0..EVENT_MAX_CUTS {
+            h1 = theta * h;
+            self.restore_from(ev, t0);
+            self.step(t0, h1, k, 0)?;
+            self.penetrations(&mut ev.pc);
+            let pc = ev.pc[jstar] - target;
+            if pc.abs() <= 0.5 * tol || it + 1 == EVENT_MAX_CUTS {
+                break;
+            }
+            if (pc > 0.0) == (p0 - target > 0.0) {
+                lo = (theta, pc);
+                if side == -1 {
+                    hi.1 *= 0.5;
+                }
+                side = -1;
+            } else {
+                hi = (theta, pc);
+                if side == 1 {
+                    lo.1 *= 0.5;
+                }
+                side = 1;
+            }
+            let next = lo.0 - lo.1 * (hi.0 - lo.0) / (hi.1 - lo.1);
+            if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&next) {
+                break;
+            }
+            theta = next;
+        }
+        self.restart_accelerations(t0 + h1)?;
+        self.track_joints();
+        self.step(t0 + h1, h - h1, k, 0)
+    }
+
     /// Runs to `t_end`. `control(fraction)` is called every 256 steps; returning false stops
     /// the run with [`Error::Interrupted`]. Failures carry everything recorded until then.
+    /// With [`KedSettings::events`] each step goes through [`Self::step_with_events`]; a step
+    /// without a status change is the fixed step.
     pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<KedOutput, Box<KedFailure>> {
         if let Err(e) = self.initialize() {
             return Err(self.fail(e, 0.0));
@@ -1613,9 +1777,14 @@ impl<'a> KedRun<'a> {
         let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let h = self.settings.dt;
         let every = self.settings.record.every as u64;
+        let mut ev = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
         for k in 1..=steps {
             let t0 = (k - 1) as f64 * h;
-            if let Err(e) = self.step(t0, h, k, 0) {
+            let r = match ev.as_mut() {
+                Some(ev) => self.step_with_events(t0, h, k, ev),
+                None => self.step(t0, h, k, 0),
+            };
+            if let Err(e) = r {
                 return Err(self.fail(e, t0));
             }
             self.stats.steps = k;

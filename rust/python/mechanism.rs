@@ -360,6 +360,8 @@ fn output_dict<'py>(py: Python<'py>, m: &Mechanism, out: KedOutput) -> PyResult<
     let st = PyDict::new(py);
     st.set_item("steps", s.steps)?;
     st.set_item("halved_substeps", s.halved_substeps)?;
+    st.set_item("event_steps", s.event_steps)?;
+    st.set_item("event_fallbacks", s.event_fallbacks)?;
     st.set_item("factorizations", s.factorizations)?;
     st.set_item("iterations", s.iterations)?;
     st.set_item("max_iterations", s.max_iterations)?;
@@ -657,7 +659,7 @@ impl PyMechanism {
     /// Runs the mechanism; returns a dict of histories (see `flexclear.Mechanism.simulate`).
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
-                        progress=None))]
+                        progress=None, events=false))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -678,6 +680,7 @@ impl PyMechanism {
         midspan: bool,
         energy: bool,
         progress: Option<Py<PyAny>>,
+        events: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let max_iter =
             usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
@@ -707,6 +710,7 @@ impl PyMechanism {
             max_iter,
             step_halving,
             divergence_limit,
+            events,
             record: KedRecord {
                 every,
                 displacements,
