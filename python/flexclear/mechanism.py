@@ -107,8 +107,9 @@ class MechanismResult:
         Recorded times, s.
     stats : dict
         ``steps``, ``factorizations`` (numeric refactorizations of the Jacobian),
-        ``iterations``, ``max_iterations``, ``halved_substeps``, ``event_steps``, ``unknowns``, ``bandwidth`` and
-        ``terms`` (per link, the terms that were active).
+        ``iterations``, ``max_iterations``, ``halved_substeps``, ``event_steps``,
+        ``event_fallbacks``, ``unknowns``, ``bandwidth`` and ``terms`` (per link, the terms that
+        were active).
     complete : bool
         False when the run stopped early; see :attr:`error`.
     """
