@@ -890,7 +890,7 @@ def _report_yoke(out: Path, quick: bool, log, stiff: bool = False) -> tuple[list
     )
     checks = [("2 x dt_ref", 2 * dt_ref, check)]
     lines, best = _section(scene, intro, ref, dt_ref, cases, checks, png, repeats, time.process_time() - t0)
-    return lines + extra, {"scene": scene, "best": best}
+    return lines + extra, {"scene": scene, "best": best, "cases": cases}
 
 
 def _report_crank(out: Path, quick: bool, log) -> tuple[list[str], dict]:
@@ -945,7 +945,7 @@ def _report_crank(out: Path, quick: bool, log) -> tuple[list[str], dict]:
         "(README, KED section).",
         "",
     ]
-    return lines, {"scene": scene, "best": best}
+    return lines, {"scene": scene, "best": best, "cases": cases}
 
 
 def _report_spin(out: Path, quick: bool, log) -> tuple[list[str], dict]:
@@ -995,7 +995,7 @@ def _report_spin(out: Path, quick: bool, log) -> tuple[list[str], dict]:
         ),
         "",
     ]
-    return lines, {"scene": scene, "best": best}
+    return lines, {"scene": scene, "best": best, "cases": cases}
 
 
 def _num(x: float) -> str:
@@ -1057,8 +1057,11 @@ REPORTS = {
 SCENE_KEYS = tuple(REPORTS)
 
 
-def _summary_cell(r: Optional[dict]) -> str:
-    return "none on the grid" if r is None else f"{r['coupling']}, dt {r['dt']:.0e} s: {r['cpu']:.3g} s"
+def _summary_cell(r: Optional[dict], cases) -> str:
+    if r is None:
+        return "none on the grid"
+    edge = " (the next coarser step failed)" if _margin(cases, r) else ""
+    return f"{r['coupling']}, dt {r['dt']:.0e} s: {r['cpu']:.3g} s{edge}"
 
 
 def write_report(out, quick: bool = False, log=print, scene_keys: Optional[Sequence[str]] = None) -> Path:
@@ -1095,7 +1098,7 @@ def write_report(out, quick: bool = False, log=print, scene_keys: Optional[Seque
     for s in summary:
         sc = s["scene"]
         for metric, quantity in sc.keys:
-            cells = [_summary_cell(s["best"][(metric, t)]) for t in (0.1, 0.01)]
+            cells = [_summary_cell(s["best"][(metric, t)], s["cases"]) for t in (0.1, 0.01)]
             head.append(f"| {sc.key} | {quantity} | {cells[0]} | {cells[1]} |")
     head.append("")
     path = out / "accuracy.md"

@@ -109,7 +109,7 @@ def main(argv: Optional[list] = None) -> int:
         help="speed/accuracy per method and scene: Pareto fronts and recommendation tables",
         description="Sweeps dt (and element count) of every method against a converged reference for "
         "each scene and writes accuracy.md (a summary and a section per scene), pareto_<scene>.png and "
-        "cases_<scene>.json into --out. The full report of every scene takes about 10 min CPU in a "
+        "cases_<scene>.json into --out. The full report of every scene takes about 2-3 min CPU in a "
         "release build.",
     )
     ac.add_argument("--out", default="flexclear-accuracy", help="output folder (default: %(default)s)")
