@@ -44,8 +44,9 @@ where fixed steps converge at first order (on the stiff bearing fixed-step itera
 still 6 % off at 1e-8 s).
 
 CPU time is ``time.process_time()`` of separate runs that keep only running extremes (min of
-``repeats``; a run over 1 s is not repeated); the machine is shared, so times are noisy at the
-10-20 % level. A run that raises (divergence, a Newton failure, a singular matrix) is kept as a
+``repeats``; a run over 1 s is not repeated); the machine is shared, so times of separate reports
+differ by up to 50 %, and methods within a factor :data:`TIE` of each other are reported as a tie.
+A run that raises (divergence, a Newton failure, a singular matrix) is kept as a
 failed case with the exception and its time, never dropped.
 """
 
@@ -666,6 +667,24 @@ def _margin(cases, r: dict) -> str:
     return f"; careful: the next coarser step, {nxt.dt:.0e} s, failed ({nxt.failure})"
 
 
+#: Runs whose CPU times differ by less than this factor are a tie on the shared machine.
+TIE = 1.5
+
+
+def _ties(rows: list[dict], r: dict) -> str:
+    """Other methods within :data:`TIE` of the cheapest for the same target."""
+    tied = [
+        o
+        for o in rows
+        if o is not r and o["target"] == r["target"] and o["dt"] is not None and o["cpu"] <= TIE * r["cpu"]
+    ]
+    if not tied:
+        return ""
+    return "; a tie within the timing noise with " + ", ".join(
+        f"{o['coupling']} at {o['dt']:.0e} s ({o['cpu']:.3g} s)" for o in tied
+    )
+
+
 def _recommendation(scene: Scene, cases) -> tuple[list[str], dict]:
     """The recommendation tables (one per key metric) and the cheapest choice per target."""
     lines: list[str] = []
@@ -676,13 +695,14 @@ def _recommendation(scene: Scene, cases) -> tuple[list[str], dict]:
         for target in (0.1, 0.01):
             r = cheapest(rows, target)
             best[(metric, target)] = r
+            best[(metric, target, "ties")] = _ties(rows, r) if r is not None else ""
             if r is None:
                 lines.append(f"- for {target:.0%} error: no method met it on this grid;")
             else:
                 lines.append(
                     f"- for {target:.0%} error in the {quantity} use **{r['coupling']}** at dt = "
                     f"{r['dt']:.0e} s; cost {r['cpu']:.3g} s CPU per run "
-                    f"(measured error {r['error']:.3g}){_margin(cases, r)};"
+                    f"(measured error {r['error']:.3g}){_margin(cases, r)}{_ties(rows, r)};"
                 )
         lines += [
             "",
@@ -697,7 +717,8 @@ def _recommendation(scene: Scene, cases) -> tuple[list[str], dict]:
         lines.append("")
     lines.append(
         "Cheapest run per method whose error is within the target and stays within it at every finer "
-        "step of the same method (`recommend(..., finer=True)`); `-`: never on this grid."
+        "step of the same method (`recommend(..., finer=True)`); `-`: never on this grid. CPU times "
+        f"within a factor {TIE} of each other are a tie on this shared machine."
     )
     return lines, best
 
@@ -721,7 +742,8 @@ def _section(
         "",
         f"{intro} Reference: {ref_label} at dt = {dt_ref:g} s ({scene.describe(ref)}). CPU: "
         f"`time.process_time()` of runs keeping only extremes, min of {repeats} (runs over 1 s once); "
-        f"shared 2-core machine, expect 10-20 % noise. CPU of this section: {cpu:.0f} s.",
+        "shared 2-core machine: times of separate reports differ by up to 50 %. "
+        f"CPU of this section: {cpu:.0f} s.",
         "",
     ]
     for metric, quantity in scene.keys:
@@ -1090,7 +1112,8 @@ def write_report(out, quick: bool = False, log=print, scene_keys: Optional[Seque
         + f"` (`flexclear.accuracy`); total CPU {time.process_time() - t0:.0f} s. Per scene: a dt sweep "
         "of every method against a converged reference (its convergence is checked by the same metrics "
         "at twice its step), CPU time per run, the Pareto front (error against CPU time) and the "
-        "cheapest method per error target.",
+        'cheapest method per error target ("(tie)": another method costs less than '
+        f"{TIE} x as much, within the timing noise; see the scene's section).",
         "",
         "| scene | key quantity | 10 % error: cheapest | 1 % error: cheapest |",
         "|---|---|---|---|",
@@ -1098,7 +1121,11 @@ def write_report(out, quick: bool = False, log=print, scene_keys: Optional[Seque
     for s in summary:
         sc = s["scene"]
         for metric, quantity in sc.keys:
-            cells = [_summary_cell(s["best"][(metric, t)], s["cases"]) for t in (0.1, 0.01)]
+            cells = [
+                _summary_cell(s["best"][(metric, t)], s["cases"])
+                + (" (tie)" if s["best"][(metric, t, "ties")] else "")
+                for t in (0.1, 0.01)
+            ]
             head.append(f"| {sc.key} | {quantity} | {cells[0]} | {cells[1]} |")
     head.append("")
     path = out / "accuracy.md"
