@@ -62,4 +62,29 @@ pub trait ContactLaw: std::fmt::Debug + Send + Sync {
 
     /// Contact stiffness scale, N/m: used for the gap coupling's defaults and diagnostics.
     fn stiffness(&self) -> f64;
+
+    /// Tangent `-d f_spring / d q` (N/m) of the law's elastic part (without damping and explicit
+    /// terms) at `q` (m): the Newton matrix of an iterated contact. Default: central differences
+    /// of [`ContactLaw::evaluate`] (four evaluations); laws with a closed form override it.
+    fn spring_tangent(&self, q: [f64; 2], clearance: f64) -> Mat2 {
+        let force = |q: [f64; 2]| {
+            let t = self.evaluate(q, [0.0; 2], clearance);
+            [
+                -t.k[0][0] * q[0] - t.k[0][1] * q[1],
+                -t.k[1][0] * q[0] - t.k[1][1] * q[1],
+            ]
+        };
+        let hq = 1e-7 * (q[0].hypot(q[1])).max(clearance).max(1e-5);
+        let mut k = [[0.0; 2]; 2];
+        for col in 0..2 {
+            let (mut qp, mut qm) = (q, q);
+            qp[col] += hq;
+            qm[col] -= hq;
+            let (fp, fm) = (force(qp), force(qm));
+            for row in 0..2 {
+                k[row][col] = -(fp[row] - fm[row]) / (2.0 * hq);
+            }
+        }
+        k
+    }
 }

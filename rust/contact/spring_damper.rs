@@ -84,4 +84,65 @@ impl ContactLaw for SpringDamper {
     fn stiffness(&self) -> f64 {
         self.stiffness
     }
+
+    /// `K_B [(1 - c/r) I + (c/r) n n^T]` in contact (`r = |q| > c`, `n = q/r`), else zero: the
+    /// derivative of `-K_B (r - c) n`.
+    fn spring_tangent(&self, q: [f64; 2], clearance: f64) -> [[f64; 2]; 2] {
+        let r = q[0].hypot(q[1]);
+        if r <= clearance || r == 0.0 {
+            return [[0.0; 2]; 2];
+        }
+        let (n, a) = ([q[0] / r, q[1] / r], clearance / r);
+        let k = self.stiffness;
+        [
+            [k * (1.0 - a + a * n[0] * n[0]), k * a * n[0] * n[1]],
+            [k * a * n[1] * n[0], k * (1.0 - a + a * n[1] * n[1])],
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closed_form_tangent_matches_central_differences() {
+        let law = SpringDamper {
+            stiffness: 3.0e9,
+            damping: 50.0,
+            damping_law: DampingLaw::Viscous,
+            no_tension: false,
+        };
+        let fd = |q: [f64; 2]| {
+            // the trait's default (finite differences of evaluate)
+            struct Fd(SpringDamper);
+            impl std::fmt::Debug for Fd {
+                fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                    self.0.fmt(f)
+                }
+            }
+            impl ContactLaw for Fd {
+                fn evaluate(&self, q: [f64; 2], qd: [f64; 2], c: f64) -> ContactTerms {
+                    self.0.evaluate(q, qd, c)
+                }
+                fn validate(&self, name: &str) -> Result<()> {
+                    self.0.validate(name)
+                }
+                fn stiffness(&self) -> f64 {
+                    self.0.stiffness
+                }
+            }
+            Fd(law).spring_tangent(q, 1e-4)
+        };
+        for q in [[1.2e-4, 0.3e-4], [-0.5e-4, 1.05e-4], [0.0, 1.0001e-4]] {
+            let (a, b) = (law.spring_tangent(q, 1e-4), fd(q));
+            for r in 0..2 {
+                for c in 0..2 {
+                    // central differences with a 1e-11 m step: truncation ~ 1e-8 relative
+                    assert!((a[r][c] - b[r][c]).abs() <= 1e-5 * law.stiffness, "{q:?} {a:?} {b:?}");
+                }
+            }
+        }
+        assert_eq!(law.spring_tangent([0.5e-4, 0.0], 1e-4), [[0.0; 2]; 2]);
+    }
 }

@@ -361,31 +361,6 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
     nt
 }
 
-/// Tangent `k = -dF/dq` (N/m) of the spring part of a contact law's force on the journal (the
-/// law's damping terms `c`, `f_explicit` left out), by central differences: exact for the
-/// piecewise linear spring away from the contact edge, whatever the law. Step: 1e-7 of the
-/// larger of `|q|` and the clearance (at least 1e-12 m).
-fn contact_spring_tangent(law: &dyn crate::contact::ContactLaw, q: [f64; 2], qd: [f64; 2], clearance: f64) -> Mat2 {
-    let force = |q: [f64; 2]| {
-        let mut t = law.evaluate(q, qd, clearance);
-        t.c = [[0.0; 2]; 2];
-        t.f_explicit = [0.0; 2];
-        t.force(q, qd)
-    };
-    let hq = 1e-7 * (q[0].hypot(q[1])).max(clearance).max(1e-5);
-    let mut k = [[0.0; 2]; 2];
-    for col in 0..2 {
-        let (mut qp, mut qm) = (q, q);
-        qp[col] += hq;
-        qm[col] -= hq;
-        let (fp, fm) = (force(qp), force(qm));
-        for row in 0..2 {
-            k[row][col] = -(fp[row] - fm[row]) / (2.0 * hq);
-        }
-    }
-    k
-}
-
 /// The KED run: DOF map, element data, Jacobian and state.
 pub struct KedRun<'a> {
     mech: &'a Mechanism,
@@ -1300,7 +1275,7 @@ impl<'a> KedRun<'a> {
                     self.damping_at_start[j] = (terms.c, terms.f_explicit);
                 }
                 (terms.c, terms.f_explicit) = self.damping_at_start[j];
-                let k = contact_spring_tangent(jt.law.as_ref(), q, qd, jt.clearance);
+                let k = jt.law.spring_tangent(q, jt.clearance);
                 self.contact_tan[j] = (k, terms.c);
             }
             if let Coupling::Force = self.settings.coupling {
