@@ -236,7 +236,7 @@ class Mechanism:
         length : float
             L, m.
         elements : int
-            Number of beam elements (>= 1).
+            Number of beam elements, 1 ..= 1000000.
         youngs_modulus, density, area, inertia : float
             E (Pa), rho (kg/m^3), A (m^2), I (m^4).
         frame : Frame

@@ -18,7 +18,7 @@ use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Ro
 use crate::model::mechanism::{
     Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
 };
-use crate::model::Motion;
+use crate::model::{check_elements, Motion};
 
 /// A prescribed angle `phi(t)` (see `flexclear.kinematics`).
 #[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
@@ -237,24 +237,7 @@ fn vec_opt(a: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
 
 impl PyMechanism {
     fn link(&self, py: Python<'_>, name: &str, link: usize, node: usize) -> PyResult<()> {
-        let Some(l) = self.inner.links.get(link) else {
-            return Err(err(
-                py,
-                Error::InvalidModel {
-                    message: format!(
-                        "{name}: link #{link} does not exist (the mechanism has {})",
-                        self.inner.links.len()
-                    ),
-                },
-            ));
-        };
-        if node > l.elements {
-            return Err(err(
-                py,
-                Error::param(name, node, format!("a node of link {:?}: 0 ..= {}", l.name, l.elements)),
-            ));
-        }
-        Ok(())
+        self.inner.check_node(name, link, node).map_err(|e| err(py, e))
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -402,15 +385,7 @@ impl PyMechanism {
         initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<usize> {
         let i = self.inner.links.len();
-        let elements = usize::try_from(elements)
-            .ok()
-            .filter(|&e| (1..=1_000_000).contains(&e))
-            .ok_or_else(|| {
-                err(
-                    py,
-                    Error::param(format!("links[{i}].elements"), elements, "an integer in 1 ..= 1000000"),
-                )
-            })?;
+        let elements = check_elements(&format!("links[{i}].elements"), elements).map_err(|e| err(py, e))?;
         if self.inner.links.iter().any(|l| l.name == name) {
             return Err(err(
                 py,
@@ -438,17 +413,9 @@ impl PyMechanism {
             initial_displacement: vec_opt(initial_displacement)?,
             initial_velocity: vec_opt(initial_velocity)?,
         };
-        let p = |f: &str| format!("links[{i}].{f}");
-        use crate::error::{check_non_negative, check_positive};
-        (|| -> crate::error::Result<()> {
-            check_positive(&p("length"), link.length, "m")?;
-            check_positive(&p("youngs_modulus"), link.youngs_modulus, "Pa")?;
-            check_positive(&p("density"), link.density, "kg/m^3")?;
-            check_non_negative(&p("damping"), link.damping, "Pa s")?;
-            check_positive(&p("area"), link.area, "m^2")?;
-            check_positive(&p("inertia"), link.inertia, "m^4")
-        })()
-        .map_err(|e| err(py, e))?;
+        link.section()
+            .validate(&format!("links[{i}]."))
+            .map_err(|e| err(py, e))?;
         self.inner.links.push(link);
         Ok(i)
     }
