@@ -191,6 +191,17 @@ class Mechanism:
         #: Inputs and derived values of the scene that built this mechanism (empty otherwise).
         self.parameters: dict[str, Any] = {}
 
+    @classmethod
+    def _wrap(cls, core: Any, parameters: Optional[dict] = None) -> Mechanism:
+        """A mechanism around a core one built in Rust (a scene), open to further building."""
+        m = cls()
+        m._core = core
+        m._elements = list(core.link_elements)
+        m._lengths = list(core.link_lengths)
+        m._sliders = list(core.slider_names)
+        m.parameters = dict(parameters or {})
+        return m
+
     # -- building ---------------------------------------------------------------------------
     @property
     def link_names(self) -> list[str]:

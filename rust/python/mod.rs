@@ -799,6 +799,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<mechanism::PyFrame>()?;
     m.add_class::<mechanism::PyMechanism>()?;
     m.add_function(wrap_pyfunction!(slider_yoke, m)?)?;
+    m.add_function(wrap_pyfunction!(mechanism::slider_crank, m)?)?;
     m.add_function(wrap_pyfunction!(run_batch, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
