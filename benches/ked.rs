@@ -15,9 +15,10 @@ use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use flexclear::integrator::ked::{simulate_mechanism, KedRecord, KedSettings};
-use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankFrame, SliderCrankLink};
-use flexclear::model::mechanism::{Endpoint, Link, Mechanism, Pin, Slider, Support, Terms};
+use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
+use flexclear::model::mechanism::{Link, Mechanism, Support, Terms};
 use flexclear::model::Motion;
+use flexclear::scenes::FlexibleSliderCrank;
 
 /// Kane, Ryan & Banerjee (1987) beam data on a hub with the given rotation and terms.
 fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
@@ -47,70 +48,15 @@ fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
     }
 }
 
-/// Simeon's (1996) flexible slider-crank: rigid crank 0.15 m at 150 rad/s, steel rod 0.30 m of
-/// 8 x 8 mm, slider 0.075552 kg.
+/// Simeon's (1996) flexible slider-crank ([`FlexibleSliderCrank`]): rigid crank 0.15 m at
+/// 150 rad/s, steel rod 0.30 m of 8 x 8 mm, slider 0.075552 kg.
 fn slider_crank(elements: usize) -> Mechanism {
-    let sc = Arc::new(
-        SliderCrank::new(
-            0.15,
-            0.30,
-            0.0,
-            Rotation::Constant {
-                angle0: 0.0,
-                rate: 150.0,
-            },
-        )
-        .unwrap(),
-    );
-    let frame = |link| -> Arc<dyn FrameKinematics> {
-        Arc::new(SliderCrankFrame {
-            mechanism: sc.clone(),
-            link,
-        })
-    };
-    let a = 0.008;
-    Mechanism {
-        links: vec![Link {
-            name: "rod".into(),
-            length: 0.30,
-            elements,
-            youngs_modulus: 2.0e11,
-            density: 7870.0,
-            damping: 0.0,
-            area: a * a,
-            inertia: a.powi(4) / 12.0,
-            frame: frame(SliderCrankLink::Rod),
-            terms: Terms::default(),
-            initial_displacement: None,
-            initial_velocity: None,
-        }],
-        sliders: vec![Slider {
-            name: "slider".into(),
-            mass: 0.075552,
-            angle: 0.0,
-            path: frame(SliderCrankLink::Slider),
-        }],
-        pins: vec![
-            Pin {
-                name: "A".into(),
-                a: Endpoint::Node { link: 0, node: 0 },
-                b: Endpoint::Body {
-                    frame: frame(SliderCrankLink::Crank),
-                    point: [0.15, 0.0],
-                    name: "crank".into(),
-                },
-            },
-            Pin {
-                name: "B".into(),
-                a: Endpoint::Node {
-                    link: 0,
-                    node: elements,
-                },
-                b: Endpoint::Slider(0),
-            },
-        ],
+    FlexibleSliderCrank {
+        elements,
         ..Default::default()
     }
+    .build()
+    .expect("slider-crank scene")
 }
 
 /// Settings that record nothing but the final state (the cost measured is the stepping).

@@ -11,11 +11,11 @@ use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::element::BeamElement;
 use flexclear::integrator::ked::{simulate_mechanism, KedOutput, KedRecord, KedRun, KedSettings};
 use flexclear::kinematics::{
-    FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankFrame,
-    SliderCrankLink,
+    FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
 };
-use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Slider, Support, Terms};
+use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support, Terms};
 use flexclear::model::Motion;
+use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Error;
 use nalgebra::{DMatrix, DVector};
 
@@ -590,66 +590,17 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
 // 5. Bad input and failing steps
 // ------------------------------------------------------------------------------------------------
 
-/// Simeon's slider-crank (SCENES.md scene 3): rigid crank 0.15 m at 150 rad/s, flexible rod
-/// 0.30 m of 8 x 8 mm steel (Young's modulus `e`), slider 0.075552 kg.
+/// Simeon's slider-crank (SCENES.md scene 3, [`FlexibleSliderCrank`]): rigid crank 0.15 m at
+/// 150 rad/s, flexible rod 0.30 m of 8 x 8 mm steel (Young's modulus `e`), slider 0.075552 kg;
+/// pins `"crank_pin"` (rod node 0 to the crank) and `"slider_pin"` (last node to the slider).
 fn slider_crank(e: f64, elements: usize) -> Mechanism {
-    let sc = Arc::new(
-        SliderCrank::new(
-            0.15,
-            0.30,
-            0.0,
-            Rotation::Constant {
-                angle0: 0.0,
-                rate: 150.0,
-            },
-        )
-        .unwrap(),
-    );
-    let frame = |link| -> Arc<dyn FrameKinematics> {
-        Arc::new(SliderCrankFrame {
-            mechanism: sc.clone(),
-            link,
-        })
-    };
-    let a = 0.008f64;
-    Mechanism {
-        links: vec![link(
-            "rod",
-            0.30,
-            elements,
-            e,
-            7870.0,
-            a * a,
-            a.powi(4) / 12.0,
-            frame(SliderCrankLink::Rod),
-        )],
-        sliders: vec![Slider {
-            name: "slider".into(),
-            mass: 0.075552,
-            angle: 0.0,
-            path: frame(SliderCrankLink::Slider),
-        }],
-        pins: vec![
-            Pin {
-                name: "A".into(),
-                a: Endpoint::Node { link: 0, node: 0 },
-                b: Endpoint::Body {
-                    frame: frame(SliderCrankLink::Crank),
-                    point: [0.15, 0.0],
-                    name: "crank".into(),
-                },
-            },
-            Pin {
-                name: "B".into(),
-                a: Endpoint::Node {
-                    link: 0,
-                    node: elements,
-                },
-                b: Endpoint::Slider(0),
-            },
-        ],
+    FlexibleSliderCrank {
+        youngs_modulus: e,
+        elements,
         ..Default::default()
     }
+    .build()
+    .unwrap()
 }
 
 /// A crank-rocker four-bar (ground 0.3, crank 0.1, coupler 0.35, rocker 0.25 m; Grashof) with a
@@ -997,17 +948,17 @@ fn bearing(stiffness: f64, damping: f64) -> Arc<SpringDamper> {
 /// K_B = 1.0866e8 N/m, the Hertz secant at 10 um; C_B = 171.9 N s/m, 3 % of critical for half
 /// the rod mass, a restitution of about 0.9).
 fn slider_crank_with_crank_pin_clearance(geometric: Option<bool>) -> Mechanism {
-    let mut m = slider_crank(2e11, 8);
-    m.links[0].terms.geometric = geometric;
-    let a = m.pins.remove(0);
-    m.joints.push(Clearance {
-        name: "crank_pin".into(),
-        journal: a.a,
-        bearing: a.b,
+    FlexibleSliderCrank {
+        elements: 8,
+        geometric,
+        clearance_at: Some(SliderCrankPin::CrankPin),
         clearance: 5e-4,
-        law: bearing(1.0866e8, 171.9),
-    });
-    m
+        bearing_stiffness: Some(1.0866e8),
+        bearing_damping: Some(171.9),
+        ..Default::default()
+    }
+    .build()
+    .unwrap()
 }
 
 #[test]

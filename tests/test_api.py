@@ -67,6 +67,7 @@ def test_hand_built_model_runs_and_matches_scene_shape():
         (dict(area=float("inf")), "area"),
         (dict(inertia=0.0), "inertia"),
         (dict(elements=0), "elements"),
+        (dict(elements=1_000_001), "elements"),
     ],
 )
 def test_bad_link_parameters_name_the_parameter(kwargs, name):

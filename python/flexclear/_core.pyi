@@ -5,7 +5,17 @@ from typing import Any, Callable, Optional, final
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Model", "Motion", "Rotation", "Frame", "Mechanism", "slider_yoke", "run_batch", "__version__"]
+__all__ = [
+    "Model",
+    "Motion",
+    "Rotation",
+    "Frame",
+    "Mechanism",
+    "slider_yoke",
+    "slider_crank",
+    "run_batch",
+    "__version__",
+]
 
 __version__: str
 
@@ -72,6 +82,10 @@ class Model:
     def joint_names(self) -> list[str]: ...
     @property
     def link_elements(self) -> list[int]: ...
+    @property
+    def link_lengths(self) -> list[float]: ...
+    @property
+    def slider_names(self) -> list[str]: ...
     def natural_frequencies(self, count: int) -> npt.NDArray[np.float64]: ...
     def simulate(
         self,
@@ -209,6 +223,10 @@ class Mechanism:
     def joint_names(self) -> list[str]: ...
     @property
     def link_elements(self) -> list[int]: ...
+    @property
+    def link_lengths(self) -> list[float]: ...
+    @property
+    def slider_names(self) -> list[str]: ...
     def validate(self, t_end: float) -> None: ...
     def dof_map(self) -> list[tuple[int, int, str]]: ...
     def linearize(
@@ -261,6 +279,29 @@ def slider_yoke(
     geometry: str = ...,
     rotary_inertia: bool = ...,
 ) -> tuple[Model, dict[str, float]]: ...
+def slider_crank(
+    *,
+    crank_length: float,
+    rod_length: float,
+    crank_speed: float,
+    side: float,
+    youngs_modulus: float,
+    density: float,
+    slider_mass: float,
+    elements: int,
+    damping: float,
+    offset: float,
+    clearance_at: Optional[str],
+    clearance: float,
+    bearing_stiffness: Optional[float],
+    bearing_damping: Optional[float],
+    pin_radius: float,
+    poisson_ratio: float,
+    reference_penetration: float,
+    bearing_damping_ratio: float,
+    damping_law: str,
+    geometric: Optional[bool],
+) -> tuple[Mechanism, dict[str, float]]: ...
 def run_batch(
     models: list[Model],
     t_end: list[float],

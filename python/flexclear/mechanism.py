@@ -192,6 +192,17 @@ class Mechanism:
         #: Inputs and derived values of the scene that built this mechanism (empty otherwise).
         self.parameters: dict[str, Any] = {}
 
+    @classmethod
+    def _wrap(cls, core: Any, parameters: Optional[dict] = None) -> Mechanism:
+        """A mechanism around a core one built in Rust (a scene), open to further building."""
+        m = cls()
+        m._core = core
+        m._elements = list(core.link_elements)
+        m._lengths = list(core.link_lengths)
+        m._sliders = list(core.slider_names)
+        m.parameters = dict(parameters or {})
+        return m
+
     # -- building ---------------------------------------------------------------------------
     @property
     def link_names(self) -> list[str]:
@@ -237,7 +248,7 @@ class Mechanism:
         length : float
             L, m.
         elements : int
-            Number of beam elements (>= 1).
+            Number of beam elements, 1 ..= 1000000.
         youngs_modulus, density, area, inertia : float
             E (Pa), rho (kg/m^3), A (m^2), I (m^4).
         frame : Frame

@@ -294,7 +294,7 @@ class Model:
         length : float
             Length, m (> 0).
         elements : int
-            Number of elements (>= 1); nodes are numbered 0..elements from the frame origin.
+            Number of elements, 1 ..= 1000000; nodes are numbered 0..elements from the frame origin.
         youngs_modulus : float
             E, Pa (> 0).
         density : float

@@ -309,18 +309,6 @@ def spin_up(
     return m
 
 
-def _hertz_secant(
-    youngs_modulus: float, poisson_ratio: float, radius: float, clearance: float, penetration: float
-) -> float:
-    """Secant stiffness (N/m) at ``penetration`` (m) of the Hertz law ``F = K_h delta^1.5`` for a
-    journal of ``radius`` (m) in a bearing of radius ``radius + clearance``, both of the same
-    material: ``K_h = (4/3) E* sqrt(R*)`` with ``E* = E / (2 (1 - nu^2))`` and
-    ``R* = R (R + c) / c`` (the conformal internal contact, as in Lankarani & Nikravesh 1990)."""
-    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
-    r_star = radius * (radius + clearance) / clearance
-    return 4.0 / 3.0 * e_star * math.sqrt(r_star) * math.sqrt(penetration)
-
-
 def slider_crank(
     *,
     crank_length: float = 0.15,
@@ -352,7 +340,9 @@ def slider_crank(
     and the last node at B); the slider block is ``"slider"``. The crank pin joins rod node 0 to
     the crank body point ``(crank_length, 0)``; the slider pin joins the last rod node to the
     slider. Both pins are ideal unless ``clearance_at`` names one of them, which then becomes a
-    revolute clearance joint of the same name.
+    revolute clearance joint of the same name. The mechanism is built by the Rust scene
+    ``flexclear::scenes::FlexibleSliderCrank`` (the one the Rust tests and benches use), which
+    also derives the bearing data and checks every keyword.
 
     Data: Simeon, B. (1996), "Modelling a flexible slider crank mechanism by a mixed system of DAEs
     and PDEs", Math. Modelling of Systems 2(1) 1-18; also the "slider crank" problem of the Test
@@ -431,31 +421,7 @@ def slider_crank(
     joint, 5e-5 s resolves the rod's first bending mode (about 1.3e3 rad/s) with 90 steps per
     period.
     """
-    _positive(
-        crank_length=crank_length,
-        rod_length=rod_length,
-        side=side,
-        youngs_modulus=youngs_modulus,
-        density=density,
-    )
-    _finite(crank_speed=crank_speed, offset=offset, slider_mass=slider_mass, damping=damping)
-    if slider_mass < 0:
-        raise _bad("slider_mass", slider_mass, ">= 0 kg")
-    if damping < 0:
-        raise _bad("damping", damping, ">= 0 Pa s")
-    _elements("elements", elements)
-    reach = crank_length + abs(offset)
-    if rod_length <= reach:
-        raise _bad(
-            "rod_length",
-            rod_length,
-            f"> crank_length + |offset| = {reach:g} m (the rod cannot reach the guide at every crank angle)",
-        )
-    if clearance_at not in (None, "crank_pin", "slider_pin"):
-        raise _bad("clearance_at", repr(clearance_at), 'None, "crank_pin" or "slider_pin"')
-    area, inertia = side**2, side**4 / 12.0
-    rod_mass = density * area * rod_length
-    params: dict[str, Any] = dict(
+    inputs: dict[str, Any] = dict(
         crank_length=crank_length,
         rod_length=rod_length,
         crank_speed=crank_speed,
@@ -467,75 +433,32 @@ def slider_crank(
         damping=damping,
         offset=offset,
         clearance_at=clearance_at,
-        area=area,
-        inertia=inertia,
-        rod_mass=rod_mass,
     )
-    driver = Rotation.constant(float(crank_speed))
-
-    def frame(link: str) -> Frame:
-        return Frame.slider_crank(float(crank_length), float(rod_length), driver, link, float(offset))
-
-    m = Mechanism()
-    m.add_link(
-        "rod",
-        length=rod_length,
-        elements=elements,
-        youngs_modulus=youngs_modulus,
-        density=density,
-        area=area,
-        inertia=inertia,
-        frame=frame("rod"),
-        damping=damping,
-        geometric=geometric,
+    bearing = dict(
+        clearance=clearance,
+        bearing_stiffness=bearing_stiffness,
+        bearing_damping=bearing_damping,
+        pin_radius=pin_radius,
+        poisson_ratio=poisson_ratio,
+        reference_penetration=reference_penetration,
+        bearing_damping_ratio=bearing_damping_ratio,
+        damping_law=damping_law,
     )
-    m.add_slider("slider", mass=slider_mass, path=frame("slider"))
-    crank_point = (frame("crank"), (float(crank_length), 0.0), "crank")
-    ends = {"crank_pin": (("rod", 0), crank_point), "slider_pin": (("rod", elements), "slider")}
-    for name, (node, target) in ends.items():
-        if name != clearance_at:
-            m.pin(name, node, target)
-            continue
-        _finite(clearance=clearance)
-        if clearance < 0:
-            raise _bad("clearance", clearance, ">= 0 m")
-        _positive(pin_radius=pin_radius, reference_penetration=reference_penetration)
-        _finite(poisson_ratio=poisson_ratio, bearing_damping_ratio=bearing_damping_ratio)
-        if not 0.0 <= poisson_ratio < 0.5:
-            raise _bad("poisson_ratio", poisson_ratio, "0 <= nu < 0.5")
-        if bearing_damping_ratio < 0:
-            raise _bad("bearing_damping_ratio", bearing_damping_ratio, ">= 0")
-        k_b = bearing_stiffness
-        if k_b is None:
-            c_ref = max(clearance, 1e-9)  # a zero clearance: the contact of a (nearly) fitted pin
-            k_b = _hertz_secant(youngs_modulus, poisson_ratio, pin_radius, c_ref, reference_penetration)
-        half = rod_mass / 2.0
-        m_eff = half if name == "crank_pin" else half * slider_mass / (half + slider_mass)
-        c_b = bearing_damping
-        if c_b is None:
-            c_b = 2.0 * bearing_damping_ratio * math.sqrt(k_b * m_eff)
-        m.clearance(
-            name,
-            node,
-            target,
-            clearance=clearance,
-            stiffness=k_b,
-            damping=c_b,
-            damping_law=damping_law,
-        )
+    core, derived = _core.slider_crank(**inputs, **bearing, geometric=geometric)
+    params = {**inputs, **{k: derived[k] for k in ("area", "inertia", "rod_mass")}}
+    if clearance_at is not None:
         params.update(
             clearance=clearance,
-            bearing_stiffness=k_b,
-            bearing_damping=c_b,
+            bearing_stiffness=derived["bearing_stiffness"],
+            bearing_damping=derived["bearing_damping"],
             pin_radius=pin_radius,
             poisson_ratio=poisson_ratio,
             reference_penetration=reference_penetration,
             bearing_damping_ratio=bearing_damping_ratio,
-            effective_mass=m_eff,
+            effective_mass=derived["effective_mass"],
             damping_law=damping_law,
         )
-    m.parameters = params
-    return m
+    return Mechanism._wrap(core, params)
 
 
 def four_bar(

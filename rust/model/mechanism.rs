@@ -8,9 +8,10 @@
 
 use std::sync::Arc;
 
+use super::section::{self, BeamSection};
 use crate::contact::ContactLaw;
 use crate::element::BeamElement;
-use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
+use crate::error::{check_finite, check_non_negative, Error, Result};
 use crate::kinematics::FrameKinematics;
 
 /// Which terms of the element equation (METHOD.md section 2) a link carries. `None` = chosen
@@ -37,7 +38,7 @@ pub struct Link {
     pub name: String,
     /// Length L, m.
     pub length: f64,
-    /// Number of elements N >= 1.
+    /// Number of elements N, 1 ..= [`MAX_ELEMENTS`](super::MAX_ELEMENTS).
     pub elements: usize,
     /// Young's modulus E, Pa.
     pub youngs_modulus: f64,
@@ -60,22 +61,27 @@ pub struct Link {
 }
 
 impl Link {
+    /// Length, element count and section.
+    pub fn section(&self) -> BeamSection {
+        BeamSection {
+            length: self.length,
+            elements: self.elements,
+            youngs_modulus: self.youngs_modulus,
+            density: self.density,
+            damping: self.damping,
+            area: self.area,
+            inertia: self.inertia,
+        }
+    }
+
     /// Element length l = L / N, m.
     pub fn element_length(&self) -> f64 {
-        self.length / self.elements as f64
+        self.section().element_length()
     }
 
     /// The element all of whose copies make up the link (no rotary inertia).
     pub fn element(&self) -> BeamElement {
-        BeamElement {
-            length: self.element_length(),
-            youngs_modulus: self.youngs_modulus,
-            density: self.density,
-            area: self.area,
-            inertia: self.inertia,
-            damping: self.damping,
-            rotary_inertia: false,
-        }
+        self.section().element(false)
     }
 
     /// Number of nodes N + 1.
@@ -264,23 +270,11 @@ impl Mechanism {
         }
     }
 
-    fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
-        let Some(l) = self.links.get(link) else {
-            return Err(Error::InvalidModel {
-                message: format!(
-                    "{name}: link #{link} does not exist (the mechanism has {})",
-                    self.links.len()
-                ),
-            });
-        };
-        if node > l.elements {
-            return Err(Error::param(
-                name,
-                node,
-                format!("a node of link {:?}: 0 ..= {}", l.name, l.elements),
-            ));
-        }
-        Ok(())
+    /// Checks that link #`link` exists and has node `node`; a missing node is an
+    /// [`Error::InvalidParameter`] named `name`.
+    pub fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
+        let links = self.links.iter().map(|l| (l.name.as_str(), l.elements));
+        section::check_node(name, "mechanism", links, link, node)
     }
 
     /// Checks parameters, references, connectivity and kinematic closure over `[0, t_end]`.
@@ -316,35 +310,15 @@ impl Mechanism {
         check_finite("gravity[0]", self.gravity[0], "m/s^2")?;
         check_finite("gravity[1]", self.gravity[1], "m/s^2")?;
         for (i, l) in self.links.iter().enumerate() {
-            let p = |f: &str| format!("links[{i}].{f}");
-            check_positive(&p("length"), l.length, "m")?;
-            if l.elements < 1 || l.elements > 1_000_000 {
-                return Err(Error::param(p("elements"), l.elements, "an integer in 1 ..= 1000000"));
-            }
-            check_positive(&p("youngs_modulus"), l.youngs_modulus, "Pa")?;
-            check_positive(&p("density"), l.density, "kg/m^3")?;
-            check_non_negative(&p("damping"), l.damping, "Pa s")?;
-            check_positive(&p("area"), l.area, "m^2")?;
-            check_positive(&p("inertia"), l.inertia, "m^4")?;
-            l.frame.check(&p("frame"), t_end)?;
-            let dofs = 3 * l.nodes();
-            for (label, v) in [
-                ("initial_displacement", &l.initial_displacement),
-                ("initial_velocity", &l.initial_velocity),
-            ] {
-                if let Some(v) = v {
-                    if v.len() != dofs {
-                        return Err(Error::param(
-                            p(label),
-                            format!("{} values", v.len()),
-                            format!("{dofs} values (3 per node)"),
-                        ));
-                    }
-                    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                        return Err(Error::param(format!("{}[{k}]", p(label)), v[k], "finite values"));
-                    }
-                }
-            }
+            let prefix = format!("links[{i}].");
+            let section = l.section();
+            section.validate(&prefix)?;
+            l.frame.check(&format!("{prefix}frame"), t_end)?;
+            section.validate_initial_state(
+                &prefix,
+                l.initial_displacement.as_deref(),
+                l.initial_velocity.as_deref(),
+            )?;
         }
         for (i, s) in self.sliders.iter().enumerate() {
             check_non_negative(&format!("sliders[{i}].mass"), s.mass, "kg")?;

@@ -3,14 +3,16 @@
 
 pub mod mechanism;
 pub mod motion;
+pub mod section;
 
 use std::sync::Arc;
 
 pub use motion::{Kinematics, Motion, Table};
+pub use section::{check_elements, BeamSection, ELEMENTS_ALLOWED, MAX_ELEMENTS};
 
 use crate::contact::ContactLaw;
 use crate::element::BeamElement;
-use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
+use crate::error::{check_finite, check_non_negative, Error, Result};
 
 /// Degrees of freedom per beam node: axial u (m), transverse v (m), rotation theta (rad).
 pub const NODE_DOFS: usize = 3;
@@ -24,7 +26,7 @@ pub struct FlexibleLink {
     pub name: String,
     /// Length L, m.
     pub length: f64,
-    /// Number of elements N >= 1 (N + 1 nodes, node 0 at the frame origin).
+    /// Number of elements N, 1 ..= [`MAX_ELEMENTS`] (N + 1 nodes, node 0 at the frame origin).
     pub elements: usize,
     /// Young's modulus E, Pa.
     pub youngs_modulus: f64,
@@ -49,27 +51,32 @@ pub struct FlexibleLink {
 }
 
 impl FlexibleLink {
+    /// Length, element count and section.
+    pub fn section(&self) -> BeamSection {
+        BeamSection {
+            length: self.length,
+            elements: self.elements,
+            youngs_modulus: self.youngs_modulus,
+            density: self.density,
+            damping: self.damping,
+            area: self.area,
+            inertia: self.inertia,
+        }
+    }
+
     /// Element length l = L / N, m.
     pub fn element_length(&self) -> f64 {
-        self.length / self.elements as f64
+        self.section().element_length()
     }
 
     /// Number of DOFs, `3 (N + 1)`.
     pub fn dofs(&self) -> usize {
-        NODE_DOFS * (self.elements + 1)
+        self.section().dofs()
     }
 
     /// The element all of whose copies make up the link.
     pub fn element(&self) -> BeamElement {
-        BeamElement {
-            length: self.element_length(),
-            youngs_modulus: self.youngs_modulus,
-            density: self.density,
-            area: self.area,
-            inertia: self.inertia,
-            damping: self.damping,
-            rotary_inertia: self.rotary_inertia,
-        }
+        self.section().element(self.rotary_inertia)
     }
 
     /// Rotation matrix of the link frame, columns are the frame axes in global coordinates.
@@ -79,36 +86,16 @@ impl FlexibleLink {
     }
 
     fn validate(&self, i: usize) -> Result<()> {
-        let p = |f: &str| format!("links[{i}].{f}");
-        check_positive(&p("length"), self.length, "m")?;
-        if self.elements < 1 {
-            return Err(Error::param(p("elements"), self.elements, "an integer >= 1"));
-        }
-        check_positive(&p("youngs_modulus"), self.youngs_modulus, "Pa")?;
-        check_positive(&p("density"), self.density, "kg/m^3")?;
-        check_non_negative(&p("damping"), self.damping, "Pa s")?;
-        check_positive(&p("area"), self.area, "m^2")?;
-        check_positive(&p("inertia"), self.inertia, "m^4")?;
-        check_finite(&p("angle"), self.angle, "rad")?;
-        self.motion.validate(&p("motion"))?;
-        for (label, v) in [
-            ("initial_displacement", &self.initial_displacement),
-            ("initial_velocity", &self.initial_velocity),
-        ] {
-            if let Some(v) = v {
-                if v.len() != self.dofs() {
-                    return Err(Error::param(
-                        p(label),
-                        format!("{} values", v.len()),
-                        format!("{} values (3 per node)", self.dofs()),
-                    ));
-                }
-                if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                    return Err(Error::param(format!("{}[{k}]", p(label)), v[k], "finite values"));
-                }
-            }
-        }
-        Ok(())
+        let prefix = format!("links[{i}].");
+        let section = self.section();
+        section.validate(&prefix)?;
+        check_finite(&format!("{prefix}angle"), self.angle, "rad")?;
+        self.motion.validate(&format!("{prefix}motion"))?;
+        section.validate_initial_state(
+            &prefix,
+            self.initial_displacement.as_deref(),
+            self.initial_velocity.as_deref(),
+        )
     }
 }
 
@@ -232,22 +219,8 @@ impl Model {
     }
 
     fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
-        let Some(l) = self.links.get(link) else {
-            return Err(Error::InvalidModel {
-                message: format!(
-                    "{name}: link #{link} does not exist (the model has {})",
-                    self.links.len()
-                ),
-            });
-        };
-        if node > l.elements {
-            return Err(Error::param(
-                name,
-                node,
-                format!("a node of link {:?}: 0 ..= {}", l.name, l.elements),
-            ));
-        }
-        Ok(())
+        let links = self.links.iter().map(|l| (l.name.as_str(), l.elements));
+        section::check_node(name, "model", links, link, node)
     }
 
     /// Index of the link named `name`.

@@ -6,11 +6,11 @@ use std::sync::Arc;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1, ToPyArray};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList};
 
 use super::errors::{run_detached, to_pyerr};
 use super::{err, parse_damping_law, PyMotion};
-use crate::contact::{Coupling, SpringDamper};
+use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
 use crate::integrator::ked::{simulate_mechanism, KedOutput, KedRecord, KedRun, KedSettings};
 use crate::integrator::Newmark;
@@ -18,7 +18,8 @@ use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Ro
 use crate::model::mechanism::{
     Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
 };
-use crate::model::Motion;
+use crate::model::{check_elements, Motion};
+use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
 
 /// A prescribed angle `phi(t)` (see `flexclear.kinematics`).
 #[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
@@ -237,24 +238,7 @@ fn vec_opt(a: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
 
 impl PyMechanism {
     fn link(&self, py: Python<'_>, name: &str, link: usize, node: usize) -> PyResult<()> {
-        let Some(l) = self.inner.links.get(link) else {
-            return Err(err(
-                py,
-                Error::InvalidModel {
-                    message: format!(
-                        "{name}: link #{link} does not exist (the mechanism has {})",
-                        self.inner.links.len()
-                    ),
-                },
-            ));
-        };
-        if node > l.elements {
-            return Err(err(
-                py,
-                Error::param(name, node, format!("a node of link {:?}: 0 ..= {}", l.name, l.elements)),
-            ));
-        }
-        Ok(())
+        self.inner.check_node(name, link, node).map_err(|e| err(py, e))
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -404,15 +388,7 @@ impl PyMechanism {
         initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<usize> {
         let i = self.inner.links.len();
-        let elements = usize::try_from(elements)
-            .ok()
-            .filter(|&e| (1..=1_000_000).contains(&e))
-            .ok_or_else(|| {
-                err(
-                    py,
-                    Error::param(format!("links[{i}].elements"), elements, "an integer in 1 ..= 1000000"),
-                )
-            })?;
+        let elements = check_elements(&format!("links[{i}].elements"), elements).map_err(|e| err(py, e))?;
         if self.inner.links.iter().any(|l| l.name == name) {
             return Err(err(
                 py,
@@ -440,17 +416,9 @@ impl PyMechanism {
             initial_displacement: vec_opt(initial_displacement)?,
             initial_velocity: vec_opt(initial_velocity)?,
         };
-        let p = |f: &str| format!("links[{i}].{f}");
-        use crate::error::{check_non_negative, check_positive};
-        (|| -> crate::error::Result<()> {
-            check_positive(&p("length"), link.length, "m")?;
-            check_positive(&p("youngs_modulus"), link.youngs_modulus, "Pa")?;
-            check_positive(&p("density"), link.density, "kg/m^3")?;
-            check_non_negative(&p("damping"), link.damping, "Pa s")?;
-            check_positive(&p("area"), link.area, "m^2")?;
-            check_positive(&p("inertia"), link.inertia, "m^4")
-        })()
-        .map_err(|e| err(py, e))?;
+        link.section()
+            .validate(&format!("links[{i}]."))
+            .map_err(|e| err(py, e))?;
         self.inner.links.push(link);
         Ok(i)
     }
@@ -607,6 +575,18 @@ impl PyMechanism {
         self.inner.links.iter().map(|l| l.elements).collect()
     }
 
+    /// Link lengths, m.
+    #[getter]
+    fn link_lengths(&self) -> Vec<f64> {
+        self.inner.links.iter().map(|l| l.length).collect()
+    }
+
+    /// Slider names in order.
+    #[getter]
+    fn slider_names(&self) -> Vec<String> {
+        self.inner.sliders.iter().map(|s| s.name.clone()).collect()
+    }
+
     /// Checks the whole mechanism over `[0, t_end]`.
     fn validate(&self, py: Python<'_>, t_end: f64) -> PyResult<()> {
         self.inner.validate(t_end).map_err(|e| err(py, e))
@@ -744,4 +724,143 @@ impl PyMechanism {
             self.joint_names()
         )
     }
+}
+
+/// The numeric keywords of [`slider_crank`] that the scene checks by name. A value that is not a
+/// Python `int` or `float` reaches the scene as NaN (an `elements` that is not an `int`, or is a
+/// `bool`, as 0), so the scene's own check refuses it in its order; the message then shows the
+/// value as given (`str`), as the scene's Python checks did. (`bearing_stiffness` and
+/// `bearing_damping` are checked by the bearing law, as `joints[0].stiffness` / `.damping`.)
+const SLIDER_CRANK_NUMBERS: [&str; 15] = [
+    "crank_length",
+    "rod_length",
+    "crank_speed",
+    "side",
+    "youngs_modulus",
+    "density",
+    "slider_mass",
+    "elements",
+    "damping",
+    "offset",
+    "clearance",
+    "pin_radius",
+    "poisson_ratio",
+    "reference_penetration",
+    "bearing_damping_ratio",
+];
+
+/// Builds the flexible slider-crank scene for `flexclear.scenes.slider_crank`, which passes
+/// every keyword of `FlexibleSliderCrank` plus `clearance_at` (None, "crank_pin" or
+/// "slider_pin") and `damping_law` (read only with a clearance joint). Returns the mechanism and
+/// the derived values as a dict: `area`, `inertia`, `rod_mass` and, with a clearance joint,
+/// `bearing_stiffness`, `bearing_damping`, `effective_mass`. Errors come in the order of the
+/// scene's checks: `clearance_at` after the rod and slider data, `damping_law` after the bearing
+/// data.
+#[pyfunction]
+#[pyo3(signature = (**kwargs))]
+pub(super) fn slider_crank<'py>(
+    py: Python<'py>,
+    kwargs: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(PyMechanism, Bound<'py, PyDict>)> {
+    let empty = PyDict::new(py);
+    let kw = kwargs.unwrap_or(&empty);
+    let arg = |name: &str| -> PyResult<Bound<'py, PyAny>> {
+        kw.get_item(name)?
+            .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err(format!("slider_crank: missing keyword `{name}`")))
+    };
+    let is_number = |v: &Bound<'py, PyAny>| v.is_instance_of::<PyFloat>() || v.is_instance_of::<PyInt>();
+    let num = |name: &str| -> PyResult<f64> {
+        let v = arg(name)?;
+        Ok(if is_number(&v) {
+            v.extract().unwrap_or(f64::NAN)
+        } else {
+            f64::NAN
+        })
+    };
+    let opt_num = |name: &str| -> PyResult<Option<f64>> {
+        let v = arg(name)?;
+        Ok(if v.is_none() { None } else { Some(num(name)?) })
+    };
+    let elements = {
+        let v = arg("elements")?;
+        if v.is_instance_of::<PyInt>() && !v.is_instance_of::<PyBool>() {
+            v.extract::<usize>().unwrap_or(0)
+        } else {
+            0
+        }
+    };
+    // An error of a numeric keyword shows the value as Python gave it.
+    let as_given = |e: Error| -> PyErr {
+        let e = match e {
+            Error::InvalidParameter { name, value, allowed } if SLIDER_CRANK_NUMBERS.contains(&name.as_str()) => {
+                let value = kw
+                    .get_item(&name)
+                    .ok()
+                    .flatten()
+                    .and_then(|v| v.str().ok().map(|s| s.to_string()))
+                    .unwrap_or(value);
+                Error::InvalidParameter { name, value, allowed }
+            }
+            e => e,
+        };
+        err(py, e)
+    };
+    let scene = FlexibleSliderCrank {
+        crank_length: num("crank_length")?,
+        rod_length: num("rod_length")?,
+        crank_speed: num("crank_speed")?,
+        side: num("side")?,
+        youngs_modulus: num("youngs_modulus")?,
+        density: num("density")?,
+        slider_mass: num("slider_mass")?,
+        elements,
+        damping: num("damping")?,
+        offset: num("offset")?,
+        geometric: arg("geometric")?.extract()?,
+        clearance_at: None,
+        clearance: num("clearance")?,
+        bearing_stiffness: opt_num("bearing_stiffness")?,
+        bearing_damping: opt_num("bearing_damping")?,
+        pin_radius: num("pin_radius")?,
+        poisson_ratio: num("poisson_ratio")?,
+        reference_penetration: num("reference_penetration")?,
+        bearing_damping_ratio: num("bearing_damping_ratio")?,
+        damping_law: DampingLaw::Viscous,
+    };
+    // A bad `clearance_at` or `damping_law` is reported after the checks that precede it.
+    let after_checks_of = |s: &FlexibleSliderCrank, e: PyErr| -> PyErr { s.derived().map_or_else(as_given, |_| e) };
+    let at = arg("clearance_at")?;
+    let at = if at.is_none() {
+        None
+    } else {
+        match at.extract::<String>().as_deref() {
+            Ok("crank_pin") => Some(SliderCrankPin::CrankPin),
+            Ok("slider_pin") => Some(SliderCrankPin::SliderPin),
+            _ => {
+                let shown = at.repr().map_or_else(|_| String::from("?"), |r| r.to_string());
+                let e = Error::param("clearance_at", shown, "None, \"crank_pin\" or \"slider_pin\"");
+                return Err(after_checks_of(&scene, err(py, e)));
+            }
+        }
+    };
+    let mut scene = FlexibleSliderCrank {
+        clearance_at: at,
+        ..scene
+    };
+    if at.is_some() {
+        let law = arg("damping_law")?.extract::<String>()?;
+        scene.damping_law = parse_damping_law(py, &law).map_err(|e| after_checks_of(&scene, e))?;
+    }
+    let mech = scene.build().map_err(as_given)?;
+    let d = scene.derived().map_err(as_given)?;
+    let info = PyDict::new(py);
+    info.set_item("area", d.area)?;
+    info.set_item("inertia", d.inertia)?;
+    info.set_item("rod_mass", d.rod_mass)?;
+    if let Some(b) = d.bearing {
+        info.set_item("bearing_stiffness", b.bearing_stiffness)?;
+        info.set_item("bearing_damping", b.bearing_damping)?;
+        info.set_item("effective_mass", b.effective_mass)?;
+    }
+    Ok((PyMechanism { inner: mech }, info))
 }

@@ -15,7 +15,7 @@ use pyo3::types::{PyDict, PyList};
 use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
 use crate::integrator::Newmark;
-use crate::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
+use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
 use crate::recorder::{JointExtremes, RecordSpec};
 use crate::scenes::{SliderYoke, SliderYokeGeometry};
 use crate::simulation::{simulate, RunOutput, Settings, SolverMode};
@@ -156,13 +156,11 @@ impl PyModel {
         initial_displacement: Option<PyReadonlyArray1<'_, f64>>,
         initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<usize> {
-        if elements < 1 {
-            return Err(err(py, Error::param("elements", elements, "an integer >= 1")));
-        }
+        let elements = check_elements("elements", elements).map_err(|e| err(py, e))?;
         let link = FlexibleLink {
             name,
             length,
-            elements: elements as usize,
+            elements,
             youngs_modulus,
             density,
             damping,
@@ -566,9 +564,7 @@ fn slider_yoke<'py>(
     geometry: &str,
     rotary_inertia: bool,
 ) -> PyResult<(PyModel, Bound<'py, PyDict>)> {
-    if elements < 1 {
-        return Err(err(py, Error::param("elements", elements, "an integer >= 1")));
-    }
+    let elements = check_elements("elements", elements).map_err(|e| err(py, e))?;
     let geometry = match geometry {
         "end" => SliderYokeGeometry::End,
         "both_ends" => SliderYokeGeometry::BothEnds,
@@ -594,7 +590,7 @@ fn slider_yoke<'py>(
         youngs_modulus,
         first_frequency,
         damping_ratio,
-        elements: elements as usize,
+        elements,
         bearing_stiffness,
         stiffness_ratio,
         bearing_damping,
@@ -822,6 +818,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<mechanism::PyFrame>()?;
     m.add_class::<mechanism::PyMechanism>()?;
     m.add_function(wrap_pyfunction!(slider_yoke, m)?)?;
+    m.add_function(wrap_pyfunction!(mechanism::slider_crank, m)?)?;
     m.add_function(wrap_pyfunction!(run_batch, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

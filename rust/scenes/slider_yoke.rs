@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 use crate::contact::{DampingLaw, SpringDamper};
 use crate::error::{check_positive, Error, Result};
-use crate::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody};
+use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody};
 
 /// `(beta_1 L)^2` of the first free-free bending mode.
 pub const BETA1_L_SQUARED: f64 = 22.3733;
@@ -54,7 +54,7 @@ pub struct SliderYoke {
     /// Kelvin-Voigt damping as a fraction of critical at `first_frequency`. Default 0.01:
     /// `eta/E = 2 zeta / (2 pi f1)`.
     pub damping_ratio: f64,
-    /// Number of elements. Default 12 (converged for this scene).
+    /// Number of elements, 1 ..= 1000000. Default 12 (converged for this scene).
     pub elements: usize,
     /// Bearing stiffness K_B, N/m; `None` = `(m/4) (stiffness_ratio 2 pi f)^2`, m = rho A L
     /// (about 1.21e6 N/m).
@@ -132,9 +132,7 @@ impl SliderYoke {
         crate::error::check_non_negative("damping_ratio", self.damping_ratio, "")?;
         check_positive("stiffness_ratio", self.stiffness_ratio, "")?;
         crate::error::check_non_negative("bearing_damping_ratio", self.bearing_damping_ratio, "")?;
-        if self.elements < 1 {
-            return Err(Error::param("elements", self.elements, "an integer >= 1"));
-        }
+        check_elements("elements", self.elements)?;
         if self.geometry == SliderYokeGeometry::MidSpan && !self.elements.is_multiple_of(2) {
             return Err(Error::param(
                 "elements",
