@@ -9,11 +9,23 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 import time
 from pathlib import Path
 
 from flexclear.stability import ked_stability_map, plot_map, stability_map
+
+
+def _round(x, digits: int = 4):
+    """``x`` with every float rounded to ``digits`` significant digits (the JSON stays readable)."""
+    if isinstance(x, float) and math.isfinite(x) and x != 0:
+        return float(f"{x:.{digits - 1}e}")
+    if isinstance(x, dict):
+        return {k: _round(v, digits) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_round(v, digits) for v in x]
+    return x
 
 
 def main() -> None:
@@ -35,7 +47,7 @@ def main() -> None:
         print(s, file=sys.stderr, flush=True)
 
     def write(pts, name: str, scene: str) -> None:
-        rows = [json.dumps(dataclasses.asdict(p)) for p in pts]  # one point (with its runs) per line
+        rows = [json.dumps(_round(dataclasses.asdict(p))) for p in pts]  # one point (with its runs) per line
         (out / f"{name}.json").write_text("[\n" + ",\n".join(rows) + "\n]\n")
         plot_map(pts, out / f"{name}.png", scene)
 
