@@ -97,7 +97,9 @@ def test_entry_spike_is_the_dashpot_force_at_the_approach_speed(kw):
     if kw.get("method") == "gap":
         kw = {**kw, "gap_stiffness": model.parameters["bearing_stiffness"], "gap_damping": cb}
     for dt in (1e-4, 1e-5):
-        r = model.simulate(0.0125, dt, events=True, record=Record(histories=False), divergence_limit=1.0, **kw)
+        r = model.simulate(
+            0.0125, dt, events=True, record=Record(histories=False), divergence_limit=1.0, **kw
+        )
         assert r.stats["event_steps"] >= 1
         assert r.stats["unconverged_steps"] == 0, r.stats
         assert r.joint("bearing").max_force == pytest.approx(cb * speed, rel=1e-3), dt
