@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from flexclear.stability import ked_stability_map, plot_map, stability_map
+from flexclear.stability import ked_stability_map, markdown_table, plot_map, stability_map
 
 
 def _round(x, digits: int = 4):
@@ -39,7 +39,11 @@ def main() -> None:
     ap.add_argument("--ked-stiffness", type=float, nargs="*", default=[1e7, 1e9, 1e11])
     ap.add_argument("--ked-damping-ratio", type=float, nargs="*", default=[0.0, 0.2])
     ap.add_argument("--ked-t-end", type=float, default=0.0013)
+    ap.add_argument("--table", metavar="JSON", help="only print the markdown table of a written map")
     a = ap.parse_args()
+    if a.table:
+        print(markdown_table(json.loads(Path(a.table).read_text())))
+        return
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -50,6 +54,7 @@ def main() -> None:
         rows = [json.dumps(_round(dataclasses.asdict(p))) for p in pts]  # one point (with its runs) per line
         (out / f"{name}.json").write_text("[\n" + ",\n".join(rows) + "\n]\n")
         plot_map(pts, out / f"{name}.png", scene)
+        (out / f"{name}.md").write_text(markdown_table(pts) + "\n")
 
     t0 = time.process_time()
     if not a.ked_only:

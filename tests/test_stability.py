@@ -63,3 +63,29 @@ def test_measured_limit_of_the_lagged_couplings_matches_theory(variant):
     theory = st.theory_dt_max(build(0.0), variant)["asymptotic"]
     ok, bad, why, *_ = st.measure_limits(build, variant, ref, t_end=T_END, dt_min=1e-6, dt_max=2e-6)
     assert 0.85 * theory <= ok < bad <= 1.15 * theory, (ok, bad, why)
+
+
+def test_markdown_table_formats_limits_and_theory():
+    # the docs' table is printed from the bench's JSON: one row per (zeta, K_B) with a failure,
+    # "stable / accurate (theory)" per coupling; "< x" when the first step tried failed
+    from flexclear.stability import markdown_table
+
+    def pt(variant, ok, bad, acc, checks=(1e-8, 1e-6), asym=1.33e-6, win=1.33e-6):
+        return {
+            "variant": variant,
+            "stiffness": 1e9,
+            "damping_ratio": 0.0,
+            "dt_stable": ok,
+            "dt_unstable": bad,
+            "dt_accurate": acc,
+            "dt_inaccurate": bad,
+            "checks": [{"dt": d} for d in checks],
+            "theory": {"asymptotic": asym, "window": win},
+        }
+
+    table = markdown_table(
+        [pt("force", 1.27e-6, 1.4e-6, 3.3e-7), pt("gap", 0.0, 1e-8, 0.0, asym=1.0, win=1.0)]
+    )
+    lines = table.splitlines()
+    assert lines[0] == "| zeta | K_B (N/m) | force | gap |"
+    assert lines[2] == "| 0 | 1e9 | 1.3e-6 / 3.3e-7 (1.3e-6) | < 1e-8 / < 1e-8 (stable) |"

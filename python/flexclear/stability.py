@@ -784,6 +784,58 @@ def plot_map(points: list[StabilityPoint], path: Path, scene: str = "slider-yoke
     plt.close(fig)
 
 
+def _short(x: float) -> str:
+    """``2.1e-06`` -> ``2.1e-6``."""
+    return f"{x:.2g}".replace("e-0", "e-").replace("e+0", "e").replace("e+", "e")
+
+
+def markdown_table(points) -> str:
+    """The table of docs/stability.md section 2 (or 2.1) from :class:`StabilityPoint` s (or their
+    dicts, as in the bench's JSON): per damping ratio and K_B, each coupling's largest stable /
+    largest accurate step (s) and, in brackets, the lagged-coupling theory (asymptotic ``rho <= 1``,
+    ``w`` the finite window where it differs by more than 5 %; ``stable`` for the implicit
+    couplings). ``>= 1e-4``: every step tried passed; ``< x``: the first step tried (x) failed;
+    ``n/a``: the reference did not converge. Rows where every coupling passed every step are left
+    out."""
+    pts = [p if isinstance(p, dict) else dataclasses.asdict(p) for p in points]
+    cols = list(dict.fromkeys(p["variant"] for p in pts))
+    lagged = {"force", "modified, kappa lagged"}
+
+    def limit(p: dict, ok: float, bad: float) -> str:
+        first = min((c["dt"] for c in p["checks"]), default=math.nan)
+        if ok is None or math.isnan(ok):
+            return "n/a"
+        if ok == 0:
+            return f"< {_short(first)}"
+        if math.isinf(bad) and ok >= 9.9e-5:
+            return ">= 1e-4"
+        return _short(ok)
+
+    def cell(p: dict) -> str:
+        th = p["theory"]
+        asym = th.get("asymptotic", math.nan)
+        win = th.get("window", asym)
+        if p["variant"] in lagged and asym < 1e-3:
+            t = _short(asym) if asym > 0 else "0"
+            if abs(win - asym) > 0.05 * asym:
+                t += f", w {_short(win)}"
+        else:
+            t = "stable"
+        stable = limit(p, p["dt_stable"], p["dt_unstable"])
+        return f"{stable} / {limit(p, p['dt_accurate'], p['dt_inaccurate'])} ({t})"
+
+    rows: dict = {}
+    for p in pts:
+        rows.setdefault((p["damping_ratio"], p["stiffness"]), {})[p["variant"]] = p
+    lines = ["| zeta | K_B (N/m) | " + " | ".join(cols) + " |", "|---|---|" + "---|" * len(cols)]
+    for (z, k), r in sorted(rows.items()):
+        if all(r[c]["dt_stable"] >= 9.9e-5 and math.isinf(r[c]["dt_unstable"]) for c in r):
+            continue
+        cells = " | ".join(cell(r[c]) if c in r else "-" for c in cols)
+        lines.append(f"| {z:g} | {_short(k)} | {cells} |")
+    return "\n".join(lines)
+
+
 __all__ = [
     "ACCURACY",
     "GROWTH",
@@ -802,6 +854,7 @@ __all__ = [
     "classify_run",
     "contact_work_balance",
     "converged_reference",
+    "markdown_table",
     "measure_limits",
     "plot_map",
     "sdof_radius",
