@@ -397,7 +397,11 @@ def yoke_scene(
     return Scene(
         key=key,
         title=title,
-        keys=(("peak_force", "peak contact force"), ("window_force", "windowed peak force")),
+        keys=(
+            ("peak_force", "peak contact force"),
+            ("window_force", "windowed peak force"),
+            ("peak_penetration", "peak penetration"),
+        ),
         metrics=METRICS,
         plot_metrics=("peak_force", "window_force", "fig6_std"),
         methods=tuple(couplings),
