@@ -776,7 +776,8 @@ def plot_map(points: list[StabilityPoint], path: Path, scene: str = "slider-yoke
     axes[0][0].legend(fontsize=6, loc="lower left")
     fig.suptitle(
         f"{scene}: measured stable (filled) and accurate to {ACCURACY:.0%} in peak penetration (open)\n"
-        "theory: solid rho <= 1, dashed finite window, dotted kappa-iteration limit",
+        "theory: solid rho <= 1, dashed finite window, dotted secant kappa-iteration limit "
+        "(the engine now iterates by Newton)",
         fontsize=9,
     )
     fig.tight_layout()
