@@ -115,6 +115,11 @@ impl Band {
         Some(Band { n, w, vals })
     }
 
+    /// The order `n`, half-bandwidth `w` and row-major values (`n x (2 w + 1)`) of the band.
+    pub(crate) fn into_parts(self) -> (usize, usize, Vec<f64>) {
+        (self.n, self.w, self.vals)
+    }
+
     /// Length of the padded input [`Self::mul`] takes: `n + 2 w`.
     pub fn padded_len(&self) -> usize {
         self.n + 2 * self.w

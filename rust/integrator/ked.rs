@@ -31,6 +31,7 @@
 
 use nalgebra::Matrix6;
 
+use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
@@ -402,13 +403,6 @@ pub struct KedRun<'a> {
     out: KedOutput,
     limit: f64,
 }
-
-/// A substep shorter than this fraction of the step is not cut off (event-aware stepping).
-const EVENT_MIN_FRACTION: f64 = 1e-3;
-/// The cut is accepted within this fraction of the step's change of penetration of the circle.
-const EVENT_PEN_TOL: f64 = 1e-3;
-/// At most this many first substeps per event.
-const EVENT_MAX_CUTS: usize = 6;
 
 /// Scratch of event-aware stepping: the start-of-step state and penetrations.
 #[derive(Default)]
@@ -1416,20 +1410,7 @@ impl<'a> KedRun<'a> {
         }
         // Velocity relative to the frame given: for global unknowns subtract T-dot y.
         // (Td y is the apparent velocity of a fixed global displacement in the rotating frame.)
-        self.evaluate_contacts_at_state();
-        // Accelerations: solve J(h -> 0) a = -r(a = 0): with beta h^2 -> 0 the Jacobian is the
-        // mass matrix plus velocity-coupling terms that vanish too; use a tiny h.
-        self.ydd.fill(0.0);
-        self.factorize_mass()?;
-        self.residual(0.0, 0.0);
-        let mut dx = std::mem::take(&mut self.r);
-        self.lu.solve_in_place(&mut dx);
-        for i in 0..self.n {
-            self.ydd[i] = -dx[i];
-        }
-        self.r = dx;
-        self.signature.clear();
-        Ok(())
+        self.restart_accelerations(0.0)
     }
 
     fn evaluate_contacts_at_state(&mut self) {
@@ -1614,9 +1595,11 @@ impl<'a> KedRun<'a> {
         }
     }
 
-    /// Accelerations restarted at time `t` (s) from the current displacements and velocities:
-    /// `M a = F - ... + contact`, the contact terms (and the implicit coupling's damping) taken at
-    /// this state: the right limit at a contact status change.
+    /// Accelerations at time `t` (s) from the current displacements and velocities (the initial
+    /// ones, and the restart at an event cut): `M a = F - ... + contact`, the contact terms (and
+    /// the implicit coupling's damping) taken at this state, the right limit at a contact status
+    /// change. Solves `J(h -> 0) a = -r(a = 0)`: with `beta h^2 -> 0` the Jacobian is the mass
+    /// matrix with the transforms (velocity-coupling terms vanish too).
     fn restart_accelerations(&mut self, t: f64) -> Result<()> {
         self.update_frames(t);
         self.evaluate_contacts_at_state();
@@ -1656,20 +1639,9 @@ impl<'a> KedRun<'a> {
         ev.ydd.clone_from(&self.ydd);
         self.step(t0, h, k, 0)?;
         self.penetrations(&mut ev.p1);
-        let mut theta = f64::INFINITY;
-        let mut jstar = 0;
-        for (j, (&p0, &p1)) in ev.p0.iter().zip(&ev.p1).enumerate() {
-            if (p0 > 0.0) != (p1 > 0.0) {
-                let th = p0 / (p0 - p1);
-                if th < theta {
-                    theta = th;
-                    jstar = j;
-                }
-            }
-        }
-        if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&theta) {
+        let Some((theta, jstar)) = earliest_crossing(&ev.p0, &ev.p1) else {
             return Ok(());
-        }
+        };
         ev.was.clone_from(&self.contact_was);
         ev.extremes.clear();
         ev.extremes.extend(
@@ -1696,40 +1668,18 @@ impl<'a> KedRun<'a> {
     /// The cut of [`Self::step_with_events`] at first estimate `theta` (fraction of `h`) for
     /// joint `jstar`, from the start state in `ev`.
     fn cut_step(&mut self, t0: f64, h: f64, k: u64, ev: &mut EventScratch, mut theta: f64, jstar: usize) -> Result<()> {
-        let (p0, p1) = (ev.p0[jstar], ev.p1[jstar]);
-        let tol = EVENT_PEN_TOL * (p1 - p0).abs();
         // just past the circle: the substep after the cut starts with the new status
-        let target = if p0 > 0.0 { -0.5 * tol } else { 0.5 * tol };
-        let (mut lo, mut hi) = ((0.0, p0 - target), (1.0, p1 - target));
-        let mut side = 0i8;
+        let mut search = CutSearch::new(ev.p0[jstar], ev.p1[jstar], true);
         let mut h1 = theta * h;
         for it in 0..EVENT_MAX_CUTS {
             h1 = theta * h;
             self.restore_from(ev, t0);
             self.step(t0, h1, k, 0)?;
             self.penetrations(&mut ev.pc);
-            let pc = ev.pc[jstar] - target;
-            if pc.abs() <= 0.5 * tol || it + 1 == EVENT_MAX_CUTS {
-                break;
+            match search.next(theta, ev.pc[jstar], it + 1 == EVENT_MAX_CUTS) {
+                Some(next) => theta = next,
+                None => break,
             }
-            if (pc > 0.0) == (p0 - target > 0.0) {
-                lo = (theta, pc);
-                if side == -1 {
-                    hi.1 *= 0.5;
-                }
-                side = -1;
-            } else {
-                hi = (theta, pc);
-                if side == 1 {
-                    lo.1 *= 0.5;
-                }
-                side = 1;
-            }
-            let next = lo.0 - lo.1 * (hi.0 - lo.0) / (hi.1 - lo.1);
-            if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&next) {
-                break;
-            }
-            theta = next;
         }
         self.restart_accelerations(t0 + h1)?;
         self.track_joints();

@@ -39,6 +39,7 @@
 //! (one comparison per joint, which is also the finite check); every `CHECK_STRIDE` steps the
 //! whole state is checked for finiteness and the translational DOFs against the limit.
 
+use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use crate::assembly::{Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
@@ -165,27 +166,10 @@ struct LaneBand {
 }
 
 impl LaneBand {
-    /// The band of values `a` on `pattern`, or `None` when the band would hold more than twice
-    /// the pattern's entries (the same rule as [`crate::assembly::Band::from_csc`]).
+    /// The band of values `a` on `pattern` ([`crate::assembly::Band::from_csc`]), or `None` when
+    /// the band would hold more than twice the pattern's entries.
     fn from_csc(pattern: &Pattern, a: &[f64]) -> Option<LaneBand> {
-        let n = pattern.n;
-        let mut w = 0;
-        for c in 0..n {
-            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
-                w = w.max(pattern.row_idx[p].abs_diff(c));
-            }
-        }
-        let width = 2 * w + 1;
-        if n * width > 2 * pattern.nnz().max(1) {
-            return None;
-        }
-        let mut vals = vec![0.0; n * width];
-        for c in 0..n {
-            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
-                let r = pattern.row_idx[p];
-                vals[r * width + (c + w - r)] = a[p];
-            }
-        }
+        let (n, w, vals) = crate::assembly::Band::from_csc(pattern, a)?.into_parts();
         #[cfg(target_arch = "x86_64")]
         let avx2 = std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
@@ -513,13 +497,6 @@ struct Snapshot {
 /// After this many contact status switches of a joint within one step's iteration, its dashpot
 /// is left out for the rest of that step (see `Lane::update_iterated_terms`).
 const EDGE_SWITCHES: u8 = 4;
-/// A substep shorter than this fraction of `dt` is not cut off: the step is kept as computed.
-const EVENT_MIN_FRACTION: f64 = 1e-3;
-/// The cut is accepted when the first substep ends on the old side of the clearance circle, within
-/// this fraction of the step's change of penetration from it.
-const EVENT_PEN_TOL: f64 = 1e-3;
-/// At most this many first substeps per event (the first from the trial step's end).
-const EVENT_MAX_CUTS: usize = 6;
 
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
 #[derive(Default)]
@@ -1673,20 +1650,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         if !self.active[0] {
             return;
         }
-        let mut theta = f64::INFINITY;
-        let mut jstar = 0;
-        for (jj, (&p0, &p1)) in snap.pen.iter().zip(&self.lanes[0].pen).enumerate() {
-            if (p0 > 0.0) != (p1 > 0.0) {
-                let th = p0 / (p0 - p1);
-                if th < theta {
-                    theta = th;
-                    jstar = jj;
-                }
-            }
-        }
-        if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&theta) {
+        let Some((mut theta, jstar)) = earliest_crossing(&snap.pen, &self.lanes[0].pen) else {
             return;
-        }
+        };
         ev.pen1.clone_from(&self.lanes[0].pen);
         let dt = self.sh.dt;
         let settings = &self.lanes[0].settings;
@@ -1701,11 +1667,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         // over the whole step) gives only a first estimate
         // aim just short of the circle (on the old side, within `tol`): a first substep that ended
         // across it would carry the new status (for an entry, the dashpot force) over its length
-        let (p0, p1) = (snap.pen[jstar], ev.pen1[jstar]);
-        let tol = EVENT_PEN_TOL * (p1 - p0).abs();
-        let target = if p0 > 0.0 { 0.5 * tol } else { -0.5 * tol };
-        let (mut lo, mut hi) = ((0.0, p0 - target), (1.0, p1 - target));
-        let mut side = 0i8;
+        let mut search = CutSearch::new(snap.pen[jstar], ev.pen1[jstar], false);
         let mut factorizations = 0;
         let mut h1 = theta * dt;
         // the first substep keeps every joint's start-of-step status: it follows the old-status
@@ -1732,28 +1694,10 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 self.sh.chol0.factorizations += factorizations;
                 return;
             }
-            let pc = self.lanes[0].pen[jstar] - target;
-            if pc.abs() <= 0.5 * tol || it + 1 == EVENT_MAX_CUTS {
-                break;
+            match search.next(theta, self.lanes[0].pen[jstar], it + 1 == EVENT_MAX_CUTS) {
+                Some(next) => theta = next,
+                None => break,
             }
-            if (pc > 0.0) == (p0 - target > 0.0) {
-                lo = (theta, pc);
-                if side == -1 {
-                    hi.1 *= 0.5;
-                }
-                side = -1;
-            } else {
-                hi = (theta, pc);
-                if side == 1 {
-                    lo.1 *= 0.5;
-                }
-                side = 1;
-            }
-            let next = lo.0 - lo.1 * (hi.0 - lo.0) / (hi.1 - lo.1);
-            if !(EVENT_MIN_FRACTION..=1.0 - EVENT_MIN_FRACTION).contains(&next) {
-                break;
-            }
-            theta = next;
         }
         self.lanes[0].frozen.clear();
         self.restart_at_event(t0 + h1, &snap.pen, &ev.pen1);
