@@ -795,6 +795,16 @@ def _section(
     return lines, best
 
 
+def _element_table(title: str, cases, metrics) -> list[str]:
+    """A report subsection ``title`` with one row per element count of ``cases``."""
+    lines = [f"### {title}", "", "| elements | CPU (s) | " + " | ".join(metrics) + " |"]
+    lines.append("|---|---|" + "---|" * len(metrics))
+    for c in cases:
+        row = _err_row(c.errors, metrics, c.failure if c.diverged else "")
+        lines.append(f"| {c.elements} | {_fmt(c.cpu)} | {row} |")
+    return lines
+
+
 def _write_cases(out: Path, key: str, cases) -> None:
     (out / f"cases_{key}.json").write_text(json.dumps([dataclasses.asdict(c) for c in cases], indent=1))
 
@@ -888,14 +898,8 @@ def _report_yoke(out: Path, quick: bool, log, stiff: bool = False) -> tuple[list
         elems = (2, 6) if quick else (2, 4, 8, 12, 24)
         ref_n = 12 if quick else 48
         ecases = element_sweep(elems, t_end, 1e-6, 1e-4, ref_n, repeats)
-        extra += [
-            f"### Element count (modified, lagged kappa, dt = 1e-6 s; reference {ref_n} elements)",
-            "",
-            "| elements | CPU (s) | " + " | ".join(METRICS) + " |",
-            "|---|---|" + "---|" * len(METRICS),
-        ]
-        for c in ecases:
-            extra.append(f"| {c.elements} | {_fmt(c.cpu)} | {_err_row(c.errors, METRICS)} |")
+        etitle = f"Element count (modified, lagged kappa, dt = 1e-6 s; reference {ref_n} elements)"
+        extra += _element_table(etitle, ecases, METRICS)
         energy = {
             label: {dt: rattle_energy_error(kw, dt) for dt in ((1e-6, 1e-5) if quick else (1e-7, 1e-6, 1e-5))}
             for label, kw in COUPLINGS
@@ -965,17 +969,8 @@ def _report_crank(out: Path, quick: bool, log) -> tuple[list[str], dict]:
     _write_cases(out, scene.key, cases + ecases)
     checks = [("2 x dt_ref", 2 * dt_ref, check)]
     lines, best = _section(scene, intro, ref, dt_ref, cases, checks, png, repeats, time.process_time() - t0)
-    lines += [
-        f"### Element count (implicit, dt = {dt_e:g} s; reference {ref_n} elements at the same dt)",
-        "",
-        "| elements | CPU (s) | " + " | ".join(CRANK_METRICS) + " |",
-        "|---|---|" + "---|" * len(CRANK_METRICS),
-    ]
-    for c in ecases:
-        lines.append(
-            f"| {c.elements} | {_fmt(c.cpu)} | "
-            f"{_err_row(c.errors, CRANK_METRICS, c.failure if c.diverged else '')} |"
-        )
+    title = f"Element count (implicit, dt = {dt_e:g} s; reference {ref_n} elements at the same dt)"
+    lines += _element_table(title, ecases, CRANK_METRICS)
     lines += [
         "",
         "No energy error here: the crank is driven, so the mechanism's energy is not conserved; "

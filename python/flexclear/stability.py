@@ -527,38 +527,41 @@ def stability_map(
                 log(f"zeta={ratio:g} K_B={kb:.0e} reference {ref} ({time.process_time() - t0:.1f} s)")
             for v in variants:
                 t0 = time.process_time()
-                s_ok, s_bad, s_why, a_ok, a_bad, a_why, checks = measure_limits(
-                    build, v, ref, t_end=t_end, **search
-                )
-                pt = StabilityPoint(
-                    v,
-                    kb,
-                    ratio,
-                    p["bearing_damping"],
-                    s_ok,
-                    s_bad,
-                    s_why,
-                    a_ok,
-                    a_bad,
-                    a_why,
-                    2 * len(checks),
-                    time.process_time() - t0,
-                    [dataclasses.asdict(c) for c in checks],
-                )
-                pt.theory = {
-                    k: val
-                    for k, val in theory_dt_max(model, v, contact_time=ref.contact_time).items()
-                    if k not in ("rho", "dts")
-                }
-                pt.theory["sdof_c_over_k"] = p["bearing_damping"] / kb
-                pt.reference = dataclasses.asdict(ref)
-                points.append(pt)
-                if log:
-                    log(
-                        f"  {v:26s} stable {s_ok:.3g} (fails {s_bad:.3g}: {s_why}); accurate {a_ok:.3g} "
-                        f"(fails {a_bad:.3g}: {a_why}); theory {pt.theory}; {pt.cpu:.1f} s"
-                    )
+                limits = measure_limits(build, v, ref, t_end=t_end, **search)
+                theory = theory_dt_max(model, v, contact_time=ref.contact_time)
+                theory["sdof_c_over_k"] = p["bearing_damping"] / kb
+                points.append(_point(v, kb, ratio, p["bearing_damping"], limits, t0, theory, ref, log))
     return points
+
+
+def _point(variant, stiffness, ratio, damping, limits, t0, theory, ref, log) -> StabilityPoint:
+    """The :class:`StabilityPoint` of :func:`measure_limits`' result ``limits`` (its search
+    started at CPU time ``t0``), with ``theory`` (its ``rho``/``dts`` arrays left out) and the
+    reference ``ref``; logged when ``log`` is given."""
+    s_ok, s_bad, s_why, a_ok, a_bad, a_why, checks = limits
+    pt = StabilityPoint(
+        variant,
+        stiffness,
+        ratio,
+        damping,
+        s_ok,
+        s_bad,
+        s_why,
+        a_ok,
+        a_bad,
+        a_why,
+        2 * len(checks),
+        time.process_time() - t0,
+        [dataclasses.asdict(c) for c in checks],
+        {k: val for k, val in theory.items() if k not in ("rho", "dts")},
+        dataclasses.asdict(ref),
+    )
+    if log:
+        log(
+            f"  {variant:26s} stable {s_ok:.3g} (fails {s_bad:.3g}: {s_why}); accurate {a_ok:.3g} "
+            f"(fails {a_bad:.3g}: {a_why}); theory {pt.theory}; {pt.cpu:.1f} s"
+        )
+    return pt
 
 
 # -- KED: the flexible slider-crank with a clearance at the crank pin --------------------------
@@ -679,7 +682,7 @@ def ked_stability_map(
             M, K, C, dofs = ked_matrices(build(0.0))
             for v, kw in KED_VARIANTS:
                 t0 = time.process_time()
-                s_ok, s_bad, s_why, a_ok, a_bad, a_why, checks = measure_limits(
+                limits = measure_limits(
                     build,
                     kw,
                     ref,
@@ -702,30 +705,8 @@ def ked_stability_map(
                     contact_time=ref.contact_time,
                     damping_dofs=dofs,
                 )
-                pt = StabilityPoint(
-                    v,
-                    kb,
-                    ratio,
-                    p["bearing_damping"],
-                    s_ok,
-                    s_bad,
-                    s_why,
-                    a_ok,
-                    a_bad,
-                    a_why,
-                    2 * len(checks),
-                    time.process_time() - t0,
-                    [dataclasses.asdict(c) for c in checks],
-                    {k: val for k, val in th.items() if k not in ("rho", "dts")},
-                    dataclasses.asdict(ref),
-                )
-                pt.theory["effective_mass"] = [float(1 / np.linalg.inv(M)[d, d]) for d in dofs]
-                points.append(pt)
-                if log:
-                    log(
-                        f"  {v:26s} stable {s_ok:.3g} (fails {s_bad:.3g}: {s_why}); accurate {a_ok:.3g} "
-                        f"(fails {a_bad:.3g}: {a_why}); theory {pt.theory}; {pt.cpu:.1f} s"
-                    )
+                th["effective_mass"] = [float(1 / np.linalg.inv(M)[d, d]) for d in dofs]
+                points.append(_point(v, kb, ratio, p["bearing_damping"], limits, t0, th, ref, log))
     return points
 
 
