@@ -281,19 +281,8 @@ impl Recorder {
             let closed = pen[j] > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed && !self.was_closed[j] {
-                let speed = normal_speed(q[j], qd[j]);
-                e.impacts += 1;
-                e.max_impact_velocity = e.max_impact_velocity.max(speed);
-                if let Some(log) = log {
-                    log.push(Impact {
-                        time: t,
-                        speed,
-                        peak_force: force[j],
-                        peak_penetration: pen[j],
-                        duration: f64::NAN,
-                    });
-                }
-            } else if let Some(last) = log.and_then(|l| l.last_mut()).filter(|l| l.duration.is_nan()) {
+                enter(e, log, t, pen[j], force[j], q[j], qd[j]);
+            } else if let Some(last) = open_impact(log) {
                 if closed {
                     last.peak_force = last.peak_force.max(force[j]);
                 } else if self.was_closed[j] {
@@ -343,35 +332,20 @@ impl Recorder {
                 e.max_velocity = v2.sqrt();
             }
             let closed = p > 0.0;
-            let slot = self.impact_slot[j];
+            let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed {
                 if !self.was_closed[j] && step > 0 {
-                    e.impacts += 1;
-                    let speed = normal_speed(q[j], qd[j]);
-                    e.max_impact_velocity = e.max_impact_velocity.max(speed);
-                    if let Some(k) = slot {
-                        self.impacts[k].1.push(Impact {
-                            time: t,
-                            speed,
-                            peak_force: f,
-                            peak_penetration: p,
-                            duration: f64::NAN,
-                        });
-                    }
-                } else if let Some(last) = slot.and_then(|k| self.impacts[k].1.last_mut()) {
-                    if last.duration.is_nan() {
-                        last.peak_force = last.peak_force.max(f);
-                        last.peak_penetration = last.peak_penetration.max(p);
-                    }
+                    enter(e, log, t, p, f, q[j], qd[j]);
+                } else if let Some(last) = open_impact(log) {
+                    last.peak_force = last.peak_force.max(f);
+                    last.peak_penetration = last.peak_penetration.max(p);
                 }
                 if step > 0 {
                     e.contact_time += dt;
                 }
-            } else if self.was_closed[j] && slot.is_some() {
-                if let Some(last) = slot.and_then(|k| self.impacts[k].1.last_mut()) {
-                    if last.duration.is_nan() {
-                        last.duration = t - last.time;
-                    }
+            } else if self.was_closed[j] {
+                if let Some(last) = open_impact(log) {
+                    last.duration = t - last.time;
                 }
             }
             self.was_closed[j] = closed;
@@ -394,6 +368,36 @@ impl Recorder {
             h.theta.push(u[d + 2]);
         }
     }
+}
+
+/// An impact of a joint at time `t` (s): counted in its extremes `e` with its normal approach
+/// speed, and started in its impact log (if kept) with penetration `pen` (m) and force `force` (N).
+fn enter(
+    e: &mut JointExtremes,
+    log: Option<&mut Vec<Impact>>,
+    t: f64,
+    pen: f64,
+    force: f64,
+    q: [f64; 2],
+    qd: [f64; 2],
+) {
+    let speed = normal_speed(q, qd);
+    e.impacts += 1;
+    e.max_impact_velocity = e.max_impact_velocity.max(speed);
+    if let Some(log) = log {
+        log.push(Impact {
+            time: t,
+            speed,
+            peak_force: force,
+            peak_penetration: pen,
+            duration: f64::NAN,
+        });
+    }
+}
+
+/// The impact of a log that is still going on (the last one, with no duration yet).
+fn open_impact(log: Option<&mut Vec<Impact>>) -> Option<&mut Impact> {
+    log?.last_mut().filter(|i| i.duration.is_nan())
 }
 
 /// The normal approach speed `q' . q / |q|` (m/s) of a journal at `q` (m) moving at `qd` (m/s);
