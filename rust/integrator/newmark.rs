@@ -812,8 +812,11 @@ impl<'m> Lane<'m> {
         let mut rb_valid = self.settings.solver == SolverMode::Refactor;
         let mut refactored;
         let mut iters = 0u64;
-        self.switches.fill(0);
-        self.prev_change = f64::INFINITY;
+        if iterate {
+            // state of `update_iterated_terms` within this step
+            self.switches.fill(0);
+            self.prev_change = f64::INFINITY;
+        }
         loop {
             iters += 1;
             let closed = self.g.iter().any(|g| !mat2_is_zero(g));
