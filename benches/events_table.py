@@ -84,7 +84,7 @@ def ked_table() -> None:
 
     def run(dt, events):
         t0 = time.process_time()
-        r = m.simulate(0.05, dt, displacements=False, events=events)
+        r = m.simulate(0.05, dt, record=Record(displacements=False), events=events)
         return r.joint("crank_pin"), time.process_time() - t0
 
     ref, _ = run(1e-7, True)

@@ -99,7 +99,7 @@ def test_joint_on_missing_node():
     with pytest.raises(InvalidParameterError, match="node") as info:
         m.add_joint("j", "b", 5, clearance=0, stiffness=1, damping=0, body="g")
     assert "0 ..= 4" in str(info.value)
-    with pytest.raises(InvalidParameterError, match="unknown link"):
+    with pytest.raises(flexclear.ModelError, match="unknown link"):
         m.add_joint("j", "nope", 0, clearance=0, stiffness=1, damping=0, body="g")
 
 

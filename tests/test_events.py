@@ -149,13 +149,13 @@ def test_impact_log_on_fixed_steps_matches_the_histories(kw):
     assert np.all(log.speed > 0)
 
 
-# -- KED engine (flexclear.Mechanism) -------------------------------------------------------------
+# -- models in moving frames ------------------------------------------------------------------------
 
 
 def test_mechanism_events_are_the_fixed_steps_until_the_first_status_change():
     m = flexclear.scenes.slider_crank(clearance_at="crank_pin")
-    fixed = m.simulate(0.01, 1e-5, midspan=True)
-    ev = m.simulate(0.01, 1e-5, midspan=True, events=True)
+    fixed = m.simulate(0.01, 1e-5, record=Record(midspan=True))
+    ev = m.simulate(0.01, 1e-5, record=Record(midspan=True), events=True)
     pf, pe = fixed.joint("crank_pin").penetration, ev.joint("crank_pin").penetration
     first = int(np.flatnonzero(np.diff(pf > 0))[0]) + 1  # first sample whose status differs
     assert first > 10 and ev.stats["event_steps"] >= 1
@@ -173,7 +173,7 @@ def test_mechanism_events_converge_faster_in_peak_pin_force():
     m = flexclear.scenes.slider_crank(clearance_at="crank_pin")
 
     def peak(dt, **kw):
-        r = m.simulate(0.05, dt, displacements=False, **kw)
+        r = m.simulate(0.05, dt, record=Record(displacements=False), **kw)
         return r.joint("crank_pin").max_force, r.stats
 
     ref, stats = peak(1e-7, events=True)

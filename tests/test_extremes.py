@@ -265,7 +265,7 @@ LINK_BOUNDS = {
 JOINT_BOUNDS = {"clearance": "non_negative", "stiffness": "non_negative", "damping": "non_negative"}
 RUN_BOUNDS = {
     "dt": "positive",
-    "tol": "positive",
+    "iter_tol": "positive",
     "gap_stiffness": "positive",
     "gap_damping": "non_negative",
     "divergence_limit": "positive",
@@ -322,7 +322,7 @@ def test_random_invalid_inputs_name_the_parameter(case):
         run[name] = value
     if name in ("gap_stiffness", "gap_damping"):
         run["method"] = "gap"
-    if name in ("tol", "max_iter"):
+    if name in ("iter_tol", "max_iter"):
         run.update(method="modified", iterate=True)
     with pytest.raises(InvalidParameterError) as info:
         m = flexclear.Model().add_body("g", motion=motion.harmonic((0.0, 1e-3), 10.0))

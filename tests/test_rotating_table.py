@@ -4,7 +4,7 @@ Reference: tests/data/rotating_cantilever_flapwise.csv (Wright et al. 1982 / Hod
 1981, flapwise). Planar motion bends in the plane of rotation, where the centrifugal softening
 -Omega^2 M (M_IC) adds to the flapwise problem: w_in^2 = w_flap^2 - Omega^2. The classic tables
 treat an inextensible beam without Coriolis coupling, so the comparison uses
-``Mechanism.frequencies(coriolis=False)`` on a nearly inextensible beam (EA / EI = 1e8 for L = 1).
+``Model.natural_frequencies(coriolis=False)`` on a nearly inextensible beam (EA / EI = 1e8 for L = 1).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ def _table() -> np.ndarray:
 
 def _in_plane(lam: float, elements: int) -> np.ndarray:
     """First two in-plane frequencies, in units of sqrt(EI / (rho A L^4)) (= 1 here)."""
-    m = fc.Mechanism()
+    m = fc.Model()
     hub = fc.Frame.rotating(fc.Rotation.constant(lam))
     m.add_link(
         "beam",
@@ -36,8 +36,8 @@ def _in_plane(lam: float, elements: int) -> np.ndarray:
         inertia=1e-8,
         frame=hub,
     )
-    m.clamp("beam", 0)
-    return m.frequencies(0.0, count=2, coriolis=False)
+    m.add_clamp("beam", 0)
+    return 2 * np.pi * m.natural_frequencies(2, coriolis=False)
 
 
 def test_table_has_the_rows_it_claims():

@@ -27,9 +27,9 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import flexclear as M
 import numpy as np
 import pytest
-from flexclear import mechanism as M
 
 DATA = Path(__file__).parent / "data"
 
@@ -74,11 +74,11 @@ def initial_rod_state(elements: int) -> tuple[np.ndarray, np.ndarray]:
     return disp, vel
 
 
-def simeon_mechanism(elements: int = 8, *, geometric: bool = False) -> M.Mechanism:
+def simeon_mechanism(elements: int = 8, *, geometric: bool = False) -> M.Model:
     drive = M.Rotation.constant(simeon.OMEGA)
     crank, rod = simeon.L1, simeon.L2
     disp, vel = initial_rod_state(elements)
-    m = M.Mechanism()
+    m = M.Model()
     m.add_link(
         "rod",
         length=rod,
@@ -93,14 +93,15 @@ def simeon_mechanism(elements: int = 8, *, geometric: bool = False) -> M.Mechani
         initial_velocity=vel,
     )
     m.add_slider("slider", mass=simeon.M3, path=M.Frame.slider_crank(crank, rod, drive, "slider"))
-    m.pin("A", ("rod", 0), (M.Frame.slider_crank(crank, rod, drive, "crank"), (crank, 0.0), "crank"))
-    m.pin("B", ("rod", elements), "slider")
+    m.add_body("crank", frame=M.Frame.slider_crank(crank, rod, drive, "crank"))
+    m.add_pin("A", "rod", 0, body="crank", point=(crank, 0.0))
+    m.add_pin("B", "rod", elements, slider="slider")
     return m
 
 
 def midspan_difference(elements: int = 8, dt: float = 1e-5, *, geometric: bool = False, column: int = 1):
     ref = reference()
-    res = simeon_mechanism(elements, geometric=geometric).simulate(0.1, dt, midspan=True)
+    res = simeon_mechanism(elements, geometric=geometric).simulate(0.1, dt, record=M.Record(midspan=True))
     assert res.complete
     ours = np.interp(ref[:, 0], res.time, res.link("rod").midspan)
     return ours - ref[:, column], ref, res

@@ -1,20 +1,21 @@
 """flexclear: elastodynamics of flexible planar mechanisms with joint clearance.
 
-Beam finite elements in a floating frame, Newmark time integration, and clearance joints entered
+Beam finite elements in moving frames, Newmark time integration, and clearance joints entered
 as forces (force reaction method), through the stiffness and damping matrices (the modified-matrix
 method of Hong & Kim 1993) or as gap elements. SI units throughout.
+
+Every mechanism is a :class:`Model` with one :meth:`Model.simulate` returning one
+:class:`Result`; ready ones are in :mod:`flexclear.scenes`:
 
 >>> import flexclear
 >>> model = flexclear.scenes.slider_yoke(clearance=1e-4)
 >>> res = model.simulate(0.2, 1e-5)
 >>> res.joint("bearing").max_penetration  # m
+>>> crank = flexclear.scenes.slider_crank(clearance_at="crank_pin")
+>>> res = crank.simulate(0.02, 1e-5)
+>>> res.joint("crank_pin").max_force  # N
 
-Mechanisms of flexible links in moving frames (kineto-elastodynamics) are :class:`Mechanism`
-objects; ready ones are in :mod:`flexclear.scenes` (``spin_up``, ``slider_crank``, ``four_bar``):
-
->>> mech = flexclear.scenes.spin_up()
->>> res = mech.simulate(20.0, 1e-3)
->>> res.link("beam").tip  # m, in the hub frame
+Monte Carlo studies of any model are in :mod:`flexclear.study`.
 """
 
 from . import motion, scenes, study
@@ -28,8 +29,9 @@ from .errors import (
     SimulationInterrupted,
     SingularMatrixError,
 )
-from .mechanism import Frame, LinkResult, Mechanism, MechanismJointResult, MechanismResult, Rotation
-from .model import ImpactLog, JointResult, Model, NodeResult, Record, Result
+from .frames import Frame, Rotation
+from .model import Model
+from .result import ImpactLog, JointResult, LinkResult, NodeResult, Record, Result
 
 __all__ = [
     "ConvergenceError",
@@ -39,9 +41,6 @@ __all__ = [
     "InvalidParameterError",
     "JointResult",
     "LinkResult",
-    "Mechanism",
-    "MechanismJointResult",
-    "MechanismResult",
     "Model",
     "ModelError",
     "NodeResult",

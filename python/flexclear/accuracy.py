@@ -66,7 +66,8 @@ import numpy as np
 from . import scenes
 from .errors import FlexclearError, InvalidParameterError, SimulationDivergedError
 from .linear import contact_energy, link_matrices, mechanical_energy, newmark_velocities
-from .model import ImpactLog, Model, Record
+from .model import Model
+from .result import ImpactLog, Record
 
 COUPLINGS = (
     ("force", {"method": "force"}),
@@ -79,7 +80,7 @@ COUPLINGS = (
 EVENTS = COUPLINGS[3]
 METRICS = ("peak_force", "peak_penetration", "window_force", "impact_mean", "fig6_mean", "fig6_std")
 
-#: Contact treatments of the KED engine (``Mechanism.simulate``): implicit (iterated) contact,
+#: Contact treatments of the KED engine (``Model.simulate``): implicit (iterated) contact,
 #: the paper's lagged kappa and the force method.
 KED_COUPLINGS = (
     ("implicit", {}),
@@ -423,7 +424,7 @@ def slider_crank_scene(
 ) -> Scene:
     """``scenes.slider_crank(clearance_at="crank_pin", elements=elements, **scene_kw)`` over
     ``[0, t_end]`` (s) with the KED contact treatments; contact metrics of the crank pin and the
-    rod midspan deflection (:func:`crank_errors`). A method's kwargs go to ``Mechanism.simulate``
+    rod midspan deflection (:func:`crank_errors`). A method's kwargs go to ``Model.simulate``
     except ``elements``. ``divergence_limit`` (m or rad of any unknown; the clearance is 5e-4 m):
     beyond it a run counts as diverged."""
     mechs: dict = {}
@@ -436,9 +437,11 @@ def slider_crank_scene(
         res = mechs[n].simulate(
             t_end,
             dt,
-            displacements=False,
-            midspan=histories,
-            every=1 if histories else max(1, int(round(t_end / dt))),
+            record=Record(
+                displacements=histories,
+                midspan=histories,
+                every=1 if histories else max(1, int(round(t_end / dt))),
+            ),
             divergence_limit=divergence_limit,
             **kw,
         )
@@ -478,8 +481,7 @@ def spin_up_scene(t_end: float, methods, *, elements: int = 16, data: str = "kan
         res = m.simulate(
             t_end,
             dt,
-            displacements=histories,
-            every=1 if histories else max(1, int(round(t_end / dt))),
+            record=Record(displacements=histories, every=1 if histories else max(1, int(round(t_end / dt)))),
             divergence_limit=m.parameters["length"],
         )
         return (res.time, res.link("beam").tip) if histories else None
@@ -955,7 +957,7 @@ def _report_crank(out: Path, quick: bool, log) -> tuple[list[str], dict]:
         f"{p['bearing_stiffness']:.3g} N/m, C_B = {p['bearing_damping']:.3g} N s/m; window {t_end:.4g} s "
         f"({window}) from rest, which holds the start-up impact (the peak force, at about 0.6 ms), the "
         "rattling of 7-10 ms and the contact that follows. Methods: the KED contact treatments "
-        "(`Mechanism.simulate`: implicit = kappa and spring tangent iterated within the Newton step, "
+        "(`Model.simulate`: implicit = kappa and spring tangent iterated within the Newton step, "
         "the default; implicit, events = the same with event-aware stepping (`events=True`, "
         "docs/stability.md section 6.1); `iterate=False` = the paper's lagged kappa; "
         '`method="force"`); divergence '

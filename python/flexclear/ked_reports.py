@@ -14,7 +14,8 @@ import numpy as np
 
 from . import scenes
 from .errors import FlexclearError
-from .mechanism import MechanismResult, Rotation
+from .frames import Rotation
+from .result import Record, Result
 
 Log = Callable[[str], None]
 
@@ -35,7 +36,7 @@ def _quiet(_: str) -> None:
     pass
 
 
-def _run(mech, t_end: float, dt: float, **kw) -> tuple[MechanismResult, Optional[FlexclearError]]:
+def _run(mech, t_end: float, dt: float, **kw) -> tuple[Result, Optional[FlexclearError]]:
     """Runs ``mech``; on a failure returns the partial result carried by the exception."""
     try:
         return mech.simulate(t_end, dt, **kw), None
@@ -46,7 +47,7 @@ def _run(mech, t_end: float, dt: float, **kw) -> tuple[MechanismResult, Optional
         return res, e
 
 
-def _status(err: Optional[FlexclearError], res: MechanismResult) -> str:
+def _status(err: Optional[FlexclearError], res: Result) -> str:
     return "complete" if err is None else f"{type(err).__name__} at t = {res.end_time:.4g} s"
 
 
@@ -157,9 +158,9 @@ def spin_up_report(
     f_lin = np.full(speeds, np.nan)
     for i, om in enumerate(omegas):
         mech = scenes.spin_up(data=data, elements=elements, rotation=Rotation.constant(float(om)))
-        f = mech.frequencies(0.0, count=2)
+        f = 2 * np.pi * mech.natural_frequencies(2)
         f_cor[i, : len(f)] = f
-        f = mech.frequencies(0.0, count=2, coriolis=False)
+        f = 2 * np.pi * mech.natural_frequencies(2, coriolis=False)
         f_nocor[i, : len(f)] = f
         lin = scenes.spin_up(
             data=data, elements=elements, geometric=False, rotation=Rotation.constant(float(om))
@@ -295,7 +296,7 @@ def slider_crank_report(
     runs = []
     for label, mech in variants:
         t0 = time.perf_counter()
-        res, err = _run(mech, t_end, dt, method=method, midspan=True, axial_force=True)
+        res, err = _run(mech, t_end, dt, method=method, record=Record(midspan=True, axial_force=True))
         runs.append((label, mech, res, err, time.perf_counter() - t0))
         log(f"slider-crank {label}: {res!r}")
     mid_el = elements // 2
@@ -411,7 +412,7 @@ def four_bar_report(
     if t_end is None:
         t_end = 3 * turn
     t0 = time.perf_counter()
-    res, err = _run(mech, t_end, dt, midspan=True, axial_force=True)
+    res, err = _run(mech, t_end, dt, record=Record(midspan=True, axial_force=True))
     sec = time.perf_counter() - t0
     log(f"four-bar: {res!r}")
     cpl = res.link("coupler")
@@ -434,7 +435,7 @@ def four_bar_report(
     fig.savefig(out / "four_bar_coupler.png", dpi=120)
     plt.close(fig)
     p = mech.parameters
-    f = mech.frequencies(0.0, count=2)
+    f = 2 * np.pi * mech.natural_frequencies(2)
     last = res.time >= res.end_time - turn
     lines = [
         "# Four-bar with a flexible coupler",

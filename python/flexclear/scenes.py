@@ -1,9 +1,11 @@
-"""The test mechanisms flexclear ships (see ``shared/SCENES.md``). Every number is a default that
-can be overridden by keyword; SI units (``clearance`` in metres, not a ratio).
+"""The test mechanisms flexclear ships (see ``docs/scenes.md``). Each returns a ready
+:class:`flexclear.Model` (run it with ``.simulate(t_end, dt)``, or add to it). Every number is a
+default that can be overridden by keyword; SI units (``clearance`` in metres, not a ratio).
 
-* :func:`slider_yoke`, :func:`slider_yoke_stiff`: the paper's slider-yoke (a :class:`flexclear.Model`).
-* :func:`spin_up`, :func:`slider_crank`, :func:`four_bar`: flexible links in moving frames (each a
-  ready :class:`flexclear.Mechanism`; run it with ``.simulate(t_end, dt)``).
+* :func:`slider_yoke`, :func:`slider_yoke_stiff`: the paper's slider-yoke.
+* :func:`spin_up`: a cantilever on a hub spun up in the plane.
+* :func:`slider_crank`, :func:`four_bar`: flexible links in mechanism frames, each with an optional
+  clearance joint at one of its pins (``clearance_at``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Any, Optional
 
 from . import _core
 from .errors import InvalidParameterError, ModelError
-from .mechanism import Frame, Mechanism, Rotation
+from .frames import Frame, Rotation
 from .model import Model
 
 
@@ -145,7 +147,7 @@ def _stiff_signature() -> inspect.Signature:
 slider_yoke_stiff.__signature__ = _stiff_signature()  # type: ignore[attr-defined]
 
 # ---------------------------------------------------------------------------------------------
-# Kineto-elastodynamic scenes (flexclear.Mechanism)
+# Mechanisms in moving frames (kineto-elastodynamics)
 # ---------------------------------------------------------------------------------------------
 
 
@@ -216,7 +218,7 @@ def spin_up(
     geometric: bool = True,
     damping: float = 0.0,
     rotation: Optional[Rotation] = None,
-) -> Mechanism:
+) -> Model:
     """A cantilever clamped to a hub that is spun up in the plane: the classic test of geometric
     (centrifugal) stiffening.
 
@@ -269,7 +271,7 @@ def spin_up(
 
     Returns
     -------
-    Mechanism
+    Model
         One link ``"beam"``; ``parameters`` holds the data used.
     """
     if data not in SPIN_UP_DATA:
@@ -291,7 +293,7 @@ def spin_up(
         rotation = Rotation.spin_up(final_rate=float(p["final_rate"]), ramp_time=float(p["ramp_time"]))
     elif not isinstance(rotation, Rotation):
         raise _bad("rotation", repr(rotation), "a flexclear.Rotation")
-    m = Mechanism()
+    m = Model()
     m.add_link(
         "beam",
         length=p["length"],
@@ -304,7 +306,7 @@ def spin_up(
         damping=damping,
         geometric=bool(geometric),
     )
-    m.clamp("beam", 0)
+    m.add_clamp("beam", 0)
     m.parameters = {**p, "data": data, "elements": elements, "geometric": bool(geometric), "damping": damping}
     return m
 
@@ -331,7 +333,7 @@ def slider_crank(
     bearing_damping_ratio: float = 0.2,
     damping_law: str = "viscous",
     geometric: Optional[bool] = None,
-) -> Mechanism:
+) -> Model:
     """The flexible slider-crank of Simeon (1996): rigid crank at constant speed, flexible
     connecting rod, slider on a straight guide, no gravity.
 
@@ -404,7 +406,7 @@ def slider_crank(
 
     Returns
     -------
-    Mechanism
+    Model
         Link ``"rod"``, slider ``"slider"``, pins ``"crank_pin"`` and ``"slider_pin"`` (one of them a
         clearance joint when asked); ``parameters`` holds the inputs and the derived
         ``bearing_stiffness``, ``bearing_damping``, ``rod_mass``, ``area``, ``inertia``.
@@ -458,7 +460,18 @@ def slider_crank(
             effective_mass=derived["effective_mass"],
             damping_law=damping_law,
         )
-    return Mechanism._wrap(core, params)
+    return Model._wrap(core, params)
+
+
+def _hertz_stiffness(*, youngs_modulus, poisson_ratio, pin_radius, clearance, reference_penetration) -> float:
+    """The derived bearing stiffness of :func:`slider_crank`, for scenes built in Python: the
+    secant stiffness ``K_h sqrt(delta_ref)`` (N/m) of a Hertz contact of a journal of
+    ``pin_radius`` in a bearing of radius ``pin_radius + clearance``
+    (``K_h = (4/3) E* sqrt(R (R + c) / c)``, ``E* = E / (2 (1 - nu^2))``)."""
+    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
+    c = max(clearance, 1e-12)
+    k_h = 4.0 / 3.0 * e_star * math.sqrt(pin_radius * (pin_radius + c) / c)
+    return k_h * math.sqrt(reference_penetration)
 
 
 def four_bar(
@@ -477,7 +490,16 @@ def four_bar(
     flexible_rocker: bool = False,
     rocker_elements: Optional[int] = None,
     damping: float = 0.0,
-) -> Mechanism:
+    clearance_at: Optional[str] = None,
+    clearance: float = 2.5e-4,
+    bearing_stiffness: Optional[float] = None,
+    bearing_damping: Optional[float] = None,
+    pin_radius: float = 5e-3,
+    poisson_ratio: float = 0.33,
+    reference_penetration: float = 1e-5,
+    bearing_damping_ratio: float = 0.2,
+    damping_law: str = "viscous",
+) -> Model:
     """A crank-rocker four-bar with a flexible coupler (and optionally a flexible rocker), driven
     by a rigid crank at constant speed; no gravity.
 
@@ -486,7 +508,8 @@ def four_bar(
     ``"crank_pin"`` joins its node 0 to the crank body point ``(crank_length, 0)``, the
     ``"rocker_pin"`` its last node to the rocker: to the rigid rocker's body point
     ``(rocker_length, 0)``, or, with ``flexible_rocker``, to the last node of link ``"rocker"``
-    (frame origin at O4, x axis towards B), whose node 0 is pinned to the ground at O4.
+    (frame origin at O4, x axis towards B), whose node 0 is pinned to the ground at O4. Either
+    coupler pin may instead be a revolute clearance joint of the same name (``clearance_at``).
 
     The numbers are **illustrative**, not a published test case: the link lengths are round
     inch values (10, 2, 11, 11 in) in the proportions of laboratory flexible four-bars (e.g. Sung,
@@ -517,12 +540,34 @@ def four_bar(
         Rocker elements (default: ``elements``).
     damping : float
         Kelvin-Voigt coefficient, Pa s.
+    clearance_at : {None, "crank_pin", "rocker_pin"}
+        Which coupler pin, if any, has a radial clearance.
+    clearance : float
+        Radial clearance, m (0.25 mm).
+    bearing_stiffness : float, optional
+        K_B, N/m. **Derived** when omitted, as for :func:`slider_crank`: the secant stiffness at
+        ``reference_penetration`` of a Hertz contact of a journal of ``pin_radius`` in a bearing
+        of radius ``pin_radius + clearance``, with the links' ``youngs_modulus`` and
+        ``poisson_ratio`` (about 4.7e7 N/m for the defaults).
+    bearing_damping : float, optional
+        C_B, N s/m, active only in contact. **Derived** when omitted:
+        ``2 bearing_damping_ratio sqrt(K_B m_eff)`` with ``m_eff`` half the coupler mass (both
+        pins sit on driven bodies), or, at a rocker pin on a flexible rocker, the reduced mass of
+        half the coupler and half the rocker.
+    pin_radius, poisson_ratio, reference_penetration : float
+        Inputs of the derived K_B: journal radius (m), Poisson's ratio (aluminium), penetration
+        (m) at which the Hertz law is linearized.
+    bearing_damping_ratio : float
+        Fraction of critical of the derived C_B.
+    damping_law : {"viscous", "radial", "literal"}
+        Form of the bearing damping (see :meth:`flexclear.Model.add_joint`).
 
     Returns
     -------
-    Mechanism
-        Links ``"coupler"`` (and ``"rocker"``); ``parameters`` holds the inputs and ``area``,
-        ``inertia``.
+    Model
+        Links ``"coupler"`` (and ``"rocker"``), pins or clearance joints ``"crank_pin"`` and
+        ``"rocker_pin"``; ``parameters`` holds the inputs and ``area``, ``inertia`` (and the
+        derived bearing data with a clearance joint).
     """
     _positive(
         ground_length=ground_length,
@@ -539,6 +584,8 @@ def four_bar(
         raise _bad("damping", damping, ">= 0 Pa s")
     if branch not in (1, -1):
         raise _bad("branch", branch, "+1 (open) or -1 (crossed)")
+    if clearance_at not in (None, "crank_pin", "rocker_pin"):
+        raise _bad("clearance_at", clearance_at, 'None, "crank_pin" or "rocker_pin"')
     _elements("elements", elements)
     n_rocker = _elements("rocker_elements", elements if rocker_elements is None else rocker_elements)
     driver = Rotation.constant(float(crank_speed))
@@ -560,16 +607,7 @@ def four_bar(
     section = dict(
         youngs_modulus=youngs_modulus, density=density, area=area, inertia=inertia, damping=damping
     )
-    m = Mechanism()
-    m.add_link("coupler", length=coupler_length, elements=elements, frame=frame("coupler"), **section)
-    m.pin("crank_pin", ("coupler", 0), (frame("crank"), (float(crank_length), 0.0), "crank"))
-    if flexible_rocker:
-        m.add_link("rocker", length=rocker_length, elements=n_rocker, frame=frame("rocker"), **section)
-        m.support("rocker", 0, u=True, v=True, theta=False)
-        m.pin("rocker_pin", ("coupler", elements), ("rocker", n_rocker))
-    else:
-        m.pin("rocker_pin", ("coupler", elements), (frame("rocker"), (float(rocker_length), 0.0), "rocker"))
-    m.parameters = dict(
+    params: dict[str, Any] = dict(
         ground_length=ground_length,
         crank_length=crank_length,
         coupler_length=coupler_length,
@@ -586,7 +624,62 @@ def four_bar(
         damping=damping,
         area=area,
         inertia=inertia,
+        clearance_at=clearance_at,
     )
+    bearing: dict[str, Any] = {}
+    if clearance_at is not None:
+        _positive(pin_radius=pin_radius, reference_penetration=reference_penetration)
+        _finite(clearance=clearance, bearing_damping_ratio=bearing_damping_ratio)
+        if not 0.0 <= poisson_ratio < 0.5:
+            raise _bad("poisson_ratio", poisson_ratio, "0 <= nu < 0.5")
+        coupler_mass = density * area * coupler_length
+        m_eff = 0.5 * coupler_mass
+        if clearance_at == "rocker_pin" and flexible_rocker:
+            m_rocker = 0.5 * density * area * rocker_length
+            m_eff = m_eff * m_rocker / (m_eff + m_rocker)
+        k_b = bearing_stiffness
+        if k_b is None:
+            k_b = _hertz_stiffness(
+                youngs_modulus=youngs_modulus,
+                poisson_ratio=poisson_ratio,
+                pin_radius=pin_radius,
+                clearance=clearance,
+                reference_penetration=reference_penetration,
+            )
+        c_b = bearing_damping
+        if c_b is None:
+            c_b = 2.0 * bearing_damping_ratio * math.sqrt(max(k_b, 0.0) * m_eff)
+        bearing = dict(clearance=clearance, stiffness=k_b, damping=c_b, damping_law=damping_law)
+        params.update(
+            clearance=clearance,
+            bearing_stiffness=k_b,
+            bearing_damping=c_b,
+            pin_radius=pin_radius,
+            poisson_ratio=poisson_ratio,
+            reference_penetration=reference_penetration,
+            bearing_damping_ratio=bearing_damping_ratio,
+            effective_mass=m_eff,
+            damping_law=damping_law,
+        )
+
+    def connect(name: str, link: str, node: int, **side) -> None:
+        if clearance_at == name:
+            m.add_joint(name, link, node, **side, **bearing)
+        else:
+            m.add_pin(name, link, node, **side)
+
+    m = Model()
+    m.add_body("crank", frame=frame("crank"))
+    m.add_link("coupler", length=coupler_length, elements=elements, frame=frame("coupler"), **section)
+    connect("crank_pin", "coupler", 0, body="crank", point=(float(crank_length), 0.0))
+    if flexible_rocker:
+        m.add_link("rocker", length=rocker_length, elements=n_rocker, frame=frame("rocker"), **section)
+        m.add_support("rocker", 0, u=True, v=True, theta=False)
+        connect("rocker_pin", "coupler", elements, target=("rocker", n_rocker))
+    else:
+        m.add_body("rocker", frame=frame("rocker"))
+        connect("rocker_pin", "coupler", elements, body="rocker", point=(float(rocker_length), 0.0))
+    m.parameters = params
     return m
 
 

@@ -31,7 +31,7 @@ import numpy as np
 from . import scenes
 from .errors import FlexclearError, SimulationDivergedError
 from .linear import link_matrices, slider_yoke_matrices
-from .model import Record
+from .result import Record
 
 #: The couplings of the stability map, as ``(label, simulate keywords)``.
 VARIANTS = (
@@ -565,7 +565,7 @@ def _point(variant, stiffness, ratio, damping, limits, t0, theory, ref, log) -> 
 
 
 # -- KED: the flexible slider-crank with a clearance at the crank pin --------------------------
-#: The couplings of the KED map (``Mechanism.simulate`` keywords): the default implicit contact,
+#: The couplings of the KED map (``Model.simulate`` keywords): the default implicit contact,
 #: the paper's lagged kappa and the force method.
 KED_VARIANTS = (
     ("implicit (iterated)", {"method": "modified", "iterate": True}),
@@ -590,7 +590,7 @@ def _ked_run(model, kw: dict, t_end: float, dt: float):
     """Slider-crank run: ``(crank-pin joint result, stats)`` or why it failed (divergence, limit
     5 cm; Newton not converged; effective matrix not positive definite)."""
     try:
-        r = model.simulate(t_end, dt, displacements=False, divergence_limit=0.05, **kw)
+        r = model.simulate(t_end, dt, record=Record(displacements=False), divergence_limit=0.05, **kw)
     except FlexclearError as e:
         return f"{type(e).__name__}: {str(e)[:80]}"
     return r.joint("crank_pin"), {"unconverged_steps": 0}

@@ -1,6 +1,7 @@
 //! The mechanism: flexible links, rigid bodies with prescribed motion, and clearance joints.
 //! Plain data plus validation; nothing here knows about matrices or time stepping.
 
+pub mod convert;
 pub mod mechanism;
 pub mod motion;
 pub mod section;
@@ -180,42 +181,78 @@ impl Model {
         check_unique("links", self.links.iter().map(|l| l.name.as_str()))?;
         check_unique("bodies", self.bodies.iter().map(|b| b.name.as_str()))?;
         check_unique("joints", self.joints.iter().map(|j| j.name.as_str()))?;
-        for (i, l) in self.links.iter().enumerate() {
-            l.validate(i)?;
+        for i in 0..self.links.len() {
+            self.links[i].validate(i)?;
         }
-        for (i, b) in self.bodies.iter().enumerate() {
-            b.motion.validate(&format!("bodies[{i}].motion"))?;
+        for i in 0..self.bodies.len() {
+            self.validate_body(i)?;
         }
-        for (i, j) in self.joints.iter().enumerate() {
-            let p = |f: &str| format!("joints[{i}].{f}");
-            self.check_node(&p("node"), j.link, j.node)?;
-            match j.target {
-                JointTarget::Body { body, point } => {
-                    if body >= self.bodies.len() {
-                        return Err(Error::InvalidModel {
-                            message: format!(
-                                "joint {:?} refers to rigid body #{body}, but the model has {}",
-                                j.name,
-                                self.bodies.len()
-                            ),
-                        });
-                    }
-                    check_finite(&p("point[0]"), point[0], "m")?;
-                    check_finite(&p("point[1]"), point[1], "m")?;
-                }
-                JointTarget::Node { link, node } => {
-                    self.check_node(&p("target_node"), link, node)?;
-                    if link == j.link && node == j.node {
-                        return Err(Error::InvalidModel {
-                            message: format!("joint {:?} joins a node to itself", j.name),
-                        });
-                    }
-                }
-            }
-            check_non_negative(&p("clearance"), j.clearance, "m")?;
-            j.law.validate(&p("law"))?;
+        for i in 0..self.joints.len() {
+            self.validate_joint(i)?;
         }
         Ok(())
+    }
+
+    /// Checks link #`i` alone (its parameters and initial state) and that no earlier link has its
+    /// name: what adding it to a valid model needs, in time independent of the model's size
+    /// apart from the name scan.
+    pub fn validate_link(&self, i: usize) -> Result<()> {
+        let l = &self.links[i];
+        if self.links[..i].iter().any(|o| o.name == l.name) {
+            return Err(Error::InvalidModel {
+                message: format!("two links are named {:?}", l.name),
+            });
+        }
+        l.validate(i)
+    }
+
+    /// Checks rigid body #`i` alone (its motion, its name among the earlier bodies).
+    pub fn validate_body(&self, i: usize) -> Result<()> {
+        let b = &self.bodies[i];
+        if self.bodies[..i].iter().any(|o| o.name == b.name) {
+            return Err(Error::InvalidModel {
+                message: format!("two bodies are named {:?}", b.name),
+            });
+        }
+        b.motion.validate(&format!("bodies[{i}].motion"))
+    }
+
+    /// Checks clearance joint #`i` alone: its name among the earlier joints, the nodes and body
+    /// it refers to, its clearance and law.
+    pub fn validate_joint(&self, i: usize) -> Result<()> {
+        let j = &self.joints[i];
+        if self.joints[..i].iter().any(|o| o.name == j.name) {
+            return Err(Error::InvalidModel {
+                message: format!("two joints are named {:?}", j.name),
+            });
+        }
+        let p = |f: &str| format!("joints[{i}].{f}");
+        self.check_node(&p("node"), j.link, j.node)?;
+        match j.target {
+            JointTarget::Body { body, point } => {
+                if body >= self.bodies.len() {
+                    return Err(Error::InvalidModel {
+                        message: format!(
+                            "joint {:?} refers to rigid body #{body}, but the model has {}",
+                            j.name,
+                            self.bodies.len()
+                        ),
+                    });
+                }
+                check_finite(&p("point[0]"), point[0], "m")?;
+                check_finite(&p("point[1]"), point[1], "m")?;
+            }
+            JointTarget::Node { link, node } => {
+                self.check_node(&p("target_node"), link, node)?;
+                if link == j.link && node == j.node {
+                    return Err(Error::InvalidModel {
+                        message: format!("joint {:?} joins a node to itself", j.name),
+                    });
+                }
+            }
+        }
+        check_non_negative(&p("clearance"), j.clearance, "m")?;
+        j.law.validate(&p("law"))
     }
 
     fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {

@@ -103,7 +103,7 @@ impl PyRotation {
 #[pyclass(name = "Frame", module = "flexclear._core", frozen)]
 #[derive(Clone)]
 pub(super) struct PyFrame {
-    inner: Arc<dyn FrameKinematics>,
+    pub(super) inner: Arc<dyn FrameKinematics>,
 }
 
 #[pymethods]
@@ -215,6 +215,13 @@ impl PyFrame {
         )
     }
 
+    /// Whether the frame's angle changes with time (a rotating frame carries Coriolis and
+    /// inertia-coupling terms, and a clearance joint on it is treated implicitly by default).
+    #[getter]
+    fn rotates(&self) -> bool {
+        self.inner.rotates()
+    }
+
     /// Checks the motion over `[0, t_end]` (a four-bar that does not close, a short table).
     fn check(&self, py: Python<'_>, t_end: f64) -> PyResult<()> {
         self.inner.check("frame", t_end).map_err(|e| err(py, e))
@@ -229,7 +236,7 @@ impl PyFrame {
 #[pyclass(name = "Mechanism", module = "flexclear._core")]
 #[derive(Clone, Default)]
 pub(super) struct PyMechanism {
-    inner: Mechanism,
+    pub(super) inner: Mechanism,
 }
 
 fn vec_opt(a: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
@@ -582,6 +589,22 @@ impl PyMechanism {
     }
 
     /// Slider names in order.
+    /// For each clearance joint, whether one of its sides lies on a rotating frame (a link's or a
+    /// rigid body's).
+    #[getter]
+    fn joint_rotating(&self) -> Vec<bool> {
+        let rotates = |e: &Endpoint| match e {
+            Endpoint::Node { link, .. } => self.inner.links[*link].frame.rotates(),
+            Endpoint::Body { frame, .. } => frame.rotates(),
+            Endpoint::Slider(_) => false,
+        };
+        self.inner
+            .joints
+            .iter()
+            .map(|j| rotates(&j.journal) || rotates(&j.bearing))
+            .collect()
+    }
+
     #[getter]
     fn slider_names(&self) -> Vec<String> {
         self.inner.sliders.iter().map(|s| s.name.clone()).collect()

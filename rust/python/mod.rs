@@ -172,24 +172,28 @@ impl PyModel {
             initial_displacement: array_vec(initial_displacement)?,
             initial_velocity: array_vec(initial_velocity)?,
         };
-        let mut m = self.inner.clone();
-        m.links.push(link);
-        validate_partial(py, &m)?;
-        self.inner = m;
-        Ok(self.inner.links.len() - 1)
+        self.inner.links.push(link);
+        let i = self.inner.links.len() - 1;
+        if let Err(e) = self.inner.validate_link(i) {
+            self.inner.links.pop();
+            return Err(err(py, e));
+        }
+        Ok(i)
     }
 
     /// Adds a rigid body with prescribed motion; returns its index.
     #[pyo3(signature = (name, motion=None))]
     fn add_body(&mut self, py: Python<'_>, name: String, motion: Option<PyRef<'_, PyMotion>>) -> PyResult<usize> {
-        let mut m = self.inner.clone();
-        m.bodies.push(RigidBody {
+        self.inner.bodies.push(RigidBody {
             name,
             motion: motion_or_fixed(motion),
         });
-        validate_partial(py, &m)?;
-        self.inner = m;
-        Ok(self.inner.bodies.len() - 1)
+        let i = self.inner.bodies.len() - 1;
+        if let Err(e) = self.inner.validate_body(i) {
+            self.inner.bodies.pop();
+            return Err(err(py, e));
+        }
+        Ok(i)
     }
 
     /// Adds a clearance joint between node `node` of link `link` and either a point of rigid body
@@ -248,11 +252,13 @@ impl PyModel {
             clearance,
             law: Arc::new(law),
         };
-        let mut m = self.inner.clone();
-        m.joints.push(joint);
-        validate_partial(py, &m)?;
-        self.inner = m;
-        Ok(self.inner.joints.len() - 1)
+        self.inner.joints.push(joint);
+        let i = self.inner.joints.len() - 1;
+        if let Err(e) = self.inner.validate_joint(i) {
+            self.inner.joints.pop();
+            return Err(err(py, e));
+        }
+        Ok(i)
     }
 
     /// Names of links, bodies and joints, in index order.
@@ -275,6 +281,54 @@ impl PyModel {
     #[getter]
     fn link_elements(&self) -> Vec<usize> {
         self.inner.links.iter().map(|l| l.elements).collect()
+    }
+
+    /// Link lengths, m, in index order.
+    #[getter]
+    fn link_lengths(&self) -> Vec<f64> {
+        self.inner.links.iter().map(|l| l.length).collect()
+    }
+
+    /// Axial stiffness E A of each link, N, in index order.
+    #[getter]
+    fn link_axial_stiffness(&self) -> Vec<f64> {
+        self.inner.links.iter().map(|l| l.youngs_modulus * l.area).collect()
+    }
+
+    /// Whether a link includes rotary inertia, in index order.
+    #[getter]
+    fn link_rotary_inertia(&self) -> Vec<bool> {
+        self.inner.links.iter().map(|l| l.rotary_inertia).collect()
+    }
+
+    /// The frames of the rigid bodies as moving-frame bodies see them: angle 0, origin on the
+    /// body's motion (so a point offset in global axes is the same vector in the body frame).
+    #[getter]
+    fn body_frames(&self) -> Vec<mechanism::PyFrame> {
+        let frame = |b: &crate::model::RigidBody| Arc::new(b.frame()) as Arc<dyn crate::kinematics::FrameKinematics>;
+        self.inner
+            .bodies
+            .iter()
+            .map(|b| mechanism::PyFrame { inner: frame(b) })
+            .collect()
+    }
+
+    /// The link frames: each at its fixed angle, origin on the link's motion.
+    #[getter]
+    fn link_frames(&self) -> Vec<mechanism::PyFrame> {
+        let frame = |l: &crate::model::FlexibleLink| Arc::new(l.frame()) as Arc<dyn crate::kinematics::FrameKinematics>;
+        self.inner
+            .links
+            .iter()
+            .map(|l| mechanism::PyFrame { inner: frame(l) })
+            .collect()
+    }
+
+    /// The same model as a moving-frame mechanism (each frame at its fixed angle, translating
+    /// with its motion). Fails for a link with rotary inertia.
+    fn to_mechanism(&self, py: Python<'_>) -> PyResult<mechanism::PyMechanism> {
+        let inner = crate::model::mechanism::Mechanism::from_translating(&self.inner).map_err(|e| err(py, e))?;
+        Ok(mechanism::PyMechanism { inner })
     }
 
     /// Lowest `count` natural frequencies, Hz, joints open, rigid-body modes left out.
@@ -436,20 +490,6 @@ fn build_settings(
         events: false,
     };
     Ok(settings)
-}
-
-/// Validates a model under construction: only the parts added so far must be consistent.
-fn validate_partial(py: Python<'_>, m: &Model) -> PyResult<()> {
-    if m.links.is_empty() {
-        // bodies may come before links; check them alone
-        for (i, b) in m.bodies.iter().enumerate() {
-            b.motion
-                .validate(&format!("bodies[{i}].motion"))
-                .map_err(|e| err(py, e))?;
-        }
-        return Ok(());
-    }
-    m.validate().map_err(|e| err(py, e))
 }
 
 fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {

@@ -1,0 +1,393 @@
+"""What a run keeps and what it gives back: :class:`Record`, :class:`Result` and its parts
+(:class:`JointResult`, :class:`LinkResult`, :class:`NodeResult`, :class:`ImpactLog`).
+
+One result type serves every model, whichever stepper ran it. Results hold plain numpy arrays
+and names (no reference to the model or the engine), so they pickle and travel to Dask workers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Optional
+
+import numpy as np
+
+from .errors import FlexclearError, InvalidParameterError, ModelError
+
+
+@dataclasses.dataclass
+class Record:
+    """What a run keeps. The default keeps every clearance joint's penetration and force at every
+    step (and, for a model in moving frames, every node's displacements).
+
+    Parameters
+    ----------
+    joints : list of str or None
+        Clearance joints whose histories (and impact logs) are kept; ``None`` = all.
+    position : bool
+        Also keep the journal position ``qx, qy`` (m, global axes) of those joints.
+    nodes : list of (str, int)
+        ``(link name, node index)`` pairs whose displacements ``u, v, theta`` (link frame; m, m,
+        rad) are kept (see :meth:`Result.node`).
+    displacements : bool or None
+        Keep every node of every link (see :meth:`Result.link`). ``None`` (default): on for a
+        model with a link in a rotating or mechanism frame (as the moving-frame reports read
+        them), off for a model whose links all translate (its histories can be long; ask for
+        ``nodes`` or switch this on).
+    midspan, axial_force : bool
+        Link channels: transverse deflection at mid-length relative to the chord (m) and the
+        element axial forces (N, tension positive). Need the displacements of the link.
+    energy : bool
+        Kinetic and strain energy (J) and angular momentum (kg m^2/s) of each link (models
+        with a moving-frame link only).
+    every : int
+        Keep every k-th step (the initial state is always kept).
+    histories : bool
+        False keeps only the running extremes of the joints (memory independent of run length).
+    start : float
+        Joint histories and extremes start at this time, s.
+    impact_log : bool
+        Also keep an :class:`ImpactLog` per recorded joint: one entry per contact episode.
+    """
+
+    joints: Optional[list[str]] = None
+    position: bool = False
+    nodes: list[tuple[str, int]] = dataclasses.field(default_factory=list)
+    displacements: Optional[bool] = None
+    midspan: bool = False
+    axial_force: bool = False
+    energy: bool = False
+    every: int = 1
+    histories: bool = True
+    start: float = 0.0
+    impact_log: bool = False
+
+
+@dataclasses.dataclass
+class ImpactLog:
+    """The contact episodes (open -> closed -> open) of one joint, one array entry each.
+
+    On fixed steps an entry is the first step that ends closed, and speed and peaks are those of
+    the steps. With event-aware stepping (``simulate(..., events=True)``) entry and exit are the
+    cuts at the crossings, the speed is the approach speed there and the peak force includes the
+    force just after the cut (the dashpot jump at entry).
+
+    Attributes
+    ----------
+    time : ndarray
+        Entry times, s.
+    speed : ndarray
+        Normal approach speed at entry, ``q' . q / |q|``, m/s.
+    peak_force : ndarray
+        Largest contact force magnitude of each episode, N.
+    peak_penetration : ndarray
+        Largest penetration of each episode, m.
+    duration : ndarray
+        Time in contact, s (NaN for an episode still closed at the end of the run).
+    """
+
+    time: np.ndarray
+    speed: np.ndarray
+    peak_force: np.ndarray
+    peak_penetration: np.ndarray
+    duration: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+
+@dataclasses.dataclass
+class JointResult:
+    """Histories and extremes of one clearance joint (the same fields for every model).
+
+    Attributes
+    ----------
+    name : str
+        Joint name.
+    penetration : ndarray
+        ``|q| - delta_c`` at the recorded times, m (negative when open).
+    force : ndarray
+        Magnitude of the contact force, N.
+    qx, qy : ndarray
+        Journal centre relative to the bearing centre, m (empty unless ``Record(position=True)``).
+    max_penetration : float
+        Largest penetration since ``Record.start``, m.
+    time_of_max_penetration : float
+        When it happened, s.
+    max_force : float
+        Largest contact force magnitude, N.
+    impacts : int
+        Open-to-closed transitions.
+    contact_time : float
+        Time spent in contact, s.
+    max_velocity : float
+        Largest speed of the journal relative to the bearing, m/s.
+    max_impact_velocity : float
+        Largest normal approach speed at an impact, m/s.
+    rms_penetration, rms_force : float
+        Root mean square of the penetration (m) and of the force magnitude (N) over every step
+        from ``Record.start`` (whatever ``Record.every``).
+    impact_log : ImpactLog or None
+        Every contact episode (when ``Record(impact_log=True)``).
+    """
+
+    name: str
+    penetration: np.ndarray
+    force: np.ndarray
+    qx: np.ndarray
+    qy: np.ndarray
+    max_penetration: float
+    time_of_max_penetration: float
+    max_force: float
+    impacts: int
+    contact_time: float
+    max_velocity: float
+    max_impact_velocity: float
+    rms_penetration: float
+    rms_force: float
+    impact_log: Optional[ImpactLog] = None
+
+
+@dataclasses.dataclass
+class NodeResult:
+    """Displacement history of one node, link frame: ``u`` (m), ``v`` (m), ``theta`` (rad)."""
+
+    link: str
+    node: int
+    u: np.ndarray
+    v: np.ndarray
+    theta: np.ndarray
+
+
+@dataclasses.dataclass
+class LinkResult:
+    """Histories of one flexible link.
+
+    Attributes
+    ----------
+    name : str
+        Link name.
+    x : ndarray
+        Undeformed node positions along the link, m.
+    frame : ndarray, shape (n, 4)
+        Frame origin x, y (m), angle (rad) and rate (rad/s) at each record.
+    u, v, theta : ndarray, shape (n, nodes)
+        Nodal displacements in the link frame: axial (m), transverse (m), rotation (rad). Empty
+        unless recorded (``Record.displacements``).
+    axial_force : ndarray, shape (n, elements)
+        Element axial force ``E A (u_{k+1} - u_k) / l``, N (tension positive). Empty unless
+        ``Record(axial_force=True)``.
+    midspan : ndarray
+        Transverse deflection at mid-length relative to the chord through the end nodes, m.
+        Empty unless ``Record(midspan=True)``.
+    kinetic, strain, momentum : ndarray
+        Kinetic energy of the absolute motion (J), linear strain energy ``Q^T K1 Q / 2`` (J) and
+        angular momentum about the frame origin (kg m^2/s). Empty unless ``Record(energy=True)``.
+    """
+
+    name: str
+    x: np.ndarray
+    frame: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    theta: np.ndarray
+    axial_force: np.ndarray
+    midspan: np.ndarray
+    kinetic: np.ndarray
+    strain: np.ndarray
+    momentum: np.ndarray
+
+    @property
+    def tip(self) -> np.ndarray:
+        """Transverse displacement of the last node, m."""
+        return self.v[:, -1] if self.v.size else np.empty(0)
+
+    def global_positions(self) -> tuple[np.ndarray, np.ndarray]:
+        """Deformed node positions in global axes, ``(X, Y)`` each of shape (n, nodes), m."""
+        if not self.u.size:
+            raise InvalidParameterError(
+                f"the displacements of link {self.name!r} were not recorded (Record(displacements=True))"
+            )
+        ox, oy, ang = self.frame[:, 0:1], self.frame[:, 1:2], self.frame[:, 2:3]
+        lx = self.x[None, :] + self.u
+        ly = self.v
+        c, s = np.cos(ang), np.sin(ang)
+        return ox + c * lx - s * ly, oy + s * lx + c * ly
+
+
+_EMPTY = np.empty(0)
+
+
+def _unknown(kind: str, name: Any, names: list) -> ModelError:
+    return ModelError(f"unknown {kind} {name!r}; the model has {names}")
+
+
+class Result:
+    """The output of :meth:`flexclear.Model.simulate`, the same type for every model.
+
+    Attributes
+    ----------
+    time : ndarray
+        Recorded times, s.
+    stats : dict
+        What ran and what it cost: ``engine`` (``"translating"``: every link translates, the
+        contact-free matrix is factorized once; ``"moving-frame"``: Newton on the moving-frame
+        equations), ``method``, ``iterate``, ``iter_tol``, ``max_iter`` (the settings chosen),
+        ``steps``, ``factorizations``, ``iterations``, ``max_iterations``, ``event_steps``,
+        ``woodbury_steps``, ``woodbury_fallbacks``, ``unconverged_steps``, ``halved_substeps``,
+        ``event_fallbacks`` (counters that do not apply to the engine are 0), and ``terms`` (the
+        terms active in the equations).
+    complete : bool
+        False when the run stopped early (divergence, non-convergence, interruption).
+    error : FlexclearError or None
+        Why it stopped early.
+    method : str
+        The clearance coupling used.
+    dt : float
+        Step, s.
+    wall_time : float
+        Wall-clock time of the run, s.
+    end_time : float
+        Time reached, s.
+    """
+
+    def __init__(
+        self,
+        raw: dict,
+        *,
+        joint_names: list[str],
+        links: list[tuple[str, int, float, float]],
+        method: str,
+        dt: float,
+        wall_time: float,
+        stats: dict,
+        error: Optional[FlexclearError] = None,
+    ) -> None:
+        self.time: np.ndarray = raw["time"]
+        self.stats: dict = stats
+        self.method = method
+        self.dt = dt
+        self.wall_time = wall_time
+        self.error = error
+        self.complete = error is None
+        self.end_time: float = raw["t"]
+        #: ``(u, v, a)`` at the end, global DOF vectors (models whose links all translate; else None).
+        self.state: Optional[tuple[np.ndarray, np.ndarray, np.ndarray]] = raw.get("state")
+        self.joint_names = list(joint_names)
+        self.link_names = [name for name, *_ in links]
+        self._links_info = links
+        self._raw = raw
+
+    # -- pickling: the error may hold this result; keep its message and class only ---------------
+    def __getstate__(self) -> dict:
+        d = dict(self.__dict__)
+        if d["error"] is not None:
+            d["error"] = (type(d["error"]), str(d["error"]))
+        return d
+
+    def __setstate__(self, d: dict) -> None:
+        err = d.get("error")
+        if isinstance(err, tuple):
+            d["error"] = err[0](err[1])
+        self.__dict__.update(d)
+
+    def joint(self, name: str) -> JointResult:
+        """Histories and extremes of clearance joint ``name`` (e.g. ``"bearing"``)."""
+        if name not in self.joint_names:
+            raise _unknown("joint", name, self.joint_names)
+        idx = self.joint_names.index(name)
+        raw = self._raw
+        ext = raw["extremes"][idx]
+        hist = next((h for h in raw["joints"] if h["joint"] == idx), None)
+        log = next((lg for lg in raw.get("impact_log", ()) if lg["joint"] == idx), None)
+        return JointResult(
+            name=name,
+            penetration=hist["penetration"] if hist else _EMPTY,
+            force=hist["force"] if hist else _EMPTY,
+            qx=hist["qx"] if hist else _EMPTY,
+            qy=hist["qy"] if hist else _EMPTY,
+            max_penetration=ext["max_penetration"],
+            time_of_max_penetration=ext["time_of_max_penetration"],
+            max_force=ext["max_force"],
+            impacts=ext["impacts"],
+            contact_time=ext["contact_time"],
+            max_velocity=ext["max_velocity"],
+            max_impact_velocity=ext["max_impact_velocity"],
+            rms_penetration=ext["rms_penetration"],
+            rms_force=ext["rms_force"],
+            impact_log=None if log is None else ImpactLog(**{k: v for k, v in log.items() if k != "joint"}),
+        )
+
+    def link(self, name: str) -> LinkResult:
+        """Histories of flexible link ``name`` (see :class:`Record` for what is kept)."""
+        if name not in self.link_names:
+            raise _unknown("link", name, self.link_names)
+        idx = self.link_names.index(name)
+        _, elements, length, ea = self._links_info[idx]
+        h = self._raw["links"][idx]
+        nodes = elements + 1
+        d = h["displacements"]
+        empty = np.empty((0, nodes))
+        return LinkResult(
+            name=name,
+            x=np.linspace(0.0, length, nodes),
+            frame=h["frame"],
+            u=d[:, 0::3] if d.size else empty,
+            v=d[:, 1::3] if d.size else empty,
+            theta=d[:, 2::3] if d.size else empty,
+            axial_force=h["axial_force"],
+            midspan=h["midspan"],
+            kinetic=h["kinetic"],
+            strain=h["strain"],
+            momentum=h["momentum"],
+        )
+
+    def node(self, link: str, node: int) -> NodeResult:
+        """Displacement history of ``node`` of ``link``: from ``Record.nodes``, or from the link's
+        recorded displacements."""
+        if link not in self.link_names:
+            raise _unknown("link", link, self.link_names)
+        li = self.link_names.index(link)
+        for h in self._raw.get("nodes", ()):
+            if h["link"] == li and h["node"] == node:
+                return NodeResult(link, node, h["u"], h["v"], h["theta"])
+        lr = self.link(link)
+        if lr.u.size and 0 <= node < lr.u.shape[1]:
+            return NodeResult(link, node, lr.u[:, node], lr.v[:, node], lr.theta[:, node])
+        raise InvalidParameterError(
+            f"node {node} of link {link!r} was not recorded; add it to Record.nodes or set "
+            "Record(displacements=True)"
+        )
+
+    def to_pandas(self):
+        """The recorded histories as a pandas DataFrame indexed by time (s): one column per joint
+        channel (``"<joint>.penetration"`` m, ``"<joint>.force"`` N, ``"<joint>.qx"``/``qy`` m) and
+        per recorded node (``"<link>[<node>].u"``, ``.v`` m, ``.theta`` rad), and the link channels
+        ``"<link>.midspan"`` (m) where recorded."""
+        import pandas as pd
+
+        cols: dict[str, np.ndarray] = {}
+        n = self.time.size
+        for name in self.joint_names:
+            j = self.joint(name)
+            for ch in ("penetration", "force", "qx", "qy"):
+                a = getattr(j, ch)
+                if a.size == n and n:
+                    cols[f"{name}.{ch}"] = a
+        for h in self._raw.get("nodes", ()):
+            ln = self.link_names[h["link"]]
+            for ch in ("u", "v", "theta"):
+                cols[f"{ln}[{h['node']}].{ch}"] = h[ch]
+        for ln in self.link_names:
+            lr = self.link(ln)
+            if lr.midspan.size == n and n:
+                cols[f"{ln}.midspan"] = lr.midspan
+        frame = pd.DataFrame(cols, index=pd.Index(self.time, name="time"))
+        return frame
+
+    def __repr__(self) -> str:
+        status = "complete" if self.complete else f"stopped early: {self.error}"
+        return (
+            f"Result(engine={self.stats.get('engine')!r}, method={self.method!r}, dt={self.dt:g} s, "
+            f"t_end={self.end_time:g} s, steps={self.stats.get('steps')}, samples={self.time.size}, {status})"
+        )
