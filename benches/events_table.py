@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 from flexclear import Record, scenes
-from flexclear.accuracy import errors_against
+from flexclear.analysis.accuracy import errors_against
 
 DTS = (1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7)
 

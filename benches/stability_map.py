@@ -2,7 +2,7 @@
 beside the theory: the slider-yoke (clearance 1e-5 m, 20 ms runs) and, with --ked, the KED
 slider-crank with a crank-pin clearance (5 ms from rest). Writes stability_map.json/.png (and
 ked_stability_map.json/.png) to --out. See docs/stability.md for the theory and the criterion and
-flexclear.stability for the search."""
+flexclear.analysis.stability for the search."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from flexclear.stability import ked_stability_map, markdown_table, plot_map, stability_map
+from flexclear.analysis.stability import ked_stability_map, markdown_table, plot_map, stability_map
 
 
 def _round(x, digits: int = 4):

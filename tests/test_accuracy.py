@@ -8,7 +8,7 @@ import json
 import math
 
 import pytest
-from flexclear.accuracy import (
+from flexclear.analysis.accuracy import (
     Case,
     cheapest,
     recommend,

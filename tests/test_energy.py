@@ -1,6 +1,6 @@
 """Conservation and passivity (issue 5, item 4) on a free rattling problem with no external work:
 the slider-yoke's slider with a fixed yoke, thrown at the bearing with a uniform transverse
-velocity. Energy = kinetic + strain (numpy matrices of flexclear.linear, checked against the
+velocity. Energy = kinetic + strain (numpy matrices of flexclear.analysis.linear, checked against the
 engine's natural frequencies) + bearing potential K_B max(delta, 0)^2 / 2.
 
 The bound (derived in docs/stability.md, section "Energy"): average-acceleration Newmark changes
@@ -17,7 +17,7 @@ from __future__ import annotations
 import flexclear
 import numpy as np
 import pytest
-from flexclear.accuracy import free_rattle, rattle_energy
+from flexclear.analysis.accuracy import free_rattle, rattle_energy
 
 P = flexclear.scenes.slider_yoke().parameters
 ELEMENTS = 6

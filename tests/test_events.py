@@ -48,7 +48,7 @@ def test_events_cut_the_trajectory_error_of_iterated_kappa():
     # cutting the step at the crossing and restarting the acceleration there removes that.
     # Measured (fig6_std, the paper's error density, against 1e-8 s): 0.14 -> 0.011 at 3e-5 s,
     # 0.053 -> 0.0031 at 1e-5 s; asserted: at least 3x lower.
-    from flexclear.accuracy import errors_against
+    from flexclear.analysis.accuracy import errors_against
 
     model = flexclear.scenes.slider_yoke(clearance=1e-4)
 

@@ -31,7 +31,7 @@ def test_table1_within_1_db_of_the_analytic_column(row, method):
 
 
 def test_paper_table1_constant_matches_the_data_file():
-    from flexclear.paper import PAPER_TABLE1
+    from flexclear.reports.paper import PAPER_TABLE1
 
     for row, const in zip(published_rows(), PAPER_TABLE1):
         assert [float(v) for v in row.values()] == list(const)

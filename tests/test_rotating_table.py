@@ -1,6 +1,7 @@
 """In-plane frequencies of a spinning cantilever against the published Southwell-type table.
 
-Reference: tests/data/rotating_cantilever_flapwise.csv (Wright et al. 1982 / Hodges & Rutkowski
+Reference: flexclear/data/rotating_cantilever_flapwise.csv (package data, the CLI plots it too;
+Wright et al. 1982 / Hodges & Rutkowski
 1981, flapwise). Planar motion bends in the plane of rotation, where the centrifugal softening
 -Omega^2 M (M_IC) adds to the flapwise problem: w_in^2 = w_flap^2 - Omega^2. The classic tables
 treat an inextensible beam without Coriolis coupling, so the comparison uses
@@ -15,7 +16,7 @@ import flexclear as fc
 import numpy as np
 import pytest
 
-DATA = Path(__file__).parent / "data" / "rotating_cantilever_flapwise.csv"
+DATA = Path(fc.__file__).parent / "data" / "rotating_cantilever_flapwise.csv"
 
 
 def _table() -> np.ndarray:

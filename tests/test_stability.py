@@ -1,4 +1,4 @@
-"""The measured stability search (flexclear.stability) on cases whose answer the linear theory of
+"""The measured stability search (flexclear.analysis.stability) on cases whose answer the linear theory of
 docs/stability.md gives: it must call a growing run unstable, a bounded but wrong run inaccurate
 and stable, and find the force method's limit where the spectral radius crosses 1.
 
@@ -7,7 +7,7 @@ Slider-yoke, clearance 1e-5 m, 20 ms (the map's settings); each test takes a few
 import functools
 
 import pytest
-from flexclear import stability as st
+from flexclear.analysis import stability as st
 
 T_END = 0.02
 
@@ -68,7 +68,7 @@ def test_measured_limit_of_the_lagged_couplings_matches_theory(variant):
 def test_markdown_table_formats_limits_and_theory():
     # the docs' table is printed from the bench's JSON: one row per (zeta, K_B) with a failure,
     # "stable / accurate (theory)" per coupling; "< x" when the first step tried failed
-    from flexclear.stability import markdown_table
+    from flexclear.analysis.stability import markdown_table
 
     def pt(variant, ok, bad, acc, checks=(1e-8, 1e-6), asym=1.33e-6, win=1.33e-6):
         return {

@@ -8,11 +8,10 @@ from typing import Optional
 
 
 def _default_rotating_table():
-    """The Wright et al. (1982) table shipped with the source tree, or None when installed without it."""
+    """The Wright et al. (1982) table shipped as package data (``flexclear/data``)."""
     from pathlib import Path
 
-    p = Path(__file__).resolve().parents[2] / "tests" / "data" / "rotating_cantilever_flapwise.csv"
-    return p if p.is_file() else None
+    return Path(__file__).resolve().parent / "data" / "rotating_cantilever_flapwise.csv"
 
 
 def main(argv: Optional[list] = None) -> int:
@@ -70,7 +69,7 @@ def main(argv: Optional[list] = None) -> int:
         metavar="CSV",
         help="table to overlay on the frequency plot: '#' comments, a header, rows 'lambda, w1, w2, ...' "
         "nondimensional by sqrt(EI/(rho A L^4)), flapwise (converted to in-plane by w^2 - Omega^2); "
-        "default: the published table in the source tree's tests/data (Wright et al. 1982), if present",
+        "default: the published table shipped with flexclear (Wright et al. 1982)",
     )
     su.add_argument(
         "--reference-inplane", action="store_true", help="the --reference table is in-plane already"
@@ -126,7 +125,7 @@ def main(argv: Optional[list] = None) -> int:
     if args.command == "accuracy":
         return _accuracy(args)
     if args.command == "paper":
-        from .paper import write_report
+        from .reports.paper import write_report
 
         path = write_report(args.out, fig6_t_end=args.fig6_t_end, log=lambda s: print(s, file=sys.stderr))
         print(path.read_text())
@@ -144,8 +143,8 @@ def main(argv: Optional[list] = None) -> int:
 
 
 def _ked(args) -> int:
-    from . import ked_reports as kr
     from .errors import FlexclearError
+    from .reports import mechanisms as kr
 
     def log(s: str) -> None:
         print(s, file=sys.stderr)
@@ -194,7 +193,7 @@ def _ked(args) -> int:
 
 
 def _accuracy(args) -> int:
-    from .accuracy import write_report
+    from .analysis.accuracy import write_report
 
     keys = None if args.scene == "all" else [args.scene]
     path = write_report(args.out, quick=args.quick, log=lambda s: print(s, file=sys.stderr), scene_keys=keys)

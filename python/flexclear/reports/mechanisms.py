@@ -12,10 +12,10 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from . import scenes
-from .errors import FlexclearError
-from .frames import Rotation
-from .result import Record, Result
+from .. import scenes
+from ..errors import FlexclearError
+from ..frames import Rotation
+from ..result import Record, Result
 
 Log = Callable[[str], None]
 

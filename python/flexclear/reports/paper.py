@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, scenes
-from .errors import SimulationDivergedError
-from .result import Record, Result
+from .. import __version__, scenes
+from ..errors import SimulationDivergedError
+from ..result import Record, Result
 
 #: Hong & Kim (1993), Table 1: normalized bearing surface compression 20 log10(C_dmax / Y_max), dB.
 #: Columns: clearance ratio delta_c / Y_max, analytic, Dubowsky et al. (1987), Hong & Kim.

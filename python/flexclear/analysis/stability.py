@@ -28,10 +28,10 @@ from typing import Optional
 
 import numpy as np
 
-from . import scenes
-from .errors import FlexclearError, SimulationDivergedError
+from .. import scenes
+from ..errors import FlexclearError, SimulationDivergedError
+from ..result import Record
 from .linear import link_matrices, slider_yoke_matrices
-from .result import Record
 
 #: The couplings of the stability map, as ``(label, simulate keywords)``.
 VARIANTS = (

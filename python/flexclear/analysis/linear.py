@@ -1,7 +1,7 @@
 """Linear algebra of one straight link in numpy: the beam matrices of ``rust/element/beam.rs`` in
 closed form (METHOD.md section 2), assembled for a chain of equal elements, and the energy of a
-state. Used by the stability theory (:mod:`flexclear.stability`) and the energy checks
-(:mod:`flexclear.accuracy`, tests); the engine itself never calls this.
+state. Used by the stability theory (:mod:`flexclear.analysis.stability`) and the energy checks
+(:mod:`flexclear.analysis.accuracy`, tests); the engine itself never calls this.
 
 DOF order: ``[u, v, theta]`` per node, link frame (m, m, rad), nodes 0..elements.
 """
