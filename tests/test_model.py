@@ -1,0 +1,214 @@
+"""One model class for every mechanism: the builder moves itself to the moving-frame formulation
+when it must, one simulate, one Result (picklable, pandas), natural frequencies in Hz everywhere,
+the same exception class for the same mistake."""
+
+from __future__ import annotations
+
+import math
+import pickle
+
+import flexclear as fc
+import numpy as np
+import pytest
+from flexclear import Frame, Model, Record, Rotation, motion, scenes
+
+STEEL = dict(youngs_modulus=2e11, density=7800.0, area=1e-4, inertia=1e-9)
+
+
+def translating_model() -> Model:
+    # a beam and a body ("ground", the bearing) shaken together by 1 mm at 10 Hz
+    m = Model()
+    m.add_body("ground", motion=motion.harmonic((0.0, 1e-3), 10.0))
+    m.add_link("beam", length=0.5, elements=4, motion=motion.harmonic((0.0, 1e-3), 10.0), **STEEL)
+    m.add_joint("pin", "beam", 0, body="ground", clearance=1e-4, stiffness=1e6, damping=50.0)
+    return m
+
+
+def test_scenes_all_return_models():
+    for build in (
+        scenes.slider_yoke,
+        scenes.slider_yoke_stiff,
+        scenes.spin_up,
+        scenes.slider_crank,
+        scenes.four_bar,
+    ):
+        assert isinstance(build(), Model)
+    assert not hasattr(fc, "Mechanism") and not hasattr(fc, "MechanismResult")
+
+
+def test_engine_follows_the_features_used():
+    m = translating_model()
+    assert m.engine == "translating"
+    m.add_gravity(0.0, -9.81)  # only the moving-frame formulation has gravity
+    assert m.engine == "moving-frame"
+    assert m.body_names == ["ground"] and m.joint_names == ["pin"]
+    # the body built before the move keeps working for joints added after it
+    m.add_link("arm", length=0.2, elements=2, motion=motion.harmonic((0.0, 1e-3), 10.0), **STEEL)
+    m.add_pin("root", "arm", 0, body="ground", point=(0.0, 0.0))
+    res = m.simulate(0.002, 1e-5)
+    assert res.stats["engine"] == "moving-frame" and res.complete
+
+
+def test_moving_the_model_keeps_its_dynamics():
+    # The same translating model held both ways (moved by a term switch that changes nothing:
+    # inertia_load=True is what the automatic choice gives a moving frame) runs the same motion.
+    a = translating_model()
+    b = Model()
+    b.add_body("ground", motion=motion.harmonic((0.0, 1e-3), 10.0))
+    b.add_link(
+        "beam", length=0.5, elements=4, motion=motion.harmonic((0.0, 1e-3), 10.0), inertia_load=True, **STEEL
+    )
+    b.add_joint("pin", "beam", 0, body="ground", clearance=1e-4, stiffness=1e6, damping=50.0)
+    assert (a.engine, b.engine) == ("translating", "moving-frame")
+    ra = a.simulate(0.02, 1e-5, iterate=False)
+    rb = b.simulate(0.02, 1e-5, iterate=False)
+    pa, pb = ra.joint("pin").penetration, rb.joint("pin").penetration
+    assert ra.joint("pin").impacts == rb.joint("pin").impacts > 0
+    np.testing.assert_allclose(pb, pa, rtol=0, atol=1e-9 * np.max(np.abs(pa)))
+
+
+def test_one_result_type_with_the_same_joint_fields():
+    r1 = scenes.slider_yoke(clearance=1e-4).simulate(0.01, 1e-5)
+    r2 = scenes.slider_crank(clearance_at="crank_pin").simulate(0.002, 1e-5)
+    assert type(r1) is type(r2) is fc.Result
+    j1, j2 = r1.joint("bearing"), r2.joint("crank_pin")
+    assert type(j1) is type(j2) is fc.JointResult
+    assert j2.penetration.shape == r2.time.shape
+    assert r1.stats["engine"] == "translating" and r2.stats["engine"] == "moving-frame"
+    for key in ("steps", "factorizations", "iterations", "event_steps", "iterate", "iter_tol", "max_iter"):
+        assert key in r1.stats and key in r2.stats
+
+
+def test_iterate_default_is_implicit_only_where_a_joint_rotates():
+    assert not scenes.slider_yoke(clearance=1e-4).simulate(0.001, 1e-5).stats["iterate"]
+    assert scenes.slider_crank(clearance_at="crank_pin").simulate(0.001, 1e-5).stats["iterate"]
+    assert (
+        not scenes.slider_crank(clearance_at="crank_pin")
+        .simulate(1e-4, 1e-5, method="force")
+        .stats["iterate"]
+    )
+    # the validated defaults of each engine, recorded
+    assert scenes.slider_yoke().simulate(0.001, 1e-5).stats["iter_tol"] == 1e-10
+    assert scenes.slider_crank().simulate(0.001, 1e-5).stats["iter_tol"] == 1e-8
+
+
+def test_result_pickles_and_goes_to_pandas():
+    r = scenes.slider_yoke(clearance=1e-4).simulate(
+        0.005, 1e-5, record=Record(nodes=[("slider", 6)], position=True, impact_log=True)
+    )
+    back = pickle.loads(pickle.dumps(r))
+    np.testing.assert_array_equal(back.joint("bearing").force, r.joint("bearing").force)
+    assert back.joint("bearing").max_force == r.joint("bearing").max_force
+    df = r.to_pandas()
+    assert df.index.name == "time" and len(df) == r.time.size
+    np.testing.assert_array_equal(df["bearing.penetration"].to_numpy(), r.joint("bearing").penetration)
+    np.testing.assert_array_equal(df["slider[6].v"].to_numpy(), r.node("slider", 6).v)
+    # a partial result of a failed run pickles too, with its error's class and message
+    fail = scenes.spin_up(geometric=False).simulate(20.0, 1e-2, raise_on_failure=False)
+    assert not fail.complete
+    back = pickle.loads(pickle.dumps(fail))
+    assert isinstance(back.error, fc.SimulationDivergedError) and str(back.error) == str(fail.error)
+
+
+def test_link_channels_of_a_translating_model():
+    # The translating slider: its frame translates with the yoke (angle 0, rate 0); the link's
+    # displacements are the node histories; the axial force is E A du/dx per element.
+    m = scenes.slider_yoke(clearance=1e-4)
+    r = m.simulate(0.005, 1e-5, record=Record(displacements=True, midspan=True, axial_force=True))
+    lr = r.link("slider")
+    p = m.parameters
+    assert lr.u.shape == (r.time.size, 13) and lr.axial_force.shape == (r.time.size, 12)
+    y = p["amplitude"] * np.sin(2 * np.pi * p["frequency"] * r.time)
+    np.testing.assert_allclose(lr.frame[:, 1], y, atol=1e-15)
+    assert np.all(lr.frame[:, 2:] == 0.0)
+    np.testing.assert_array_equal(lr.v[:, 6], r.node("slider", 6).v)
+    ea, le = p["youngs_modulus"] * p["area"], p["length"] / 12
+    np.testing.assert_allclose(lr.axial_force[:, 3], ea * (lr.u[:, 4] - lr.u[:, 3]) / le, rtol=1e-12)
+    # 12 elements: mid-length is node 6, so the midspan deflection is v6 - (v0 + v12) / 2
+    np.testing.assert_allclose(lr.midspan, lr.v[:, 6] - 0.5 * (lr.v[:, 0] + lr.v[:, 12]), atol=1e-18)
+
+
+@pytest.mark.parametrize(
+    "build",
+    [
+        lambda: scenes.slider_yoke(clearance=1e-4),
+        lambda: scenes.spin_up(),
+        lambda: scenes.slider_crank(),
+        lambda: scenes.slider_crank(clearance_at="crank_pin"),
+        lambda: scenes.slider_crank(clearance_at="slider_pin"),
+        lambda: scenes.four_bar(),
+        lambda: scenes.four_bar(clearance_at="crank_pin"),
+        lambda: scenes.four_bar(clearance_at="rocker_pin"),
+        lambda: scenes.four_bar(flexible_rocker=True, clearance_at="rocker_pin"),
+    ],
+)
+def test_natural_frequencies_in_hz_on_every_scene(build):
+    f = build().natural_frequencies(3)
+    assert f.shape == (3,) and np.all(np.isfinite(f)) and np.all(np.diff(f) > 0) and f[0] > 0
+
+
+def test_natural_frequencies_are_hz_in_both_engines():
+    # Clamped-free cantilever (10 elements): first bending frequency (1.8751^2 / 2 pi) sqrt(EI /
+    # rho A L^4) Hz, from above within 1e-5 (h^4 convergence); the moving-frame model at rest.
+    m = scenes.spin_up(elements=10, rotation=Rotation.constant(0.0))
+    p = m.parameters
+    w_ref = math.sqrt(p["youngs_modulus"] * p["inertia"] / (p["density"] * p["area"] * p["length"] ** 4))
+    exact = 1.875104068711961**2 * w_ref / (2 * math.pi)
+    assert m.natural_frequencies(1)[0] == pytest.approx(exact, rel=1e-5)
+    # the slider-yoke's first free-free frequency is its design value, 880 Hz
+    assert scenes.slider_yoke().natural_frequencies(1)[0] == pytest.approx(880.0, rel=1e-3)
+
+
+def test_same_mistake_same_exception_class():
+    m = translating_model()
+    for call in (
+        lambda: m.add_joint("j2", "nope", 0, body="ground", clearance=0.0, stiffness=1.0, damping=0.0),
+        lambda: m.add_joint("j2", "beam", 0, body="nope", clearance=0.0, stiffness=1.0, damping=0.0),
+        lambda: m.add_link("beam", length=1.0, elements=1, **STEEL),
+        lambda: m.simulate(0.001, 1e-5).joint("nope"),
+        lambda: m.simulate(0.001, 1e-5).link("nope"),
+    ):
+        with pytest.raises(fc.ModelError):
+            call()
+    mech = scenes.slider_crank()
+    for call in (
+        lambda: mech.add_clamp("nope", 0),
+        lambda: mech.add_link("rod", length=1.0, elements=1, **STEEL),
+        lambda: mech.simulate(0.001, 1e-5).joint("nope"),
+        lambda: mech.simulate(0.001, 1e-5).link("nope"),
+    ):
+        with pytest.raises(fc.ModelError):
+            call()
+    with pytest.raises(fc.InvalidParameterError, match="method"):
+        mech.simulate(0.001, 1e-5, method="gap")
+    with pytest.raises(fc.InvalidParameterError, match="step_halving"):
+        m.simulate(0.001, 1e-5, step_halving=2)
+
+
+def test_a_stop_fixed_in_space_beside_a_moving_link():
+    # The translating link oscillates 1 mm against a stop fixed in space 0.5 mm away (in the
+    # translating formulation, which has always allowed different nominal motions).
+    m = Model()
+    m.add_body("stop", motion=motion.fixed((0.0, 0.0)))
+    m.add_link("beam", length=0.5, elements=4, motion=motion.harmonic((0.0, 1e-3), 10.0), **STEEL)
+    m.add_joint("hit", "beam", 0, body="stop", clearance=5e-4, stiffness=1e7, damping=10.0)
+    r = m.simulate(0.05, 1e-5)
+    j = r.joint("hit")
+    assert j.impacts >= 1 and j.max_penetration > 0
+
+
+def test_four_bar_clearance_at_a_coupler_pin():
+    fb = scenes.four_bar(clearance_at="rocker_pin")
+    assert fb.joint_names == ["rocker_pin"]
+    p = fb.parameters
+    assert p["bearing_stiffness"] > 0 and p["bearing_damping"] > 0 and p["clearance"] == 2.5e-4
+    r = fb.simulate(0.01, 1e-5)
+    j = r.joint("rocker_pin")
+    assert r.complete and j.impacts >= 1 and np.isfinite(j.max_force)
+    with pytest.raises(fc.InvalidParameterError, match="clearance_at"):
+        scenes.four_bar(clearance_at="piston")
+
+
+def test_frames_and_rotations_are_public():
+    f = Frame.rotating(Rotation.constant(2.0))
+    assert f.rotates and not Frame.rotating(Rotation.fixed(0.3)).rotates
