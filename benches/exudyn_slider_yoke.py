@@ -7,14 +7,21 @@ that machine-load drift affects both alike. Prints per-tool median wall time,
 the ratio exudyn/flexclear, and each tool's max bearing penetration.
 
     python benches/exudyn_slider_yoke.py [--clearance 1e-5] [--elements 12]
-        [--dt 1e-6] [--t-end 0.1] [--repeats 5]
+        [--dt 1e-6] [--t-end 0.1] [--repeats 5] [--baseline-python PYTHON [--baseline-path DIR]]
+
+``--baseline-python`` (and ``--baseline-path``, prepended to its PYTHONPATH) adds a third tool:
+another build of flexclear (e.g. the commit before a refactoring), run in a subprocess with that
+interpreter and timed inside it the same way, alternating with the other two, so "the ratio to
+Exudyn before and after the change" comes from one run on one machine state.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
+import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -38,6 +45,37 @@ def run_flexclear(clearance, elements, dt, t_end) -> dict:
     }
 
 
+_BASELINE_CODE = """
+import json, sys
+import flexclear
+c = json.loads(sys.argv[1])
+m = flexclear.scenes.slider_yoke(clearance=c["clearance"], elements=c["elements"])
+r = m.simulate(c["t_end"], c["dt"], method="modified", record=flexclear.Record(histories=False))
+print(json.dumps({"seconds": r.wall_time, "max_penetration": float(r.joint("bearing").max_penetration),
+                  "steps": r.stats["steps"]}))
+"""
+
+
+def baseline_runner(python: str, path):
+    """A tool that runs the scene with another flexclear build in a subprocess (its own
+    interpreter, ``path`` prepended to PYTHONPATH); the time is measured inside it."""
+    env = dict(os.environ)
+    if path:
+        env["PYTHONPATH"] = path + os.pathsep + env.get("PYTHONPATH", "")
+
+    def run(**case) -> dict:
+        out = subprocess.run(
+            [python, "-c", _BASELINE_CODE, json.dumps(case)],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    return run
+
+
 def flexclear_available() -> bool:
     try:
         import flexclear  # noqa: F401
@@ -54,6 +92,8 @@ def main(argv=None) -> int:
     ap.add_argument("--dt", type=float, default=1e-6, help="fixed time step [s]")
     ap.add_argument("--t-end", type=float, default=0.1, help="end time [s]")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per tool")
+    ap.add_argument("--baseline-python", default=None, help="interpreter of a baseline flexclear build")
+    ap.add_argument("--baseline-path", default=None, help="PYTHONPATH entry for the baseline build")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error("--repeats must be >= 1")
@@ -74,6 +114,8 @@ def main(argv=None) -> int:
     tools = {"exudyn": run_exudyn}
     if flexclear_available():
         tools = {"flexclear": run_flexclear, "exudyn": run_exudyn}
+    if args.baseline_python:
+        tools["baseline"] = baseline_runner(args.baseline_python, args.baseline_path)
 
     results = {name: [] for name in tools}
     names = list(tools)
@@ -120,6 +162,9 @@ def main(argv=None) -> int:
         )
     if "flexclear" in med:
         print(f"  ratio exudyn/flexclear: {med['exudyn'] / med['flexclear']:.2f}")
+        if "baseline" in med:
+            before, after = med["exudyn"] / med["baseline"], med["exudyn"] / med["flexclear"]
+            print(f"  ratio exudyn/baseline:  {before:.2f}  (after/before: {after / before:.3f})")
     else:
         print("  ratio exudyn/flexclear: n/a (flexclear not available)")
     return 0
