@@ -10,6 +10,6 @@ if [ ! -x .venv/bin/python ]; then
 fi
 . .venv/bin/activate
 python -m pip install -q --upgrade pip
-python -m pip install -q "maturin>=1.7,<2" "numpy>=1.22" "matplotlib>=3.5" "tqdm>=4.60" "pytest>=8" "hypothesis>=6.100" "ruff>=0.6" \
+python -m pip install -q "maturin>=1.7,<2" "numpy>=1.22" "matplotlib>=3.5" "tqdm>=4.60" "pytest>=8" "hypothesis>=6.100" "ruff>=0.6" "mypy>=1.10" \
   "pandas>=1.5" "pyarrow>=12" "scipy>=1.9" "dask[distributed]>=2023.1" "tomli>=2; python_version < '3.11'"
 maturin develop --release -q
