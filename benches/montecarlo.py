@@ -184,8 +184,8 @@ def main(argv=None) -> int:
         for i, (c, v) in enumerate(zip(ex["clearances"], ex["values"])):
             row = tp["frame"].iloc[i]
             print(
-                f"{c:.4e} | {row['max_penetration']:.4e} / {v[0]:.4e} | "
-                f"{row['max_force']:.3f} / {v[1]:.3f} | "
+                f"{c:.4e} | {row['bearing.max_penetration']:.4e} / {v[0]:.4e} | "
+                f"{row['bearing.max_force']:.3f} / {v[1]:.3f} | "
                 f"{int(row['impacts'])} / {int(v[2])}  (Exudyn steps {int(v[3])})"
             )
     return 0

@@ -1,21 +1,25 @@
-"""Monte Carlo studies: many variants of a scene, run in parallel, with results that survive a kill.
+"""Monte Carlo studies: many variants of any model, run in parallel, with results that survive a kill.
 
-A :class:`Study` is a base scene (a function of :mod:`flexclear.scenes`), the parameters to vary
-(each a fixed list of values or a distribution), a sampling design and the run settings. Running
-it gives a :class:`StudyResult`: a pandas DataFrame with one row per sample (its inputs, its
-outputs and its status), summaries, exceedance probabilities with confidence intervals, and plots.
+A :class:`Study` is a builder (a scene of :mod:`flexclear.scenes`, or any importable function
+that returns a :class:`flexclear.Model` and whose keyword arguments are the study's parameters),
+the parameters to vary (each a fixed list of values or a distribution), a sampling design and the
+run settings. Running it gives a :class:`StudyResult`: a pandas DataFrame with one row per sample
+(its inputs, its outputs per clearance joint, ``"<joint>.<output>"``, and its status), summaries,
+exceedance probabilities with confidence intervals, and plots.
 
 >>> from flexclear.study import Study, Uniform
 >>> study = Study("slider_yoke", vary={"clearance": Uniform(0.0, 1e-3)}, samples=1000, seed=1,
 ...               t_end=0.5, dt=1e-5)
 >>> result = study.run(store="clearance-study")   # resumable; Ctrl-C keeps finished samples
 >>> result.summary()
->>> result.exceedance("max_force", 50.0)            # P(max force > 50 N) with a 95 % interval
+>>> result.exceedance("bearing.max_force", 50.0)    # P(max force > 50 N) with a 95 % interval
 
-The samples run in one process on a Rust thread pool (``threads=``), or on a Dask cluster when a
-``dask.distributed.Client`` is passed (``client=``): chunks of samples per task, each chunk one
-Rust batch. A sample's result does not depend on where or with how many threads it ran, so the
-same study gives identical results serially, threaded and on Dask.
+The samples run in one process on a thread pool (``threads=``), or on a Dask cluster when a
+``dask.distributed.Client`` is passed (``client=``): chunks of samples per task. Models whose links
+all translate run as one Rust batch (samples sharing the contact-free factorization step in
+lockstep lanes); models in moving frames run one sample per thread (each run releases the GIL). A
+sample's result does not depend on where or with how many threads it ran, so the same study gives
+identical results serially, threaded and on Dask.
 
 Needs pandas, pyarrow (for ``store=``) and scipy (for the Latin hypercube and Sobol designs and the
 normal-family distributions); ``pip install flexclear[study]``.
@@ -25,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import importlib
 import inspect
 import json
 import math
@@ -38,7 +43,7 @@ from typing import Any, Callable, Optional, Union
 import numpy as np
 
 from . import _core, scenes
-from .errors import FlexclearError, InvalidParameterError, SimulationInterrupted
+from .errors import ConvergenceError, FlexclearError, InvalidParameterError, SimulationInterrupted
 
 # --------------------------------------------------------------------------------------------
 # Distributions
@@ -265,33 +270,61 @@ def _label(name: str) -> str:
 
 
 DESIGNS = ("random", "lhs", "sobol", "grid")
-_STATUS = ("ok", "diverged", "invalid", "singular", "interrupted", "not_run")
+_STATUS = ("ok", "diverged", "unconverged", "invalid", "singular", "interrupted", "not_run")
 
 
-def _scene_function(scene: Union[str, Callable]) -> tuple[str, Callable]:
-    if callable(scene):
-        name = getattr(scene, "__name__", "")
-        if getattr(scenes, name, None) is not scene:
+def _scene_names() -> list[str]:
+    return [n for n in scenes.__all__ if inspect.isfunction(getattr(scenes, n))]
+
+
+def _resolve_build(build: Union[str, Callable]) -> tuple[str, Callable]:
+    """``(stored name, function)`` of a study's builder: a scene name (stored as is), a function
+    of :mod:`flexclear.scenes` (stored as its name), a ``"module:qualname"`` string, or a
+    module-level function (stored as ``"module:qualname"``, which a Dask worker can import)."""
+    names = _scene_names()
+    if callable(build):
+        name = getattr(build, "__name__", "")
+        if name in names and getattr(scenes, name) is build:
+            return name, build
+        qual = getattr(build, "__qualname__", "")
+        module = getattr(build, "__module__", None)
+        if not module or "<lambda>" in qual or "<locals>" in qual:
             raise InvalidParameterError(
-                f"scene: {scene!r} is not allowed; allowed: a function of flexclear.scenes or its name"
+                f"build = {build!r} is not allowed: a lambda or a function defined inside another cannot "
+                "be imported by the workers that run the samples; allowed: a scene name, a function of "
+                "flexclear.scenes, or a module-level function (or its 'module:qualname')"
             )
-        return name, scene
-    fn = getattr(scenes, str(scene), None)
-    names = [n for n in dir(scenes) if not n.startswith("_") and inspect.isfunction(getattr(scenes, n))]
-    names = [n for n in names if getattr(scenes, n).__module__ == scenes.__name__]
-    if fn is None or str(scene) not in names:
-        raise InvalidParameterError(f"scene = {scene!r} is not allowed; allowed: one of {names}")
-    return str(scene), fn
+        return f"{module}:{qual}", build
+    text = str(build)
+    if ":" not in text:
+        if text not in names:
+            raise InvalidParameterError(
+                f"build = {build!r} is not allowed; allowed: one of {names} or 'module:function'"
+            )
+        return text, getattr(scenes, text)
+    module, _, qual = text.partition(":")
+    try:
+        obj: Any = importlib.import_module(module)
+        for part in qual.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError) as e:
+        raise InvalidParameterError(f"build = {text!r} cannot be imported: {e}") from None
+    if not callable(obj):
+        raise InvalidParameterError(f"build = {text!r} is not callable")
+    return text, obj
 
 
 class Study:
-    """A Monte Carlo (or grid) study of a scene.
+    """A Monte Carlo (or grid) study of any model.
 
     Parameters
     ----------
-    scene : str or callable
-        A scene of :mod:`flexclear.scenes` (``"slider_yoke"``, ``"slider_yoke_stiff"``) or the
-        function itself.
+    build : str or callable
+        What builds one sample's :class:`flexclear.Model` from its parameters: a scene of
+        :mod:`flexclear.scenes` (``"slider_yoke"``, ``"slider_crank"``, ``"four_bar"``, ... or the
+        function), a module-level function of your own (stored as ``"module:qualname"``), or
+        that string. Its keyword arguments are the parameters a study may vary or fix. A lambda
+        or a closure is refused: Dask workers import the builder by name.
     vary : dict
         Parameter name -> :class:`Uniform`, :class:`Normal`, :class:`TruncatedNormal`,
         :class:`LogNormal`, :class:`Values` or a plain list of values. Names are the scene's
@@ -320,10 +353,11 @@ class Study:
         ``{"iterate": True, "events": True}`` the largest contact force is the dashpot jump at
         entry located within the step (docs/stability.md section 6): accurate at steps ~10x
         larger than fixed steps need; event-aware samples are never stepped in lockstep.
-    joint : str, optional
-        The joint whose outputs are reported (default the scene's first joint, ``"bearing"``).
+    joints : str or list of str, optional
+        The clearance joints whose outputs are reported (default: every clearance joint of the
+        model). Output columns are named ``"<joint>.<output>"``, e.g. ``"crank_pin.max_force"``.
     outputs : sequence of str
-        Which of :data:`OUTPUTS` to keep (default all).
+        Which of :data:`OUTPUTS` to keep per joint (default all).
     start : float
         Outputs are reduced from this time on, s (to skip a start-up transient).
     history_every : int, optional
@@ -336,7 +370,7 @@ class Study:
 
     def __init__(
         self,
-        scene: Union[str, Callable] = "slider_yoke",
+        build: Union[str, Callable] = "slider_yoke",
         vary: Optional[Mapping[str, Any]] = None,
         *,
         fixed: Optional[Mapping[str, Any]] = None,
@@ -347,7 +381,7 @@ class Study:
         t_end: float = 0.5,
         dt: float = 1e-5,
         method: str = "modified",
-        joint: Optional[str] = None,
+        joints: Union[str, Sequence[str], None] = None,
         outputs: Optional[Sequence[str]] = None,
         start: float = 0.0,
         history_every: Optional[int] = None,
@@ -355,16 +389,20 @@ class Study:
         retry_factor: float = 0.5,
         run_options: Optional[Mapping[str, Any]] = None,
     ) -> None:
-        self.scene, self._scene_fn = _scene_function(scene)
+        self.build, self._scene_fn = _resolve_build(build)
         sig = inspect.signature(self._scene_fn)
-        self._scene_defaults = {k: p.default for k, p in sig.parameters.items()}
+        self._scene_defaults = {
+            k: p.default
+            for k, p in sig.parameters.items()
+            if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)
+        }
         allowed = sorted(self._scene_defaults) + list(RUN_PARAMETERS)
         vary = dict(vary or {})
         fixed = dict(fixed or {})
         for k in list(vary) + list(fixed):
             if k not in allowed:
                 raise InvalidParameterError(
-                    f"unknown parameter {k!r} for scene {self.scene!r}; allowed: {allowed}"
+                    f"unknown parameter {k!r} for build {self.build!r}; allowed: {allowed}"
                 )
         both = sorted(set(vary) & set(fixed))
         if both:
@@ -391,7 +429,6 @@ class Study:
                 raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
         self.t_end, self.dt = float(t_end), float(dt)
         self.method = method
-        self.joint = joint
         outputs = list(OUTPUTS) if outputs is None else list(outputs)
         bad = [o for o in outputs if o not in OUTPUTS]
         if bad or not outputs:
@@ -419,14 +456,31 @@ class Study:
         clash = sorted(set(self.run_options) & reserved)
         if clash:
             raise InvalidParameterError(f"run_options may not set {clash}; they are Study arguments")
-        # Check the base model builds and the joint exists, so a typo fails now, not per sample.
-        probe = self._scene_fn(**self._scene_kwargs({}))
+        # Check the base model builds and the joints exist, so a typo fails now, not per sample.
+        try:
+            probe = self._scene_fn(**self._scene_kwargs({}))
+        except TypeError as e:
+            msg = f"build {self.build!r} cannot be called with the study's keywords: {e}"
+            raise InvalidParameterError(msg) from None
+        from .model import Model
+
+        if not isinstance(probe, Model):
+            raise InvalidParameterError(
+                f"build {self.build!r} returned {type(probe).__name__}; "
+                "allowed: a function returning a flexclear.Model"
+            )
         names = probe.joint_names
         if not names:
-            raise InvalidParameterError(f"scene {self.scene!r} has no clearance joint to report on")
-        if joint is not None and joint not in names:
-            raise InvalidParameterError(f"joint = {joint!r} is not allowed; allowed: one of {names}")
-        self._joint_index = names.index(joint) if joint is not None else 0
+            raise InvalidParameterError(
+                f"the model of {self.build!r} has no clearance joint to report on; give it one "
+                "(e.g. fixed={'clearance_at': 'crank_pin'} for slider_crank or four_bar)"
+            )
+        chosen = list(names) if joints is None else [joints] if isinstance(joints, str) else list(joints)
+        bad = [j for j in chosen if j not in names]
+        if bad or not chosen:
+            raise InvalidParameterError(f"joints = {joints!r} is not allowed; allowed: a subset of {names}")
+        self.joints = chosen
+        self._joint_indices = [names.index(j) for j in chosen]
         self._inputs: Optional[Any] = None
         #: Thresholds for the report's exceedance table (output -> value), from a study file.
         self.report_thresholds: dict[str, float] = {}
@@ -436,7 +490,7 @@ class Study:
     def to_dict(self) -> dict:
         """The study's definition as plain data (what is stored beside the results)."""
         return {
-            "scene": self.scene,
+            "build": self.build,
             "vary": {k: _dist_to_dict(v) for k, v in self.vary.items()},
             "fixed": self.fixed,
             "samples": self.samples,
@@ -446,7 +500,7 @@ class Study:
             "t_end": self.t_end,
             "dt": self.dt,
             "method": self.method,
-            "joint": self.joint,
+            "joints": self.joints,
             "outputs": self.outputs,
             "start": self.start,
             "history_every": self.history_every,
@@ -459,12 +513,31 @@ class Study:
     def from_dict(cls, d: Mapping[str, Any]) -> Study:
         """The inverse of :meth:`to_dict` (also what a study file holds, see :func:`load`)."""
         d = dict(d)
+        if "scene" in d and "build" not in d:  # study files before `build`
+            d["build"] = d.pop("scene")
+        if "joint" in d and "joints" not in d:
+            d["joints"] = d.pop("joint")
         known = set(inspect.signature(cls.__init__).parameters) - {"self"}
         unknown = sorted(set(d) - known)
         if unknown:
             raise InvalidParameterError(f"unknown study keys {unknown}; allowed: {sorted(known)}")
         vary = {k: distribution_from_dict(k, v) for k, v in (d.pop("vary", None) or {}).items()}
         return cls(vary=vary, **d)
+
+    @property
+    def output_columns(self) -> list[str]:
+        """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output."""
+        return [f"{j}.{o}" for j in self.joints for o in self.outputs]
+
+    def column(self, output: str) -> str:
+        """The result column of ``output``: a full ``"<joint>.<output>"`` name, or a bare output
+        name when the study reports on one joint."""
+        cols = self.output_columns
+        if output in cols:
+            return output
+        if output in self.outputs and len(self.joints) == 1:
+            return f"{self.joints[0]}.{output}"
+        raise InvalidParameterError(f"output = {output!r} is not allowed; allowed: one of {cols}")
 
     def fingerprint(self) -> str:
         """A hash of the definition; a store only resumes a study with the same fingerprint."""
@@ -610,6 +683,11 @@ class Study:
         t0 = time.perf_counter()
         try:
             if client is not None:
+                if self.build.startswith("__main__:"):
+                    raise InvalidParameterError(
+                        f"build = {self.build!r} is defined in the main script, which Dask workers cannot "
+                        "import; allowed with a client: a function in an importable module"
+                    )
                 self._run_dask(client, inputs, chunks, (threads, lanes), store_, frames, bar)
             else:
                 self._run_local(inputs, chunks, (threads, lanes), store_, frames, bar)
@@ -693,12 +771,14 @@ class Study:
 
 def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     """Runs the samples ``ids`` with inputs ``rows`` on ``pool = (threads, lanes)``; returns
-    (DataFrame, pending exception)."""
+    (DataFrame, pending exception). Models whose links all translate go to one Rust batch (lanes
+    for samples that share a factorization); models in moving frames run one per thread."""
     threads, lanes = pool
     import pandas as pd
 
-    models, t_end, dt, runnable = [], [], [], []
-    records = []
+    records: list[dict] = []
+    batch: list[tuple[int, Any, float, float]] = []
+    moving: list[tuple[int, Any, float, float]] = []
     for i, row in zip(ids, rows):
         rec: dict[str, Any] = {"sample": int(i)}
         rec.update(row)
@@ -708,34 +788,51 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             rec.update(status="invalid", message=str(e), dt_used=float("nan"), retries=0, wall_time=0.0)
             records.append(rec)
             continue
-        models.append(model._core)
-        t_end.append(float(row.get("t_end", study.t_end)))
-        dt.append(float(row.get("dt", study.dt)))
-        runnable.append(len(records))
+        job = (len(records), model, float(row.get("t_end", study.t_end)), float(row.get("dt", study.dt)))
+        (batch if model.engine == "translating" else moving).append(job)
         records.append(rec)
     hist = study.history_every is not None
-    opts = dict(study.run_options)
-    outcomes, _stats, pending = (
-        _core.run_batch(
-            models,
-            t_end,
-            dt,
+    outcomes: dict[int, dict] = {}
+    pending = None
+    done = [0, 0]
+
+    def report() -> None:
+        if progress is not None:
+            progress(done[0] + done[1])
+
+    if batch:
+
+        def batch_progress(n: int) -> None:
+            done[0] = n
+            report()
+
+        outs, _stats, pending = _core.run_batch(
+            [m._core for _, m, _, _ in batch],
+            [t for _, _, t, _ in batch],
+            [d for _, _, _, d in batch],
             threads=threads,
             lanes=lanes,
             retries=study.retries,
             retry_factor=study.retry_factor,
             method=study.method,
-            joints=[study._joint_index],
+            joints=study._joint_indices,
             every=study.history_every or 1,
             histories=hist,
             start=study.start,
-            progress=progress,
-            **opts,
+            progress=batch_progress if progress is not None else None,
+            **study.run_options,
         )
-        if models
-        else ([], {}, None)
-    )
-    for k, out in zip(runnable, outcomes):
+        for (k, *_), out in zip(batch, outs):
+            outcomes[k] = out
+    if moving and pending is None:
+
+        def one_done() -> None:
+            done[1] += 1
+            report()
+
+        more, pending = _run_moving(study, moving, threads, one_done)
+        outcomes.update(more)
+    for k, out in outcomes.items():
         rec = records[k]
         status = out["status"]
         rec.update(
@@ -745,24 +842,111 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             retries=out["retries"],
             wall_time=out["wall_time"],
         )
-        ext = out["extremes"][study._joint_index] if out["extremes"] else None
-        for o in study.outputs:
-            rec[o] = float(ext[o]) if ext is not None and status == "ok" else float("nan")
-        if hist:
-            h = out["joints"][0] if out["joints"] else None
-            ok = h is not None and status == "ok"
-            rec["penetration_history"] = h["penetration"] if ok else np.empty(0)
-            rec["force_history"] = h["force"] if ok else np.empty(0)
-    keep = [r for r in records if r.get("status") not in ("interrupted", "not_run")]
+        for j, ji in zip(study.joints, study._joint_indices):
+            ext = out["extremes"][ji] if out["extremes"] and status == "ok" else None
+            for o in study.outputs:
+                rec[f"{j}.{o}"] = float(ext[o]) if ext is not None else float("nan")
+            if hist:
+                h = next((h for h in out["joints"] if h["joint"] == ji), None) if status == "ok" else None
+                rec[f"{j}.penetration_history"] = h["penetration"] if h is not None else np.empty(0)
+                rec[f"{j}.force_history"] = h["force"] if h is not None else np.empty(0)
+    keep = [r for r in records if r.get("status") not in (None, "interrupted", "not_run")]
     for r in keep:
-        for o in study.outputs:
-            r.setdefault(o, float("nan"))
+        for c in study.output_columns:
+            r.setdefault(c, float("nan"))
         if hist:
-            r.setdefault("penetration_history", np.empty(0))
-            r.setdefault("force_history", np.empty(0))
+            for j in study.joints:
+                r.setdefault(f"{j}.penetration_history", np.empty(0))
+                r.setdefault(f"{j}.force_history", np.empty(0))
     frame = pd.DataFrame.from_records(keep, columns=_columns(study))
     frame = frame.set_index("sample")
     return frame, pending
+
+
+def _run_one_moving(study: Study, model, t_end: float, dt: float) -> dict:
+    """One moving-frame sample, with retries at a smaller step after a divergence or a step that
+    does not converge; the outcome in the layout of the Rust batch."""
+    from .result import Record
+
+    hist = study.history_every is not None
+    record = Record(
+        joints=study.joints,
+        displacements=False,
+        histories=hist,
+        every=study.history_every or 1,
+        start=study.start,
+    )
+    retries = 0
+    t0 = time.perf_counter()
+    while True:
+        try:
+            res = model.simulate(t_end, dt, study.method, record=record, progress=False, **study.run_options)
+        except FlexclearError as e:
+            from .errors import SimulationDivergedError, SingularMatrixError
+
+            failed = isinstance(e, (SimulationDivergedError, ConvergenceError))
+            if failed and retries < study.retries:
+                retries += 1
+                dt *= study.retry_factor
+                continue
+            status = (
+                "diverged"
+                if isinstance(e, SimulationDivergedError)
+                else "unconverged"
+                if isinstance(e, ConvergenceError)
+                else "singular"
+                if isinstance(e, SingularMatrixError)
+                else "invalid"
+            )
+            return _outcome(status, str(e), dt, retries, time.perf_counter() - t0)
+        extremes = []
+        for name in model.joint_names:
+            j = res.joint(name)
+            extremes.append({o: getattr(j, o) for o in OUTPUTS})
+        joints = []
+        if hist:
+            for ji, name in zip(study._joint_indices, study.joints):
+                j = res.joint(name)
+                joints.append({"joint": ji, "penetration": j.penetration, "force": j.force})
+        out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
+        out.update(extremes=extremes, joints=joints)
+        return out
+
+
+def _outcome(status: str, message: str, dt: float, retries: int, wall: float) -> dict:
+    return {
+        "status": status,
+        "message": message,
+        "dt": dt,
+        "retries": retries,
+        "wall_time": wall,
+        "extremes": [],
+        "joints": [],
+    }
+
+
+def _run_moving(study: Study, jobs: list, threads: int, one_done):
+    """Moving-frame samples on ``threads`` worker threads (0 = one per core); each run releases
+    the GIL. Returns ``({record index: outcome}, pending exception)``; on Ctrl-C the samples not
+    started are dropped and the finished ones kept."""
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
+    workers = threads if threads > 0 else (os.cpu_count() or 1)
+    out: dict[int, dict] = {}
+    with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
+        futures = {ex.submit(_run_one_moving, study, m, t, d): k for k, m, t, d in jobs}
+        try:
+            for fut in as_completed(futures):
+                out[futures[fut]] = fut.result()
+                one_done()
+        except KeyboardInterrupt as e:
+            for f in futures:
+                f.cancel()
+            for f, k in futures.items():
+                if f.done() and not f.cancelled() and f.exception() is None:
+                    out[k] = f.result()
+            return out, e
+    return out, None
 
 
 def _run_rows_task(definition: dict, ids: list, rows: list, pool: tuple):
@@ -774,9 +958,11 @@ def _run_rows_task(definition: dict, ids: list, rows: list, pool: tuple):
 
 
 def _columns(study: Study) -> list[str]:
-    cols = ["sample", *study.vary, "status", "message", "dt_used", "retries", "wall_time", *study.outputs]
+    cols = ["sample", *study.vary, "status", "message", "dt_used", "retries", "wall_time"]
+    cols += study.output_columns
     if study.history_every is not None:
-        cols += ["penetration_history", "force_history"]
+        for j in study.joints:
+            cols += [f"{j}.penetration_history", f"{j}.force_history"]
     return cols
 
 
@@ -905,7 +1091,10 @@ class StudyResult:
         return self.frame[self.frame["status"] != "ok"]
 
     def array(self, column: str) -> np.ndarray:
-        """One column as a numpy array (all samples, in sample order)."""
+        """One column as a numpy array (all samples, in sample order); an output may be named
+        bare when the study has one joint."""
+        if column not in self.frame.columns:
+            column = self.study.column(column)
         return self.frame[column].to_numpy()
 
     def summary(self, quantiles: Sequence[float] = (0.05, 0.5, 0.95)):
@@ -914,7 +1103,7 @@ class StudyResult:
 
         ok = self.ok
         rows = {}
-        for o in self.study.outputs:
+        for o in self.study.output_columns:
             x = ok[o].to_numpy(dtype=float)
             row = {"count": x.size, "mean": np.mean(x) if x.size else np.nan}
             row["std"] = np.std(x, ddof=1) if x.size > 1 else np.nan
@@ -926,7 +1115,8 @@ class StudyResult:
         return pd.DataFrame.from_dict(rows, orient="index")
 
     def exceedance(self, output: str, threshold: float, confidence: float = 0.95) -> dict:
-        """Probability that ``output`` exceeds ``threshold``, with a Clopper-Pearson interval.
+        """Probability that ``output`` (``"<joint>.<output>"``, or the bare output name when the
+        study has one joint) exceeds ``threshold``, with a Clopper-Pearson interval.
 
         Returns a dict ``{"probability", "low", "high", "exceed", "n"}`` over the completed
         samples (exact binomial interval at ``confidence``, valid for any n and for 0 or n
@@ -934,8 +1124,7 @@ class StudyResult:
         """
         from scipy import stats
 
-        if output not in self.study.outputs:
-            raise InvalidParameterError(f"output = {output!r} is not allowed; allowed: {self.study.outputs}")
+        output = self.study.column(output)
         if not 0 < confidence < 1:
             raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: 0 < c < 1")
         x = self.ok[output].to_numpy(dtype=float)
@@ -962,7 +1151,7 @@ class StudyResult:
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         ok = self.ok
-        outs = self.study.outputs
+        outs = self.study.output_columns
         paths = []
         ncol = min(3, len(outs))
         nrow = math.ceil(len(outs) / ncol)
@@ -973,7 +1162,7 @@ class StudyResult:
             ax.set_ylabel("samples")
         for ax in list(axes.flat)[len(outs) :]:
             ax.set_visible(False)
-        fig.suptitle(f"{self.study.scene}: {len(ok)} samples ({len(self.failed)} failed)")
+        fig.suptitle(f"{self.study.build}: {len(ok)} samples ({len(self.failed)} failed)")
         fig.tight_layout()
         paths.append(folder / "histograms.png")
         fig.savefig(paths[-1], dpi=110)
@@ -993,7 +1182,8 @@ class StudyResult:
             paths.append(folder / f"outputs_vs_{k}.png")
             fig.savefig(paths[-1], dpi=110)
             plt.close(fig)
-        for o in exceedance or [o for o in ("max_force", "max_penetration") if o in outs]:
+        default = [c for c in outs if c.rsplit(".", 1)[-1] in ("max_force", "max_penetration")]
+        for o in [self.study.column(e) for e in exceedance] if exceedance else default:
             x = np.sort(ok[o].to_numpy(dtype=float))
             n = x.size
             if n == 0:
@@ -1020,7 +1210,7 @@ class StudyResult:
     def __repr__(self) -> str:
         counts = self.frame["status"].value_counts().to_dict() if len(self.frame) else {}
         return (
-            f"StudyResult({self.study.scene!r}, samples={len(self.frame)}, status={counts}, "
+            f"StudyResult({self.study.build!r}, samples={len(self.frame)}, status={counts}, "
             f"wall_time={self.wall_time:.2f} s)"
         )
 
@@ -1028,7 +1218,8 @@ class StudyResult:
 def load(path: Union[str, os.PathLike]) -> Study:
     """A study from a TOML file or a store's ``study.json``.
 
-    A study file holds :class:`Study`'s arguments at top level (``scene``, ``samples``,
+    A study file holds :class:`Study`'s arguments at top level (``build``: a scene name or
+    ``"module:function"``; ``samples``,
     ``design``, ``seed``, ``outputs``, ...), the run settings in ``[run]`` (``t_end``, ``dt``,
     ``method``, ``start``, ``retries``, ...), fixed scene keywords in ``[fixed]``, one entry per
     varied parameter in ``[vary]`` (a list, or a table with ``distribution`` and its
@@ -1067,10 +1258,13 @@ def load(path: Union[str, os.PathLike]) -> Study:
     study = Study.from_dict({**data, **run})
     thresholds = dict(report.get("thresholds", {}))
     for k, v in thresholds.items():
-        if k not in study.outputs:
+        try:
+            study.column(k)
+        except InvalidParameterError:
             raise InvalidParameterError(
-                f"{path}: [report.thresholds] {k!r} is not an output of the study; allowed: {study.outputs}"
-            )
+                f"{path}: [report.thresholds] {k!r} is not an output of the study; "
+                f"allowed: {study.output_columns}"
+            ) from None
         _check_finite(f"report.thresholds.{k}", value=v)
     study.report_thresholds = thresholds
     return study
@@ -1088,7 +1282,7 @@ def write_report(
     pngs = result.plot(folder, exceedance=list(thresholds) or None)
     frame = result.frame
     counts = frame["status"].value_counts().to_dict() if len(frame) else {}
-    lines = [f"# Monte Carlo study: {study.scene}", ""]
+    lines = [f"# Monte Carlo study: {study.build}", ""]
     lines += ["## Definition", "", "```json", json.dumps(study.to_dict(), indent=2, default=float), "```", ""]
     lines += ["## Samples", ""]
     lines += [f"- {len(frame)} samples: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))]
