@@ -1,0 +1,94 @@
+"""Differential test of the two steppers: the slider-yoke held as a moving-frame model (each
+frame a rotating frame at a fixed angle translating with the yoke: ``Mechanism::from_translating``)
+and run by Newton on the moving-frame equations agrees with the translating-frame stepper (one
+factorization, Woodbury contact) on the same model.
+
+Both integrate the same equations with the same Newmark scheme and the same contact law; they
+differ in the order of the floating-point operations only (a sparse LDL^T with a low-rank contact
+correction against a band LU of the full Jacobian), so the penetration histories agree to
+round-off amplified by the dynamics: over the first 20 ms (the first impacts) to 1e-9 of the
+peak penetration, with equal impact counts; over 0.2 s (many impacts, where round-off grows with
+each one) the extremes to 1e-6. This test stays after the engine merge as the check that the
+stepper kinds agree.
+"""
+
+from __future__ import annotations
+
+import flexclear as fc
+import numpy as np
+import pytest
+
+
+def both(clearance: float = 1e-4, **scene):
+    sy = fc.scenes.slider_yoke(clearance=clearance, **scene)
+    moving = fc.Model._wrap(sy._core.to_mechanism(), sy.parameters)
+    assert (sy.engine, moving.engine) == ("translating", "moving-frame")
+    return sy, moving
+
+
+# the settings of both runs: the same coupling, iteration tolerance and cap
+SETTINGS = {
+    "modified, lagged kappa": dict(method="modified", iterate=False),
+    "force": dict(method="force"),
+}
+
+# Known differences, measured and kept visible (strict xfail: they fail the suite once fixed, so
+# the marks go with the fix). They are semantics of the two implementations, to be unified by the
+# engine merge in commits of their own:
+# - the recorded force: the translating stepper records the force that acted in the step (for the
+#   lagged couplings, from the state at its start: zero in the step that closes the gap), the
+#   moving-frame stepper the contact law at the state reached (about one step earlier);
+#   max_force over 0.2 s: 12.87 N against 14.95 N with lagged kappa, penetrations equal to 3e-10;
+# - iterate=True is two algorithms: kappa iterated with the damping lagged (translating) against
+#   Newton on the spring with the damping from the step start (moving frames): 1.2 % apart in
+#   penetration over the first 20 ms, 1 % in max penetration over 0.2 s.
+ITERATED = dict(method="modified", iterate=True, iter_tol=1e-10, max_iter=50)
+
+
+@pytest.mark.parametrize("setting", list(SETTINGS))
+def test_first_impacts_agree_to_1e9(setting):
+    kw = SETTINGS[setting]
+    a, b = both()
+    ja, jb = a.simulate(0.02, 1e-5, **kw).joint("bearing"), b.simulate(0.02, 1e-5, **kw).joint("bearing")
+    assert ja.impacts == jb.impacts >= 2
+    err = np.max(np.abs(ja.penetration - jb.penetration)) / np.max(np.abs(ja.penetration))
+    assert err <= 1e-9, f"{setting}: {err:.3g}"
+
+
+@pytest.mark.parametrize("setting", list(SETTINGS))
+def test_longer_runs_agree_on_the_extremes(setting):
+    kw = SETTINGS[setting]
+    a, b = both()
+    rec = fc.Record(histories=False)
+    ja = a.simulate(0.2, 1e-5, record=rec, **kw).joint("bearing")
+    jb = b.simulate(0.2, 1e-5, record=rec, **kw).joint("bearing")
+    assert ja.impacts == jb.impacts
+    assert ja.max_penetration == pytest.approx(jb.max_penetration, rel=1e-6)
+
+
+def test_both_ends_geometry_agrees():
+    # two bearings (one per end) exercise joints on several nodes of one link
+    a, b = both(geometry="both_ends")
+    ra, rb = a.simulate(0.02, 1e-5), b.simulate(0.02, 1e-5)
+    for name in ("bearing", "bearing_2"):
+        pa, pb = ra.joint(name).penetration, rb.joint(name).penetration
+        assert np.max(np.abs(pa - pb)) <= 1e-9 * np.max(np.abs(pa))
+
+
+@pytest.mark.xfail(strict=True, reason="the recorded force differs in meaning between the steppers")
+def test_recorded_forces_agree():
+    a, b = both()
+    kw = SETTINGS["modified, lagged kappa"]
+    fa, fb = (
+        a.simulate(0.02, 1e-5, **kw).joint("bearing").force,
+        b.simulate(0.02, 1e-5, **kw).joint("bearing").force,
+    )
+    assert np.max(np.abs(fa - fb)) <= 1e-9 * np.max(fa)
+
+
+@pytest.mark.xfail(strict=True, reason="iterate=True is a different algorithm in each stepper")
+def test_iterated_contact_agrees():
+    a, b = both()
+    pa = a.simulate(0.02, 1e-5, **ITERATED).joint("bearing").penetration
+    pb = b.simulate(0.02, 1e-5, **ITERATED).joint("bearing").penetration
+    assert np.max(np.abs(pa - pb)) <= 1e-9 * np.max(np.abs(pa))
