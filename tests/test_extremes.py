@@ -330,3 +330,29 @@ def test_random_invalid_inputs_name_the_parameter(case):
         m.add_joint("j", "b", 0, body="g", **joint)
         m.simulate(0.01, run.pop("dt", 1e-4), **run)
     assert name in str(info.value), str(info.value)
+
+
+def test_regression_open_gap_wider_than_the_divergence_limit_is_not_divergence():
+    # A 10 m clearance with the default limit (10 x the 0.3 m link = 3 m): the journal never
+    # touches; the penetration (-10 m) is far below the limit and the run completes. It used to
+    # stop at step 1 with "|penetration| = 1.0e1 m exceeds the divergence limit".
+    m = flexclear.Model().add_body("g", motion=motion.harmonic((0.0, 1e-3), 10.0))
+    m.add_link("b", length=0.3, elements=3, youngs_modulus=2e11, density=7800.0, area=1e-4, inertia=1e-9)
+    m.add_joint("j", "b", 0, body="g", clearance=10.0, stiffness=1e6, damping=10.0)
+    r = m.simulate(0.01, 1e-4)
+    assert r.complete and r.joint("j").impacts == 0 and r.joint("j").max_penetration < -9.99
+    # a real blow-up still stops: the same joint with a deep overlap beyond a 1 mm limit
+    m2 = flexclear.Model().add_body("g")
+    m2.add_link(
+        "b",
+        length=0.3,
+        elements=3,
+        youngs_modulus=2e11,
+        density=7800.0,
+        area=1e-4,
+        inertia=1e-9,
+        motion=motion.harmonic((0.0, 0.5), 10.0),
+    )
+    m2.add_joint("j", "b", 0, body="g", clearance=0.0, stiffness=1.0, damping=0.0)
+    with pytest.raises(SimulationDivergedError, match="penetration"):
+        m2.simulate(0.05, 1e-4, divergence_limit=1e-3)

@@ -35,8 +35,9 @@
 //! cut only the contact force enters the running largest force (it is the peak of an entry with
 //! contact damping). A step without a status change is bitwise the fixed-step one.
 //!
-//! **Divergence checks.** Every step, each joint's `|delta|` is compared with the divergence limit
-//! (one comparison per joint, which is also the finite check); every `CHECK_STRIDE` steps the
+//! **Divergence checks.** Every step, each joint's penetration `delta` (positive = overlap; an
+//! open gap of any width passes) is compared with the divergence limit (one comparison per
+//! joint, which is also the finite check); every `CHECK_STRIDE` steps the
 //! whole state is checked for finiteness and the translational DOFs against the limit.
 
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
@@ -1073,8 +1074,9 @@ impl<'m> Lane<'m> {
     }
 
     /// After the state update: the joints' positions, forces and penetrations from the new
-    /// acceleration (lane `l` of `a`). Fails when a joint's penetration is not finite or its
-    /// magnitude exceeds the divergence limit (checked every step: one comparison per joint).
+    /// acceleration (lane `l` of `a`). Fails when a joint's penetration is not finite or exceeds
+    /// the divergence limit (an open gap of any width passes; checked every step: one
+    /// comparison per joint).
     #[inline]
     #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x <= limit)` is deliberately true for NaN
     fn complete_joints<const L: usize>(
@@ -1102,7 +1104,8 @@ impl<'m> Lane<'m> {
             self.pen[jj] = norm2(q) - j.clearance;
             self.fmag[jj] = norm2(f);
             // one comparison per joint and step: false for NaN, so it is also the finite check
-            if !(self.pen[jj].abs() <= self.limit) {
+            // the penetration itself: an open gap wider than the limit is no divergence
+            if !(self.pen[jj] <= self.limit) {
                 return Err(self.joint_diverged(jj, t1, step + 1));
             }
             if let Coupling::Gap { .. } = self.settings.coupling {
@@ -1124,9 +1127,8 @@ impl<'m> Lane<'m> {
         let pen = self.pen[jj];
         let reason = if pen.is_finite() {
             format!(
-                "|penetration| = {:.3e} m exceeds the divergence limit {:.3e} m",
-                pen.abs(),
-                self.limit
+                "penetration = {:.3e} m exceeds the divergence limit {:.3e} m",
+                pen, self.limit
             )
         } else {
             "non-finite joint position".to_string()
