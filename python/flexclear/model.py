@@ -718,6 +718,7 @@ class Model:
                     energy=bool(rec.energy),
                     progress=cb,
                     events=bool(events),
+                    **_joint_record_kwargs(rec, joints),
                 )
         except FlexclearError as exc:
             partial = getattr(exc, "partial", None)
@@ -735,7 +736,6 @@ class Model:
         self, raw: dict, chosen: dict, rec: Record, displacements: bool, dt, t0, error=None
     ) -> Result:
         wall = _time.perf_counter() - t0
-        raw = _normalize_joints(raw)
         stats = {**chosen, **{k: 0 for k in _STAT_KEYS}, **raw["stats"]}
         lengths = list(self._core.link_lengths)
         elements = list(self._core.link_elements)
@@ -776,40 +776,6 @@ def _joint_record_kwargs(rec: Record, joints) -> dict:
         start=float(rec.start),
         impact_log=bool(rec.impact_log),
     )
-
-
-def _normalize_joints(raw: dict) -> dict:
-    # TODO(merge of the moving-frame joint recorder): remove this adapter of the old layout.
-    if "extremes" in raw:
-        return raw
-    nan = float("nan")
-    old = raw["joints"]
-    raw["joints"] = [
-        {
-            "joint": i,
-            "penetration": j["penetration"],
-            "force": j["force"],
-            "qx": np.empty(0),
-            "qy": np.empty(0),
-        }
-        for i, j in enumerate(old)
-    ]
-    raw["extremes"] = [
-        {
-            "max_penetration": j["max_penetration"],
-            "time_of_max_penetration": nan,
-            "max_force": j["max_force"],
-            "impacts": j["impacts"],
-            "contact_time": nan,
-            "max_velocity": nan,
-            "max_impact_velocity": nan,
-            "rms_penetration": nan,
-            "rms_force": nan,
-        }
-        for j in old
-    ]
-    raw["impact_log"] = []
-    return raw
 
 
 def _translating_links(core, raw: dict, rec: Record, displacements: bool, elements, lengths, ea) -> list:

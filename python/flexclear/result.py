@@ -45,7 +45,8 @@ class Record:
     histories : bool
         False keeps only the running extremes of the joints (memory independent of run length).
     start : float
-        Joint histories and extremes start at this time, s.
+        Joint extremes and impact logs start at this time, s (and every history, while every
+        link translates; in moving frames the histories share the links' grid from t = 0).
     impact_log : bool
         Also keep an :class:`ImpactLog` per recorded joint: one entry per contact episode.
     """

@@ -39,6 +39,7 @@ use crate::integrator::Newmark;
 use crate::kinematics::FrameState;
 use crate::linsolve::BandLu;
 use crate::model::mechanism::{Endpoint, Mechanism};
+use crate::recorder::{RecordSpec, Recorder};
 
 const NONE: usize = usize::MAX;
 
@@ -87,6 +88,33 @@ pub struct KedRecord {
     /// Kinetic energy (absolute motion), linear strain energy and angular momentum about the
     /// frame origin of every link.
     pub energy: bool,
+    /// Clearance joints (indices) whose histories and impact logs are kept; `None` = all.
+    pub joints: Option<Vec<usize>>,
+    /// Also keep the journal position `q` (qx, qy), m, global axes, of the recorded joints.
+    pub joint_position: bool,
+    /// Keep the joints' penetration and force histories (`false`: extremes only).
+    pub joint_histories: bool,
+    /// Joint extremes (and impact logs) start at this time, s.
+    pub start: f64,
+    /// Keep an impact log of the recorded joints.
+    pub impact_log: bool,
+}
+
+impl KedRecord {
+    /// The joint part as the translating engine's [`RecordSpec`]: the same recorder keeps the
+    /// extremes (contact time, RMS, velocities, time of the largest penetration) and impact
+    /// logs of both engines. Its histories stay off: the KED run keeps its own on its grid.
+    fn joint_spec(&self) -> RecordSpec {
+        RecordSpec {
+            joints: self.joints.clone(),
+            joint_position: false,
+            nodes: Vec::new(),
+            every: 1,
+            histories: false,
+            start: self.start,
+            impacts: self.impact_log,
+        }
+    }
 }
 
 impl Default for KedRecord {
@@ -97,6 +125,11 @@ impl Default for KedRecord {
             axial_force: false,
             midspan: false,
             energy: false,
+            joints: None,
+            joint_position: false,
+            joint_histories: true,
+            start: 0.0,
+            impact_log: false,
         }
     }
 }
@@ -180,10 +213,16 @@ pub struct LinkHistory {
 /// Histories and extremes of one clearance joint.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct KedJointHistory {
+    /// Whether its histories are kept ([`KedRecord::joints`]).
+    pub recorded: bool,
     /// Penetration `delta_r - delta_c`, m.
     pub penetration: Vec<f64>,
     /// Contact force magnitude, N.
     pub force: Vec<f64>,
+    /// Journal position relative to the bearing, global axes, m (when asked).
+    pub qx: Vec<f64>,
+    /// See `qx`.
+    pub qy: Vec<f64>,
     /// Largest penetration over every step, m.
     pub max_penetration: f64,
     /// Largest force over every step, N.
@@ -227,6 +266,9 @@ pub struct KedOutput {
     pub links: Vec<LinkHistory>,
     /// Per clearance joint.
     pub joints: Vec<KedJointHistory>,
+    /// The joints' extremes beyond the ones above (contact time, RMS, velocities, time of the
+    /// largest penetration) and their impact logs: the translating engine's recorder.
+    pub joint_record: Recorder,
     /// Counters.
     pub stats: KedStats,
     /// Time reached, s.
@@ -396,6 +438,12 @@ pub struct KedRun<'a> {
     /// (implicit contact keeps them for the step).
     damping_at_start: Vec<(Mat2, [f64; 2])>,
     contact_was: Vec<bool>,
+    /// The joint recorder shared with the translating engine, and its per-step inputs.
+    rec: Recorder,
+    jpen: Vec<f64>,
+    jforce: Vec<f64>,
+    jq: Vec<[f64; 2]>,
+    jqd: Vec<[f64; 2]>,
     /// Scratch for recording: local states of a link's nodes (reused, no allocation per record).
     node_states: Vec<[[f64; 3]; 3]>,
     nonlinear_geometric: bool,
@@ -417,6 +465,7 @@ struct EventScratch {
     /// Joint tracking before the cut (restored when the cut step falls back to the whole step).
     was: Vec<bool>,
     extremes: Vec<(f64, f64, u64)>,
+    rec: Option<Recorder>,
 }
 
 struct DofBuilder {
@@ -444,6 +493,8 @@ impl<'a> KedRun<'a> {
     /// ([`Mechanism::validate`]), an over-constrained node.
     pub fn new(mech: &'a Mechanism, settings: &'a KedSettings) -> Result<Self> {
         settings.validate()?;
+        let link_nodes: Vec<usize> = mech.links.iter().map(|l| l.nodes()).collect();
+        settings.record.joint_spec().validate(mech.joints.len(), &link_nodes)?;
         mech.validate(settings.t_end)?;
         // Union-find over node translations, sliders and ground.
         let offs: Vec<usize> = mech
@@ -698,9 +749,17 @@ impl<'a> KedRun<'a> {
             }
             stats.terms.push(format!("{}: {}", l.name, t.join(", ")));
         }
+        let nj = mech.joints.len();
+        let rec = &settings.record;
+        let joints = (0..nj)
+            .map(|j| KedJointHistory {
+                recorded: rec.joint_histories && rec.joints.as_ref().is_none_or(|js| js.contains(&j)),
+                ..Default::default()
+            })
+            .collect();
         let out = KedOutput {
             links: vec![LinkHistory::default(); mech.links.len()],
-            joints: vec![KedJointHistory::default(); mech.joints.len()],
+            joints,
             ..Default::default()
         };
         Ok(KedRun {
@@ -729,6 +788,11 @@ impl<'a> KedRun<'a> {
             implicit_contact: matches!(settings.coupling, Coupling::Modified { iterate: true, .. })
                 && !mech.joints.is_empty(),
             contact_was: vec![false; mech.joints.len()],
+            rec: Recorder::new(&settings.record.joint_spec(), nj, |_, _| 0, 0),
+            jpen: vec![0.0; nj],
+            jforce: vec![0.0; nj],
+            jq: vec![[0.0; 2]; nj],
+            jqd: vec![[0.0; 2]; nj],
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
             damping_at_start: vec![([[0.0; 2]; 2], [0.0; 2]); mech.joints.len()],
             nonlinear_geometric,
@@ -1564,25 +1628,46 @@ impl<'a> KedRun<'a> {
             let terms = jt.law.evaluate(q, qd, jt.clearance);
             let f = terms.force(q, qd);
             let h = &mut self.out.joints[j];
+            if !h.recorded {
+                continue;
+            }
             h.penetration.push(terms.penetration);
             h.force.push((f[0] * f[0] + f[1] * f[1]).sqrt());
+            if settings.record.joint_position {
+                h.qx.push(q[0]);
+                h.qy.push(q[1]);
+            }
         }
     }
 
-    fn track_joints(&mut self) {
+    /// Tracks the joints at the current state, time `t` (s): the running extremes, and the
+    /// shared recorder, as step `step` of length `dt` (s) or, with `step = None`, at the cut of
+    /// an event step. Nothing before [`KedRecord::start`] counts.
+    fn track_joints(&mut self, t: f64, step: Option<(u64, f64)>) {
+        let counts = t >= self.settings.record.start;
         for j in 0..self.mech.joints.len() {
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
             let jt = &self.mech.joints[j];
             let terms = jt.law.evaluate(q, qd, jt.clearance);
             let f = terms.force(q, qd);
+            let fmag = (f[0] * f[0] + f[1] * f[1]).sqrt();
             let h = &mut self.out.joints[j];
             let closed = terms.penetration > 0.0;
-            if closed && !self.contact_was[j] {
-                h.impacts += 1;
+            if counts {
+                if closed && !self.contact_was[j] {
+                    h.impacts += 1;
+                }
+                h.max_penetration = h.max_penetration.max(terms.penetration);
+                h.max_force = h.max_force.max(fmag);
             }
             self.contact_was[j] = closed;
-            h.max_penetration = h.max_penetration.max(terms.penetration);
-            h.max_force = h.max_force.max((f[0] * f[0] + f[1] * f[1]).sqrt());
+            (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, fmag, q, qd);
+        }
+        match step {
+            Some((k, dt)) => self
+                .rec
+                .record(k, t, dt, &self.jpen, &self.jforce, &self.jq, &self.jqd, &[]),
+            None => self.rec.record_event(t, &self.jpen, &self.jforce, &self.jq, &self.jqd),
         }
     }
 
@@ -1650,6 +1735,7 @@ impl<'a> KedRun<'a> {
                 .iter()
                 .map(|j| (j.max_penetration, j.max_force, j.impacts)),
         );
+        ev.rec = Some(self.rec.clone());
         if self.cut_step(t0, h, k, ev, theta, jstar).is_ok() {
             self.stats.event_steps += 1;
             return Ok(());
@@ -1660,6 +1746,9 @@ impl<'a> KedRun<'a> {
         self.contact_was.clone_from(&ev.was);
         for (j, &(p, f, n)) in self.out.joints.iter_mut().zip(&ev.extremes) {
             (j.max_penetration, j.max_force, j.impacts) = (p, f, n);
+        }
+        if let Some(rec) = ev.rec.take() {
+            self.rec = rec;
         }
         self.restore_from(ev, t0);
         self.step(t0, h, k, 0)
@@ -1682,7 +1771,7 @@ impl<'a> KedRun<'a> {
             }
         }
         self.restart_accelerations(t0 + h1)?;
-        self.track_joints();
+        self.track_joints(t0 + h1, None);
         self.step(t0 + h1, h - h1, k, 0)
     }
 
@@ -1697,10 +1786,11 @@ impl<'a> KedRun<'a> {
         for j in 0..self.mech.joints.len() {
             self.out.joints[j].max_penetration = f64::NEG_INFINITY;
         }
-        self.track_joints();
-        self.record(0.0);
         let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let h = self.settings.dt;
+        self.track_joints(0.0, Some((0, h)));
+        self.record(0.0);
+
         let every = self.settings.record.every as u64;
         let mut ev = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
         for k in 1..=steps {
@@ -1713,8 +1803,8 @@ impl<'a> KedRun<'a> {
                 return Err(self.fail(e, t0));
             }
             self.stats.steps = k;
-            self.track_joints();
             let t1 = k as f64 * h;
+            self.track_joints(t1, Some((k, h)));
             if (k % 16 == 0 || k == steps) && self.check_divergence(t1, k).is_err() {
                 let e = self.check_divergence(t1, k).unwrap_err();
                 return Err(self.fail(e, t1));
@@ -1729,12 +1819,14 @@ impl<'a> KedRun<'a> {
         }
         self.out.t = steps as f64 * h;
         self.out.stats = self.stats.clone();
+        self.out.joint_record = self.rec;
         Ok(self.out)
     }
 
     fn fail(mut self, error: Error, t: f64) -> Box<KedFailure> {
         self.out.t = t;
         self.out.stats = self.stats.clone();
+        self.out.joint_record = std::mem::take(&mut self.rec);
         Box::new(KedFailure {
             error,
             output: self.out,

@@ -336,17 +336,26 @@ fn output_dict<'py>(py: Python<'py>, m: &Mechanism, out: KedOutput) -> PyResult<
     }
     let _ = rows;
     d.set_item("links", links)?;
+    // The joints in the translating engine's layout: histories of the recorded joints, the
+    // extremes of every joint (the running largest penetration, force and the impact count of
+    // the KED tracking, the rest from the shared recorder), the impact logs.
+    let mut extremes = out.joint_record.extremes.clone();
     let joints = PyList::empty(py);
-    for j in out.joints {
-        let jd = PyDict::new(py);
-        jd.set_item("penetration", vec1(py, j.penetration))?;
-        jd.set_item("force", vec1(py, j.force))?;
-        jd.set_item("max_penetration", j.max_penetration)?;
-        jd.set_item("max_force", j.max_force)?;
-        jd.set_item("impacts", j.impacts)?;
-        joints.append(jd)?;
+    for (i, (j, e)) in out.joints.into_iter().zip(extremes.iter_mut()).enumerate() {
+        (e.max_penetration, e.max_force, e.impacts) = (j.max_penetration, j.max_force, j.impacts);
+        if j.recorded {
+            let jd = PyDict::new(py);
+            jd.set_item("joint", i)?;
+            jd.set_item("penetration", vec1(py, j.penetration))?;
+            jd.set_item("force", vec1(py, j.force))?;
+            jd.set_item("qx", vec1(py, j.qx))?;
+            jd.set_item("qy", vec1(py, j.qy))?;
+            joints.append(jd)?;
+        }
     }
     d.set_item("joints", joints)?;
+    d.set_item("extremes", super::extremes_list(py, &extremes)?)?;
+    d.set_item("impact_log", super::impact_logs(py, out.joint_record.impacts)?)?;
     let s = out.stats;
     let st = PyDict::new(py);
     st.set_item("steps", s.steps)?;
@@ -662,7 +671,8 @@ impl PyMechanism {
     /// Runs the mechanism; returns a dict of histories (see `flexclear.Mechanism.simulate`).
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
-                        progress=None, events=false))]
+                        progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
+                        impact_log=false))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -684,6 +694,11 @@ impl PyMechanism {
         energy: bool,
         progress: Option<Py<PyAny>>,
         events: bool,
+        joints: Option<Vec<usize>>,
+        joint_position: bool,
+        histories: bool,
+        start: f64,
+        impact_log: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let max_iter =
             usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
@@ -720,6 +735,11 @@ impl PyMechanism {
                 axial_force,
                 midspan,
                 energy,
+                joints,
+                joint_position,
+                joint_histories: histories,
+                start,
+                impact_log,
             },
         };
         let mech = &self.inner;

@@ -492,7 +492,30 @@ fn build_settings(
     Ok(settings)
 }
 
-fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {
+/// The impact logs of a recorder as a list of dicts of arrays (`joint`, `time`, `speed`,
+/// `peak_force`, `peak_penetration`, `duration`); shared by both bindings modules.
+pub(super) fn impact_logs(
+    py: Python<'_>,
+    impacts: Vec<(usize, Vec<crate::recorder::Impact>)>,
+) -> PyResult<Bound<'_, PyList>> {
+    let logs = PyList::empty(py);
+    for (joint, log) in impacts {
+        let x = PyDict::new(py);
+        x.set_item("joint", joint)?;
+        let col = |f: fn(&crate::recorder::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
+        x.set_item("time", col(|i| i.time))?;
+        x.set_item("speed", col(|i| i.speed))?;
+        x.set_item("peak_force", col(|i| i.peak_force))?;
+        x.set_item("peak_penetration", col(|i| i.peak_penetration))?;
+        x.set_item("duration", col(|i| i.duration))?;
+        logs.append(x)?;
+    }
+    Ok(logs)
+}
+
+/// The running extremes of every joint as a list of dicts (the keys of `flexclear.JointResult`);
+/// shared by both bindings modules.
+pub(super) fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {
     let ext = PyList::empty(py);
     for e in extremes {
         let x = PyDict::new(py);
@@ -537,19 +560,7 @@ fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
     }
     d.set_item("nodes", nodes)?;
     d.set_item("extremes", extremes_list(py, &rec.extremes)?)?;
-    let logs = PyList::empty(py);
-    for (joint, log) in rec.impacts {
-        let x = PyDict::new(py);
-        x.set_item("joint", joint)?;
-        let col = |f: fn(&crate::recorder::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
-        x.set_item("time", col(|i| i.time))?;
-        x.set_item("speed", col(|i| i.speed))?;
-        x.set_item("peak_force", col(|i| i.peak_force))?;
-        x.set_item("peak_penetration", col(|i| i.peak_penetration))?;
-        x.set_item("duration", col(|i| i.duration))?;
-        logs.append(x)?;
-    }
-    d.set_item("impact_log", logs)?;
+    d.set_item("impact_log", impact_logs(py, rec.impacts)?)?;
     let s = out.stats;
     let st = PyDict::new(py);
     st.set_item("steps", s.steps)?;
