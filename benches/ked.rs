@@ -68,6 +68,7 @@ fn quiet(t_end: f64, dt: f64) -> KedSettings {
         axial_force: false,
         midspan: false,
         energy: false,
+        ..KedRecord::default()
     };
     s
 }

@@ -530,6 +530,7 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
         axial_force: false,
         midspan: false,
         energy: true,
+        ..KedRecord::default()
     };
     let defect = |mech: &Mechanism, s: &KedSettings, geometric: bool| {
         let out = simulate_mechanism(mech, s, &mut |_| true).unwrap();
@@ -980,6 +981,7 @@ fn slider_crank_clearance_converges_with_implicit_contact_and_the_lagged_kappa_p
             axial_force: true,
             midspan: false,
             energy: false,
+            ..KedRecord::default()
         };
         simulate_mechanism(&mech, &s, &mut |_| true)
     };
@@ -1091,6 +1093,7 @@ fn clearance_between_two_flexible_links_reduces_to_the_ideal_pin_when_stiff_and_
             axial_force: false,
             midspan: true,
             energy: false,
+            ..KedRecord::default()
         };
         simulate_mechanism(m, &s, &mut |_| true).unwrap()
     };
@@ -1169,6 +1172,7 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
             axial_force: false,
             midspan: false,
             energy: true,
+            ..KedRecord::default()
         };
         let out = simulate_mechanism(&mech, &s, &mut |_| true).expect("the run completes");
         let n = out.time.len();
