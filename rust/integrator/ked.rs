@@ -438,6 +438,11 @@ pub struct KedRun<'a> {
     /// (implicit contact keeps them for the step).
     damping_at_start: Vec<(Mat2, [f64; 2])>,
     contact_was: Vec<bool>,
+    /// Per clearance joint: its sides move apart under the nominal motion, so its relative
+    /// position includes the nominal one ([`Mechanism::joint_moves_apart`]).
+    nominal_offset: Vec<bool>,
+    /// Time of the current frames, s.
+    t_frames: f64,
     /// The joint recorder shared with the translating engine, and its per-step inputs.
     rec: Recorder,
     jpen: Vec<f64>,
@@ -788,6 +793,8 @@ impl<'a> KedRun<'a> {
             implicit_contact: matches!(settings.coupling, Coupling::Modified { iterate: true, .. })
                 && !mech.joints.is_empty(),
             contact_was: vec![false; mech.joints.len()],
+            nominal_offset: (0..nj).map(|j| mech.joint_moves_apart(j, settings.t_end)).collect(),
+            t_frames: 0.0,
             rec: Recorder::new(&settings.record.joint_spec(), nj, |_, _| 0, 0),
             jpen: vec![0.0; nj],
             jforce: vec![0.0; nj],
@@ -879,6 +886,7 @@ impl<'a> KedRun<'a> {
     }
 
     fn update_frames(&mut self, t: f64) {
+        self.t_frames = t;
         for (f, l) in self.frames.iter_mut().zip(&self.mech.links) {
             *f = l.frame.frame(t);
         }
@@ -1060,7 +1068,17 @@ impl<'a> KedRun<'a> {
         let jt = &self.mech.joints[j];
         let (a, ad) = self.endpoint_state(&jt.journal, y, yd);
         let (b, bd) = self.endpoint_state(&jt.bearing, y, yd);
-        ([a[0] - b[0], a[1] - b[1]], [ad[0] - bd[0], ad[1] - bd[1]])
+        let (q, qd) = ([a[0] - b[0], a[1] - b[1]], [ad[0] - bd[0], ad[1] - bd[1]]);
+        if !self.nominal_offset[j] {
+            return (q, qd);
+        }
+        // sides that move apart: the nominal relative position and velocity too
+        let (pa, va) = self.mech.nominal_kinematics(&jt.journal, self.t_frames);
+        let (pb, vb) = self.mech.nominal_kinematics(&jt.bearing, self.t_frames);
+        (
+            [q[0] + pa[0] - pb[0], q[1] + pa[1] - pb[1]],
+            [qd[0] + va[0] - vb[0], qd[1] + va[1] - vb[1]],
+        )
     }
 
     /// Derivative of an endpoint's global displacement with respect to its unknowns, as up to 2

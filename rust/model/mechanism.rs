@@ -235,6 +235,43 @@ impl Mechanism {
         }
     }
 
+    /// Global nominal position (m) and velocity (m/s) of an endpoint at `t`.
+    pub fn nominal_kinematics(&self, e: &Endpoint, t: f64) -> ([f64; 2], [f64; 2]) {
+        let k = match e {
+            Endpoint::Node { link, node } => {
+                let l = &self.links[*link];
+                l.frame.frame(t).point(*node as f64 * l.element_length())
+            }
+            Endpoint::Body { frame, point, .. } => frame.frame(t).local_point(*point),
+            Endpoint::Slider(s) => {
+                let f = self.sliders[*s].path.frame(t);
+                return (f.origin, f.origin_vel);
+            }
+        };
+        (k.pos, k.vel)
+    }
+
+    /// The sides' largest nominal distance over 201 instants of `[0, t_end]` (m; NaN when not
+    /// finite) and the first instant where it exceeds the closure tolerance (`CLOSURE_TOL` of
+    /// the longest link), if any.
+    fn separation(&self, a: &Endpoint, b: &Endpoint, t_end: f64) -> Option<(f64, f64)> {
+        let scale = self.links.iter().fold(0.0f64, |s, l| s.max(l.length));
+        (0..=200).map(|k| t_end * k as f64 / 200.0).find_map(|t| {
+            let (pa, pb) = (self.nominal_position(a, t), self.nominal_position(b, t));
+            let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2)).sqrt();
+            (d.is_nan() || d > CLOSURE_TOL * scale).then_some((t, d))
+        })
+    }
+
+    /// Whether the two sides of clearance joint `j` move apart under the nominal motion over
+    /// `[0, t_end]` (a stop fixed in space beside a moving link): the contact then measures the
+    /// full relative position, nominal plus elastic. Joints whose sides stay together (within
+    /// the closure tolerance) measure the elastic part only, as pins do.
+    pub fn joint_moves_apart(&self, j: usize, t_end: f64) -> bool {
+        let jt = &self.joints[j];
+        self.separation(&jt.journal, &jt.bearing, t_end).is_some()
+    }
+
     fn endpoint_name(&self, e: &Endpoint) -> String {
         match e {
             Endpoint::Node { link, node } => match self.links.get(*link) {
@@ -342,8 +379,6 @@ impl Mechanism {
                 )?;
             }
         }
-        let scale = self.links.iter().fold(0.0f64, |s, l| s.max(l.length));
-        let times: Vec<f64> = (0..=200).map(|k| t_end * k as f64 / 200.0).collect();
         let pairs = self
             .pins
             .iter()
@@ -375,10 +410,10 @@ impl Mechanism {
                     });
                 }
             }
-            for &t in &times {
-                let (pa, pb) = (self.nominal_position(a, t), self.nominal_position(b, t));
-                let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2)).sqrt();
-                if d.is_nan() || d > CLOSURE_TOL * scale {
+            // a clearance joint's sides may move apart (a stop beside a moving link); a pin's not
+            if let Some((t, d)) = self.separation(a, b, t_end) {
+                if kind == "pin" || d.is_nan() {
+                    let (pa, pb) = (self.nominal_position(a, t), self.nominal_position(b, t));
                     return Err(Error::InvalidModel {
                         message: format!(
                             "{kind} {name:?} does not close: {} is at ({:.6}, {:.6}) m and {} at ({:.6}, {:.6}) m at t = {t} s ({d:.3e} m apart); the links' nominal motions must keep the two sides together",
