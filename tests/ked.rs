@@ -268,7 +268,7 @@ fn rotating_cantilever_in_plane_frequencies_follow_the_flapwise_curve() {
 // 2. Spin-up (Kane, Ryan & Banerjee 1987)
 // ------------------------------------------------------------------------------------------------
 
-/// Kane's beam (SCENES.md scene 2): L = 8 m, 10 elements, spun up to `rate` over `ramp` s.
+/// Kane's beam (docs/scenes.md scene 2): L = 8 m, 10 elements, spun up to `rate` over `ramp` s.
 fn kane_beam(rate: f64, ramp: f64, geometric: Option<bool>) -> Mechanism {
     let mut l = link(
         "beam",
@@ -591,7 +591,7 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
 // 5. Bad input and failing steps
 // ------------------------------------------------------------------------------------------------
 
-/// Simeon's slider-crank (SCENES.md scene 3, [`FlexibleSliderCrank`]): rigid crank 0.15 m at
+/// Simeon's slider-crank (docs/scenes.md scene 3, [`FlexibleSliderCrank`]): rigid crank 0.15 m at
 /// 150 rad/s, flexible rod 0.30 m of 8 x 8 mm steel (Young's modulus `e`), slider 0.075552 kg;
 /// pins `"crank_pin"` (rod node 0 to the crank) and `"slider_pin"` (last node to the slider).
 fn slider_crank(e: f64, elements: usize) -> Mechanism {
@@ -1076,7 +1076,7 @@ fn flexible_crank_slider_crank(pin: Option<(f64, Arc<SpringDamper>)>) -> Mechani
 
 #[test]
 fn clearance_between_two_flexible_links_reduces_to_the_ideal_pin_when_stiff_and_tight() {
-    // The 2-node pattern of METHOD.md section 4: the journal is the rod's node 0, the bearing the
+    // The 2-node pattern of docs/method.md section 4: the journal is the rod's node 0, the bearing the
     // flexible crank's tip. With no clearance and K_B = 1e10 N/m (30 times the axial stiffness
     // EA/l_e = 3.4e8 N/m of a rod element) the joint is a stiff pin.
     // A damping of 20 % of critical (for 0.03 kg, the rod's end mass) keeps the joint's own mode

@@ -20,7 +20,7 @@ def published_rows():
 @pytest.mark.parametrize("method", ["modified", "force"])
 @pytest.mark.parametrize("row", published_rows(), ids=lambda r: f"ratio={r['ratio']}")
 def test_table1_within_1_db_of_the_analytic_column(row, method):
-    # SCENES.md: C_dmax over the last 10 of 30 cycles at dt = 1e-5 s. The reconstruction was fitted
+    # docs/scenes.md: C_dmax over the last 10 of 30 cycles at dt = 1e-5 s. The reconstruction was fitted
     # to this column within 0.7 dB with one parameter set; 1 dB is the stated tolerance.
     y = 0.010
     model = flexclear.scenes.slider_yoke(clearance=float(row["ratio"]) * y)

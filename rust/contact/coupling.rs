@@ -2,7 +2,7 @@
 
 use crate::error::{check_non_negative, check_positive, Error, Result};
 
-/// The three couplings of METHOD.md section 4.
+/// The three couplings of docs/method.md section 4.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Coupling {
     /// Force reaction method: the contact force is evaluated from the last state and applied

@@ -1,7 +1,7 @@
 //! Contact laws of clearance joints (one trait) and the ways a contact force enters the Newmark
 //! step ([`Coupling`]).
 //!
-//! Notation (METHOD.md section 4): `q` is the journal centre relative to the bearing centre
+//! Notation (docs/method.md section 4): `q` is the journal centre relative to the bearing centre
 //! (global axes, m), `delta_r = |q|`, penetration `delta = delta_r - delta_c` (contact when > 0).
 //! A law returns its force on the journal in the split form
 //! `f = -k q - c qdot + f_explicit` with 2 x 2 matrices `k` (N/m) and `c` (N s/m): the force

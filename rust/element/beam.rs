@@ -1,4 +1,4 @@
-//! The planar 2-node beam element of METHOD.md section 2 (Hong & Kim 1993, eq. 9).
+//! The planar 2-node beam element of docs/method.md section 2 (Hong & Kim 1993, eq. 9).
 //!
 //! Nodal vector in the element frame: `Q = [u1, v1, th1, u2, v2, th2]` (m, m, rad). Axial shape
 //! functions are linear, transverse ones cubic Hermite. Every matrix is integrated with 4-point

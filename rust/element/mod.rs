@@ -1,5 +1,5 @@
 //! Finite elements. One file per element type; today the planar Euler-Bernoulli beam of
-//! METHOD.md section 2.
+//! docs/method.md section 2.
 
 pub mod beam;
 

@@ -1,5 +1,5 @@
 //! Newmark integration of a kineto-elastodynamic [`Mechanism`]: links in moving frames with the
-//! full element equation of METHOD.md section 2,
+//! full element equation of docs/method.md section 2,
 //!
 //! `M Qdd + (D1 + D2 + M_COR) Qd + (K1 + K2 + K3 + M_IC) Q = f - M_R a_R`,
 //!

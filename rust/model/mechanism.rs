@@ -1,6 +1,6 @@
 //! A kineto-elastodynamic (KED) mechanism: flexible links whose frames move with large prescribed
 //! planar motion (translation and rotation), ideal pins between links, supports, sliders on
-//! straight guides, point masses, nodal loads and clearance joints (METHOD.md sections 2-4).
+//! straight guides, point masses, nodal loads and clearance joints (docs/method.md sections 2-4).
 //!
 //! Plain data plus validation; [`crate::integrator::ked`] steps it. The nominal (rigid-body)
 //! motion of every frame comes from a [`FrameKinematics`] (a spinning hub, a slider-crank, a
@@ -14,7 +14,7 @@ use crate::element::BeamElement;
 use crate::error::{check_finite, check_non_negative, Error, Result};
 use crate::kinematics::FrameKinematics;
 
-/// Which terms of the element equation (METHOD.md section 2) a link carries. `None` = chosen
+/// Which terms of the element equation (docs/method.md section 2) a link carries. `None` = chosen
 /// automatically from the link's motion: Coriolis and inertia coupling only for a rotating frame,
 /// geometric stiffness (K2, K3, D2) only for a rotating frame or an axially loaded link, the
 /// nominal-motion inertia load only for a frame that moves or under gravity.

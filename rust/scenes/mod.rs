@@ -1,4 +1,4 @@
-//! The test mechanisms flexclear ships (`shared/SCENES.md`), built as plain [`Model`]s (the
+//! The test mechanisms flexclear ships (`docs/scenes.md`), built as plain [`Model`]s (the
 //! slider-yoke) or KED [`Mechanism`]s (the flexible slider-crank) so that Rust tests, benches and
 //! the Python API share one definition.
 //!

@@ -1,4 +1,4 @@
-//! Simeon's flexible slider-crank (`shared/SCENES.md` scene 3), built as a KED [`Mechanism`]:
+//! Simeon's flexible slider-crank (`docs/scenes.md` scene 3), built as a KED [`Mechanism`]:
 //! rigid crank at constant speed, flexible connecting rod, slider on a straight guide, no gravity;
 //! optionally one of the two pins a revolute clearance joint.
 //!
@@ -377,7 +377,7 @@ mod tests {
         assert!(matches!(ideal.pins[1].a, Endpoint::Node { link: 0, node: 8 }));
         assert!(ideal.validate(0.05).is_ok());
         // K_B closed form for the defaults: E* = 2e11 / (2 (1 - 0.09)), R* = 5e-3 * 5.5e-3 / 5e-4 m,
-        // K_B = 4/3 E* sqrt(R*) sqrt(1e-5 m) = 1.0866e8 N/m (the value SCENES.md and tests/ked.rs use).
+        // K_B = 4/3 E* sqrt(R*) sqrt(1e-5 m) = 1.0866e8 N/m (the value docs/scenes.md and tests/ked.rs use).
         let s = FlexibleSliderCrank {
             clearance_at: Some(SliderCrankPin::SliderPin),
             ..Default::default()

@@ -1,5 +1,5 @@
 //! The paper's slider-yoke mechanism (Hong & Kim 1993, Fig. 4; after Dubowsky, Deck & Costello
-//! 1987), as reconstructed in `shared/SCENES.md` section 1.
+//! 1987), as reconstructed in `docs/scenes.md` section 1.
 //!
 //! The original parameters are not available; this reconstruction reproduces the paper's Table 1
 //! analytic column within about 0.7 dB. A free-free steel slider (0.269 x 0.0127 x 0.0127 m,

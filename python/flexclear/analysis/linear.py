@@ -1,5 +1,5 @@
 """Linear algebra of one straight link in numpy: the beam matrices of ``rust/element/beam.rs`` in
-closed form (METHOD.md section 2), assembled for a chain of equal elements, and the energy of a
+closed form (docs/method.md section 2), assembled for a chain of equal elements, and the energy of a
 state. Used by the stability theory (:mod:`flexclear.analysis.stability`) and the energy checks
 (:mod:`flexclear.analysis.accuracy`, tests); the engine itself never calls this.
 

@@ -1,5 +1,5 @@
 """The paper study: Hong & Kim (1993) Table 1, Fig. 5 and Fig. 6 on the reconstructed slider-yoke
-scene (``shared/SCENES.md`` section 1), plus a measured stability scan of the stiff variant.
+scene (``docs/scenes.md`` section 1), plus a measured stability scan of the stiff variant.
 
 Run it with ``flexclear paper --out DIR``; it writes ``DIR/report.md`` and PNG figures.
 """
@@ -270,7 +270,7 @@ def write_report(out: Path, fig6_t_end: float = 0.5, log=print) -> Path:
         f"total wall time {time.perf_counter() - t0:.1f} s.\n"
     )
     w(
-        "The scene is the **reconstruction** of `shared/SCENES.md` (the original parameters of "
+        "The scene is the **reconstruction** of `docs/scenes.md` (the original parameters of "
         "Dubowsky, Deck & Costello 1987 are not available): a free-free steel slider "
         f"{p['length']} x {p['side']} x {p['side']} m, E = {p['youngs_modulus']:.4e} Pa (first free-free "
         f"bending frequency 880 Hz by (beta1 L)^2 = 22.3733; the {p['elements']}-element model gives "

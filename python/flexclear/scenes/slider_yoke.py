@@ -31,7 +31,7 @@ def slider_yoke(
     geometry: str = "end",
     rotary_inertia: bool = False,
 ) -> Model:
-    """The paper's slider-yoke mechanism (Hong & Kim 1993, Fig. 4), as reconstructed in SCENES.md.
+    """The paper's slider-yoke mechanism (Hong & Kim 1993, Fig. 4), as reconstructed in docs/scenes.md.
 
     A free-free steel slider (``length`` x ``side`` x ``side``) joined at its end x = 0 by a
     clearance bearing named ``"bearing"`` to a rigid yoke ``"yoke"`` moving
