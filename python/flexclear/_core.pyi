@@ -245,6 +245,7 @@ class Mechanism:
         t: float,
         y: npt.NDArray[np.float64],
         yd: Optional[npt.NDArray[np.float64]] = ...,
+        contacts: bool = ...,
     ) -> tuple[
         npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]
     ]:
@@ -268,6 +269,11 @@ class Mechanism:
         energy: bool = ...,
         progress: Optional[Callable[[float], Any]] = ...,
         events: bool = ...,
+        joints: Optional[list[int]] = ...,
+        joint_position: bool = ...,
+        histories: bool = ...,
+        start: float = ...,
+        impact_log: bool = ...,
     ) -> dict[str, Any]: ...
 
 def slider_yoke(

@@ -491,20 +491,23 @@ class Model:
         ``s`` (along a guide)."""
         return self._moving_core().dof_map()
 
-    def static_state(self, t: float = 0.0, *, tol: float = 1e-12, max_iter: int = 50) -> np.ndarray:
+    def static_state(
+        self, t: float = 0.0, *, tol: float = 1e-12, max_iter: int = 50, contacts: bool = True
+    ) -> np.ndarray:
         """Equilibrium of the moving-frame unknowns (see :meth:`dof_map`) at time ``t`` (s) with
         the frame rates and accelerations of that instant held (e.g. the centrifugally stretched
         beam at constant speed), by fixed-point iteration on the secant stiffness
         ``K(F) y = -r``. Where a link is free to move as a rigid body (a clearance joint leaves
         it held at one pin only), the iteration is repeated with the modes whose stiffness is
-        below 1e-6 of the largest carrying no static load (they have no equilibrium). Raises
-        :class:`ConvergenceError` if neither converges."""
+        below 1e-6 of the largest carrying no static load (they have no equilibrium).
+        ``contacts=False`` leaves every clearance joint open. Raises :class:`ConvergenceError` if
+        neither converges."""
         core = self._moving_core()
         n = len(core.dof_map())
         for rcond in (None, 1e-6):
             y = np.zeros(n)
             for _ in range(max_iter):
-                _, _, k, r = core.linearize(float(t), y)
+                _, _, k, r = core.linearize(float(t), y, contacts=contacts)
                 dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
                 y = y + dy
                 if np.max(np.abs(dy), initial=0.0) <= tol * max(np.max(np.abs(y), initial=0.0), 1e-30):
@@ -526,8 +529,8 @@ class Model:
         if self._kind == TRANSLATING:
             return self._core.natural_frequencies(int(count))
         core = self._core
-        y = self.static_state(t)
-        m, c, k, _ = core.linearize(float(t), y)
+        y = self.static_state(t, contacts=False)
+        m, c, k, _ = core.linearize(float(t), y, contacts=False)
         n = m.shape[0]
         g = 0.5 * (c - c.T) if coriolis else np.zeros_like(c)
         if not np.any(g):

@@ -850,6 +850,12 @@ impl<'a> KedRun<'a> {
     /// `M ydd + C dyd + K dy = -r`. Used for natural frequencies of a rotating or preloaded link
     /// and static equilibria (Newton on `K dy = -r`).
     pub fn linearize(&mut self, t: f64, y: &[f64], yd: &[f64]) -> Result<[Vec<f64>; 4]> {
+        self.linearize_with(t, y, yd, true)
+    }
+
+    /// [`Self::linearize`] with the clearance joints' contact terms left out when `contacts` is
+    /// false (every joint open: the natural frequencies of a mechanism with clearance).
+    pub fn linearize_with(&mut self, t: f64, y: &[f64], yd: &[f64], contacts: bool) -> Result<[Vec<f64>; 4]> {
         if y.len() != self.n || yd.len() != self.n {
             return Err(Error::param(
                 "y",
@@ -864,6 +870,11 @@ impl<'a> KedRun<'a> {
         self.y_pred.copy_from_slice(y);
         self.v_pred.copy_from_slice(yd);
         self.evaluate_contacts(true);
+        if !contacts {
+            self.contact.fill(ContactTerms::default());
+            self.contact_tan.fill(([[0.0; 2]; 2], [[0.0; 2]; 2]));
+            self.damping_at_start.fill(([[0.0; 2]; 2], [0.0; 2]));
+        }
         let n = self.n;
         let mut lu = BandLu::new(n, self.lu.bandwidth());
         let dense = |bh2: f64, gh: f64, lu: &mut BandLu| -> Vec<f64> {

@@ -641,8 +641,9 @@ impl PyMechanism {
             .collect())
     }
 
-    /// Linearization at time `t` (s) and state `y` (yd = zero when None): `(M, C, K, r)`.
-    #[pyo3(signature = (t, y, yd=None))]
+    /// Linearization at time `t` (s) and state `y` (yd = zero when None): `(M, C, K, r)`;
+    /// `contacts=False` leaves the clearance joints' contact terms out (every joint open).
+    #[pyo3(signature = (t, y, yd=None, contacts=true))]
     #[allow(clippy::type_complexity)]
     fn linearize<'py>(
         &self,
@@ -650,6 +651,7 @@ impl PyMechanism {
         t: f64,
         y: PyReadonlyArray1<'_, f64>,
         yd: Option<PyReadonlyArray1<'_, f64>>,
+        contacts: bool,
     ) -> PyResult<(
         Bound<'py, PyArray2<f64>>,
         Bound<'py, PyArray2<f64>>,
@@ -664,7 +666,7 @@ impl PyMechanism {
             Some(v) => v.as_slice()?.to_vec(),
             None => vec![0.0; n],
         };
-        let [m, c, k, r] = run.linearize(t, &y, &yd).map_err(|e| err(py, e))?;
+        let [m, c, k, r] = run.linearize_with(t, &y, &yd, contacts).map_err(|e| err(py, e))?;
         Ok((mat(py, m, n, n)?, mat(py, c, n, n)?, mat(py, k, n, n)?, vec1(py, r)))
     }
 
