@@ -97,7 +97,7 @@ def four_bar(
         K_B, N/m. **Derived** when omitted, as for :func:`slider_crank`: the secant stiffness at
         ``reference_penetration`` of a Hertz contact of a journal of ``pin_radius`` in a bearing
         of radius ``pin_radius + clearance``, with the links' ``youngs_modulus`` and
-        ``poisson_ratio`` (about 4.7e7 N/m for the defaults).
+        ``poisson_ratio`` (about 5.4e7 N/m for the defaults; C_B about 516 N s/m).
     bearing_damping : float, optional
         C_B, N s/m, active only in contact. **Derived** when omitted:
         ``2 bearing_damping_ratio sqrt(K_B m_eff)`` with ``m_eff`` half the coupler mass (both
