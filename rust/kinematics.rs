@@ -184,21 +184,10 @@ pub struct AngleTable {
     accel: Vec<f64>,
 }
 
-/// Central differences (one-sided at the ends) of `y` over the strictly increasing `t`.
+/// [`crate::model::motion::gradient`] of scalar samples.
 fn gradient(t: &[f64], y: &[f64]) -> Vec<f64> {
-    let n = t.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = if i == 0 {
-                (0, 1)
-            } else if i == n - 1 {
-                (n - 2, n - 1)
-            } else {
-                (i - 1, i + 1)
-            };
-            (y[b] - y[a]) / (t[b] - t[a])
-        })
-        .collect()
+    let y: Vec<[f64; 1]> = y.iter().map(|&v| [v]).collect();
+    crate::model::motion::gradient(t, &y).into_iter().map(|[v]| v).collect()
 }
 
 impl AngleTable {

@@ -46,7 +46,10 @@ pub struct Table {
     acc: Vec<[f64; 2]>,
 }
 
-fn gradient(t: &[f64], y: &[[f64; 2]]) -> Vec<[f64; 2]> {
+/// Central differences (one-sided at the ends) of the samples `y` over the strictly increasing
+/// times `t` (s), per component: the derivative of every tabulated motion (translations here,
+/// frame angles in [`crate::kinematics::AngleTable`]).
+pub(crate) fn gradient<const D: usize>(t: &[f64], y: &[[f64; D]]) -> Vec<[f64; D]> {
     let n = t.len();
     (0..n)
         .map(|i| {
@@ -58,7 +61,7 @@ fn gradient(t: &[f64], y: &[[f64; 2]]) -> Vec<[f64; 2]> {
                 (i - 1, i + 1)
             };
             let dt = t[b] - t[a];
-            [(y[b][0] - y[a][0]) / dt, (y[b][1] - y[a][1]) / dt]
+            std::array::from_fn(|k| (y[b][k] - y[a][k]) / dt)
         })
         .collect()
 }
