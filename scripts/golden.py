@@ -42,7 +42,12 @@ def _diff(old: dict, new: dict, bitwise: bool) -> int:
             print(f"{name:34s} present on one side only")
             bad += 1
             continue
-        d = gc.compare(old["cases"][name], new["cases"][name], bitwise and name not in gc.NOT_BITWISE)
+        d = gc.compare(
+            old["cases"][name],
+            new["cases"][name],
+            bitwise and name not in gc.NOT_BITWISE,
+            rel=gc.RELATIVE.get(name, 1e-12),
+        )
         print(f"{name:34s} {'same' if not d else 'DIFFERENT'}")
         for line in d:
             print(f"    {line}")
