@@ -14,11 +14,13 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use flexclear::integrator::ked::{simulate_mechanism, KedRecord, KedSettings};
+use flexclear::integrator::ked::simulate_mechanism;
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
 use flexclear::model::mechanism::{Link, Mechanism, Support, Terms};
 use flexclear::model::Motion;
+use flexclear::recorder::{LinkChannels, RecordSpec};
 use flexclear::scenes::FlexibleSliderCrank;
+use flexclear::Settings;
 
 /// Kane, Ryan & Banerjee (1987) beam data on a hub with the given rotation and terms.
 fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
@@ -60,20 +62,22 @@ fn slider_crank(elements: usize) -> Mechanism {
 }
 
 /// Settings that record nothing but the final state (the cost measured is the stepping).
-fn quiet(t_end: f64, dt: f64) -> KedSettings {
-    let mut s = KedSettings::new(t_end, dt);
-    s.record = KedRecord {
+fn quiet(t_end: f64, dt: f64) -> Settings {
+    let mut s = Settings::new(t_end, dt);
+    s.record = RecordSpec {
         every: usize::MAX / 2,
-        displacements: false,
-        axial_force: false,
-        midspan: false,
-        energy: false,
-        ..KedRecord::default()
+        links: LinkChannels {
+            displacements: false,
+            axial_force: false,
+            midspan: false,
+            energy: false,
+        },
+        ..RecordSpec::default()
     };
     s
 }
 
-fn run(m: &Mechanism, s: &KedSettings) -> f64 {
+fn run(m: &Mechanism, s: &Settings) -> f64 {
     let out = simulate_mechanism(m, s, &mut |_| true).expect("bench run failed");
     out.t
 }

@@ -22,6 +22,36 @@ pub struct RecordSpec {
     pub start: f64,
     /// Keep an impact log ([`Impact`]) of the recorded joints (independent of `histories`).
     pub impacts: bool,
+    /// Link channels of moving-frame runs, at the same stride (the constant stepper records the
+    /// displacements of the chosen `nodes` instead).
+    pub links: LinkChannels,
+}
+
+/// Per-link channels a moving-frame run records every `every` steps (with the frame state of
+/// every link, always).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinkChannels {
+    /// All nodal displacements `u, v, theta` of every link (link frame, m and rad).
+    pub displacements: bool,
+    /// Axial force of every element, N.
+    pub axial_force: bool,
+    /// Midspan transverse deflection of every link relative to the chord through its end
+    /// nodes, m.
+    pub midspan: bool,
+    /// Kinetic energy (absolute motion, J), linear strain energy (J) and angular momentum about
+    /// the frame origin (kg m^2/s) of every link.
+    pub energy: bool,
+}
+
+impl Default for LinkChannels {
+    fn default() -> Self {
+        LinkChannels {
+            displacements: true,
+            axial_force: false,
+            midspan: false,
+            energy: false,
+        }
+    }
 }
 
 impl Default for RecordSpec {
@@ -34,6 +64,7 @@ impl Default for RecordSpec {
             histories: true,
             start: 0.0,
             impacts: false,
+            links: LinkChannels::default(),
         }
     }
 }

@@ -42,6 +42,44 @@ pub struct Settings {
     /// [`crate::integrator::newmark`]). Output stays on the `dt` grid. Such runs do not share
     /// a lockstep factorization.
     pub events: bool,
+    /// Step iterations of the moving-frame (Newton) stepper.
+    pub newton: NewtonSettings,
+}
+
+/// Iterations of a step of the moving-frame (Newton) stepper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonSettings {
+    /// Relative tolerance: displacement correction over the displacement scale (> 0).
+    pub tol: f64,
+    /// Iteration cap per step (>= 1).
+    pub max_iter: usize,
+    /// How many times a step that does not converge may be halved (0 ..= 20; 0 = fail at once
+    /// with [`Error::NotConverged`]).
+    pub step_halving: u32,
+}
+
+impl Default for NewtonSettings {
+    /// Tolerance 1e-8, 25 iterations, no halving.
+    fn default() -> Self {
+        NewtonSettings {
+            tol: 1e-8,
+            max_iter: 25,
+            step_halving: 0,
+        }
+    }
+}
+
+impl NewtonSettings {
+    fn validate(&self) -> Result<()> {
+        check_positive("tol", self.tol, "(relative)")?;
+        if self.max_iter < 1 {
+            return Err(Error::param("max_iter", self.max_iter, "an integer >= 1"));
+        }
+        if self.step_halving > 20 {
+            return Err(Error::param("step_halving", self.step_halving, "0 ..= 20"));
+        }
+        Ok(())
+    }
 }
 
 impl Settings {
@@ -57,11 +95,13 @@ impl Settings {
             divergence_limit: None,
             record: RecordSpec::default(),
             events: false,
+            newton: NewtonSettings::default(),
         }
     }
 
-    /// Checks the settings against the model.
-    pub fn validate(&self, model: &Model) -> Result<()> {
+    /// Checks what does not depend on the model: the time grid (at most 1e12 steps), the
+    /// Newmark parameters, the coupling, the divergence limit and the Newton settings.
+    pub fn validate_run(&self) -> Result<()> {
         check_positive("t_end", self.t_end, "s")?;
         check_positive("dt", self.dt, "s")?;
         if self.dt > self.t_end {
@@ -80,6 +120,12 @@ impl Settings {
         if let Some(l) = self.divergence_limit {
             check_positive("divergence_limit", l, "m")?;
         }
+        self.newton.validate()
+    }
+
+    /// Checks the settings against a model of the constant stepper.
+    pub fn validate(&self, model: &Model) -> Result<()> {
+        self.validate_run()?;
         let nodes: Vec<usize> = model.links.iter().map(|l| l.elements + 1).collect();
         self.record.validate(model.joints.len(), &nodes)?;
         for (i, l) in model.links.iter().enumerate() {

@@ -9,14 +9,16 @@ use std::sync::Arc;
 
 use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::element::BeamElement;
-use flexclear::integrator::ked::{simulate_mechanism, KedOutput, KedRecord, KedRun, KedSettings};
+use flexclear::integrator::ked::{simulate_mechanism, KedOutput, KedRun};
 use flexclear::kinematics::{
     FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
 };
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support, Terms};
 use flexclear::model::Motion;
+use flexclear::recorder::{LinkChannels, RecordSpec};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Error;
+use flexclear::Settings;
 use nalgebra::{DMatrix, DVector};
 
 // ------------------------------------------------------------------------------------------------
@@ -94,7 +96,7 @@ fn static_state(run: &mut KedRun, t: f64) -> Vec<f64> {
 /// Undamped natural frequencies (rad/s, ascending) of `M ydd + K y = 0` at the static state of
 /// `t`, the gyroscopic (Coriolis) coupling dropped: eigenvalues of `L^-1 K L^-T`, `M = L L^T`.
 fn frequencies_without_coriolis(mech: &Mechanism, t: f64) -> Vec<f64> {
-    let settings = KedSettings::new(1.0, 1e-3);
+    let settings = Settings::new(1.0, 1e-3);
     let mut run = KedRun::new(mech, &settings).unwrap();
     let y = static_state(&mut run, t);
     let n = run.unknowns();
@@ -298,7 +300,7 @@ fn tip_v(out: &KedOutput) -> Vec<f64> {
 #[test]
 fn spin_up_stays_bounded_with_geometric_stiffening_and_diverges_without() {
     // First bending frequency 3.516 sqrt(EI/(rho A L^4)) = 2.91 rad/s < W = 4 rad/s.
-    let mut settings = KedSettings::new(20.0, 2e-3);
+    let mut settings = Settings::new(20.0, 2e-3);
     settings.record.every = 25;
     let with = simulate_mechanism(&kane_beam(4.0, 15.0, None), &settings, &mut |_| true).unwrap();
     assert!(with.stats.terms[0].contains("K2"), "{:?}", with.stats.terms);
@@ -443,7 +445,7 @@ fn axially_loaded_pinned_beam_frequency_follows_the_load() {
         assert!((exact - with_p - shift).abs() <= 1e-3 * shift.abs().max(1e-12) || ratio == 0.0);
     }
     // The load switches the geometric terms on by itself (axially loaded link).
-    let settings = KedSettings::new(1e-3, 1e-4);
+    let settings = Settings::new(1e-3, 1e-4);
     let out = simulate_mechanism(&pinned_pinned(4, 1.0), &settings, &mut |_| true).unwrap();
     assert!(out.stats.terms[0].contains("K2"), "{:?}", out.stats.terms);
 }
@@ -523,16 +525,18 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
     //     the strain energy. Tolerance 1e-5 of the largest strain energy (the scale of the elastic
     //     motion; the rigid-body energy is 76 J against 2 J), well above that round-off, far
     //     below any modelling error (a missing term moves the balance by O(1)).
-    let mut settings = KedSettings::new(8.0, 1e-3);
-    settings.record = KedRecord {
+    let mut settings = Settings::new(8.0, 1e-3);
+    settings.record = RecordSpec {
         every: 1,
-        displacements: true,
-        axial_force: false,
-        midspan: false,
-        energy: true,
-        ..KedRecord::default()
+        links: LinkChannels {
+            displacements: true,
+            axial_force: false,
+            midspan: false,
+            energy: true,
+        },
+        ..RecordSpec::default()
     };
-    let defect = |mech: &Mechanism, s: &KedSettings, geometric: bool| {
+    let defect = |mech: &Mechanism, s: &Settings, geometric: bool| {
         let out = simulate_mechanism(mech, s, &mut |_| true).unwrap();
         let b = balance(mech, &out, geometric);
         let scale = b.strain.iter().fold(0.0f64, |m, x| m.max(*x));
@@ -666,7 +670,7 @@ fn four_bar(e: f64, lengths: [f64; 4]) -> Mechanism {
 
 /// The error of preparing a run of `mech` over 0.1 s.
 fn prepare_error(mech: &Mechanism) -> Error {
-    let settings = KedSettings::new(0.1, 1e-4);
+    let settings = Settings::new(0.1, 1e-4);
     match KedRun::new(mech, &settings) {
         Ok(_) => panic!("the model was accepted"),
         Err(e) => e,
@@ -741,9 +745,9 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
     // force moves within the step (measured: at dt = 0.02 s two iterations reach 1e-14 in every
     // step; at dt = 0.1 s they reach 1e-10 everywhere but 1e-12 only in the first step).
     let mech = kane_beam(4.0, 15.0, None);
-    let mut settings = KedSettings::new(2.0, 2e-2);
+    let mut settings = Settings::new(2.0, 2e-2);
     settings.record.every = 1000;
-    let not_converged = |s: &KedSettings| -> (f64, u64, usize, f64, f64) {
+    let not_converged = |s: &Settings| -> (f64, u64, usize, f64, f64) {
         let f = simulate_mechanism(&mech, s, &mut |_| true).unwrap_err();
         println!("{}", f.error);
         assert!(f.error.to_string().contains("did not converge"));
@@ -765,15 +769,15 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
     // One iteration per step can never converge a nonlinear step: the first correction is the
     // whole update. The error names the first step, its start time, the iterations done and a
     // finite residual.
-    settings.max_iter = 1;
+    settings.newton.max_iter = 1;
     let (time, step, iterations, residual, correction) = not_converged(&settings);
     assert_eq!((time, step, iterations), (0.0, 1, 1));
-    assert!(residual.is_finite() && correction > settings.tol);
+    assert!(residual.is_finite() && correction > settings.newton.tol);
     // Two iterations and a tolerance of 1e-12 at dt = 0.1 s: fails at a later step, whose start
     // time it reports.
     settings.dt = 0.1;
-    settings.max_iter = 2;
-    settings.tol = 1e-12;
+    settings.newton.max_iter = 2;
+    settings.newton.tol = 1e-12;
     let (time, step, iterations, _, correction) = not_converged(&settings);
     assert!(step > 1 && iterations == 2 && correction > 1e-12);
     assert!(
@@ -781,7 +785,7 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
         "time {time} is not the start of step {step}"
     );
     // With step halving allowed the same run completes (halved steps move the axial force less).
-    settings.step_halving = 4;
+    settings.newton.step_halving = 4;
     let out = simulate_mechanism(&mech, &settings, &mut |_| true).unwrap();
     println!(
         "with halving: {} steps, {} halved substeps, max {} iterations",
@@ -798,7 +802,7 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
 
 #[test]
 fn linear_links_factor_once_and_take_one_solve_per_step() {
-    let settings = KedSettings::new(0.05, 1e-4);
+    let settings = Settings::new(0.05, 1e-4);
     // A non-rotating cantilever, unloaded axially (a transverse tip load and an initial bend).
     let mut m = clamped(link("beam", 1.0, 8, 2e11, 7850.0, 1e-4, 1e-9, fixed_frame()));
     m.loads.push(NodalLoad {
@@ -897,7 +901,7 @@ fn stiff_links_follow_the_rigid_kinematics() {
     // Tolerance: the ratio within [0.2e-3, 2e-3] and the stiff displacements below 1e-5 of the
     // link length (measured 5e-6 for the slider-crank), i.e. the stiff mechanism follows the
     // rigid kinematics.
-    let settings = KedSettings::new(0.042, 1e-5); // one crank turn at 150 rad/s
+    let settings = Settings::new(0.042, 1e-5); // one crank turn at 150 rad/s
     let soft = simulate_mechanism(&slider_crank(2e11, 6), &settings, &mut |_| true).unwrap();
     let stiff = simulate_mechanism(&slider_crank(2e14, 6), &settings, &mut |_| true).unwrap();
     let (s, k) = (max_disp(&soft).0, max_disp(&stiff).0);
@@ -910,7 +914,7 @@ fn stiff_links_follow_the_rigid_kinematics() {
 
     // A four-bar with a flexible coupler, likewise.
     let g = [0.3, 0.1, 0.35, 0.25];
-    let settings = KedSettings::new(0.21, 1e-4); // one crank turn at 30 rad/s
+    let settings = Settings::new(0.21, 1e-4); // one crank turn at 30 rad/s
     let soft = simulate_mechanism(&four_bar(2e11, g), &settings, &mut |_| true).unwrap();
     let stiff = simulate_mechanism(&four_bar(2e14, g), &settings, &mut |_| true).unwrap();
     let (s, k) = (max_disp(&soft).0, max_disp(&stiff).0);
@@ -973,15 +977,17 @@ fn slider_crank_clearance_converges_with_implicit_contact_and_the_lagged_kappa_p
     let euler = std::f64::consts::PI.powi(2) * 2e11 * 0.008f64.powi(4) / 12.0 / 0.09; // 7.49 kN
     let run = |dt: f64, coupling: Coupling, geometric: Option<bool>| {
         let mech = slider_crank_with_crank_pin_clearance(geometric);
-        let mut s = KedSettings::new(0.05, dt);
+        let mut s = Settings::new(0.05, dt);
         s.coupling = coupling;
-        s.record = KedRecord {
+        s.record = RecordSpec {
             every: 1,
-            displacements: false,
-            axial_force: true,
-            midspan: false,
-            energy: false,
-            ..KedRecord::default()
+            links: LinkChannels {
+                displacements: false,
+                axial_force: true,
+                midspan: false,
+                energy: false,
+            },
+            ..RecordSpec::default()
         };
         simulate_mechanism(&mech, &s, &mut |_| true)
     };
@@ -1085,15 +1091,17 @@ fn clearance_between_two_flexible_links_reduces_to_the_ideal_pin_when_stiff_and_
     // from the ideal pin's by 0.1 % and 0.3 % of their largest value (tolerance 1 %); the joint
     // carries up to 2.5 kN at a compression of 0.25 um (= F / K_B).
     let run = |m: &Mechanism, coupling: Coupling| {
-        let mut s = KedSettings::new(0.03, 1e-5);
+        let mut s = Settings::new(0.03, 1e-5);
         s.coupling = coupling;
-        s.record = KedRecord {
+        s.record = RecordSpec {
             every: 10,
-            displacements: true,
-            axial_force: false,
-            midspan: true,
-            energy: false,
-            ..KedRecord::default()
+            links: LinkChannels {
+                displacements: true,
+                axial_force: false,
+                midspan: true,
+                energy: false,
+            },
+            ..RecordSpec::default()
         };
         simulate_mechanism(m, &s, &mut |_| true).unwrap()
     };
@@ -1164,15 +1172,17 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
         ..Default::default()
     };
     let run = |coupling: Coupling, t_end: f64| {
-        let mut s = KedSettings::new(t_end, 1e-6);
+        let mut s = Settings::new(t_end, 1e-6);
         s.coupling = coupling;
-        s.record = KedRecord {
+        s.record = RecordSpec {
             every: 10,
-            displacements: false,
-            axial_force: false,
-            midspan: false,
-            energy: true,
-            ..KedRecord::default()
+            links: LinkChannels {
+                displacements: false,
+                axial_force: false,
+                midspan: false,
+                energy: true,
+            },
+            ..RecordSpec::default()
         };
         let out = simulate_mechanism(&mech, &s, &mut |_| true).expect("the run completes");
         let n = out.time.len();

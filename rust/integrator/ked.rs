@@ -35,159 +35,38 @@ use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
-use crate::integrator::Newmark;
 use crate::kinematics::FrameState;
 use crate::linsolve::BandLu;
 use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::recorder::{RecordSpec, Recorder};
+use crate::simulation::Settings;
 
 const NONE: usize = usize::MAX;
 
-/// Settings of a KED run.
-#[derive(Debug, Clone, PartialEq)]
-pub struct KedSettings {
-    /// End time, s.
-    pub t_end: f64,
-    /// Step, s.
-    pub dt: f64,
-    /// Newmark parameters.
-    pub newmark: Newmark,
-    /// Clearance coupling: force or modified (the gap element is not offered here).
-    pub coupling: Coupling,
-    /// Relative tolerance of the step iterations (displacement correction over the
-    /// displacement scale).
-    pub tol: f64,
-    /// Iteration cap per step.
-    pub max_iter: usize,
-    /// How many times a step that does not converge may be halved (0 = fail at once with
-    /// [`Error::NotConverged`]).
-    pub step_halving: u32,
-    /// A translational DOF beyond this magnitude (m) means divergence; `None` = 10 x the longest
-    /// link.
-    pub divergence_limit: Option<f64>,
-    /// Event-aware stepping: a step that changes a clearance joint's contact status is redone as
-    /// two substeps cut at the crossing, with the accelerations restarted there (see
-    /// [`KedRun::run`]).
-    pub events: bool,
-    /// What to record.
-    pub record: KedRecord,
-}
-
-/// Channels of a KED run, recorded every `every` steps (the initial state included).
-#[derive(Debug, Clone, PartialEq)]
-pub struct KedRecord {
-    /// Record every k-th step (>= 1).
-    pub every: usize,
-    /// All nodal displacements `u, v, theta` of every link (link frame).
-    pub displacements: bool,
-    /// Axial force of every element, N.
-    pub axial_force: bool,
-    /// Midspan transverse deflection of every link relative to the chord through its end
-    /// nodes, m.
-    pub midspan: bool,
-    /// Kinetic energy (absolute motion), linear strain energy and angular momentum about the
-    /// frame origin of every link.
-    pub energy: bool,
-    /// Clearance joints (indices) whose histories and impact logs are kept; `None` = all.
-    pub joints: Option<Vec<usize>>,
-    /// Also keep the journal position `q` (qx, qy), m, global axes, of the recorded joints.
-    pub joint_position: bool,
-    /// Keep the joints' penetration and force histories (`false`: extremes only).
-    pub joint_histories: bool,
-    /// Joint extremes (and impact logs) start at this time, s.
-    pub start: f64,
-    /// Keep an impact log of the recorded joints.
-    pub impact_log: bool,
-}
-
-impl KedRecord {
-    /// The joint part as the translating engine's [`RecordSpec`]: the same recorder keeps the
-    /// extremes (contact time, RMS, velocities, time of the largest penetration) and impact
-    /// logs of both engines. Its histories stay off: the KED run keeps its own on its grid.
-    fn joint_spec(&self) -> RecordSpec {
-        RecordSpec {
-            joints: self.joints.clone(),
-            joint_position: false,
-            nodes: Vec::new(),
-            every: 1,
-            histories: false,
-            start: self.start,
-            impacts: self.impact_log,
-        }
+/// The gap element is not offered in moving frames; every other setting of [`Settings`] applies
+/// (the Newton iterations from [`Settings::newton`]).
+fn validate_settings(settings: &Settings) -> Result<()> {
+    settings.validate_run()?;
+    if let Coupling::Gap { .. } = settings.coupling {
+        return Err(Error::param(
+            "method",
+            "gap",
+            "\"force\" or \"modified\" for a mechanism (the gap element is offered for Model only)",
+        ));
     }
+    Ok(())
 }
 
-impl Default for KedRecord {
-    fn default() -> Self {
-        KedRecord {
-            every: 1,
-            displacements: true,
-            axial_force: false,
-            midspan: false,
-            energy: false,
-            joints: None,
-            joint_position: false,
-            joint_histories: true,
-            start: 0.0,
-            impact_log: false,
-        }
-    }
-}
-
-impl KedSettings {
-    /// Defaults: average-acceleration Newmark, modified coupling with lagged kappa, tolerance
-    /// 1e-8, 25 iterations, no halving.
-    pub fn new(t_end: f64, dt: f64) -> Self {
-        KedSettings {
-            t_end,
-            dt,
-            newmark: Newmark::default(),
-            coupling: Coupling::default(),
-            tol: 1e-8,
-            max_iter: 25,
-            step_halving: 0,
-            divergence_limit: None,
-            events: false,
-            record: KedRecord::default(),
-        }
-    }
-
-    fn validate(&self) -> Result<()> {
-        crate::error::check_positive("t_end", self.t_end, "s")?;
-        crate::error::check_positive("dt", self.dt, "s")?;
-        if self.dt > self.t_end {
-            return Err(Error::param("dt", self.dt, format!("<= t_end = {} s", self.t_end)));
-        }
-        if self.t_end / self.dt > 1e12 {
-            return Err(Error::param(
-                "dt",
-                self.dt,
-                format!("at least t_end/1e12 = {:e} s", self.t_end / 1e12),
-            ));
-        }
-        self.newmark.validate()?;
-        self.coupling.validate()?;
-        if let Coupling::Gap { .. } = self.coupling {
-            return Err(Error::param(
-                "method",
-                "gap",
-                "\"force\" or \"modified\" for a mechanism (the gap element is offered for Model only)",
-            ));
-        }
-        crate::error::check_positive("tol", self.tol, "(relative)")?;
-        if self.max_iter < 1 {
-            return Err(Error::param("max_iter", self.max_iter, "an integer >= 1"));
-        }
-        if self.step_halving > 20 {
-            return Err(Error::param("step_halving", self.step_halving, "0 ..= 20"));
-        }
-        if let Some(l) = self.divergence_limit {
-            crate::error::check_positive("divergence_limit", l, "m")?;
-        }
-        if self.record.every < 1 {
-            return Err(Error::param("every", self.record.every, "an integer >= 1"));
-        }
-        Ok(())
+/// The joint part of the record spec for the shared recorder: extremes (contact time, RMS,
+/// velocities, time of the largest penetration) and impact logs. Its histories stay off: the
+/// run keeps its own on its grid.
+fn joint_spec(record: &RecordSpec) -> RecordSpec {
+    RecordSpec {
+        nodes: Vec::new(),
+        every: 1,
+        histories: false,
+        joint_position: false,
+        ..record.clone()
     }
 }
 
@@ -213,7 +92,7 @@ pub struct LinkHistory {
 /// Histories and extremes of one clearance joint.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct KedJointHistory {
-    /// Whether its histories are kept ([`KedRecord::joints`]).
+    /// Whether its histories are kept ([`RecordSpec::joints`]).
     pub recorded: bool,
     /// Penetration `delta_r - delta_c`, m.
     pub penetration: Vec<f64>,
@@ -407,7 +286,7 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
 /// The KED run: DOF map, element data, Jacobian and state.
 pub struct KedRun<'a> {
     mech: &'a Mechanism,
-    settings: &'a KedSettings,
+    settings: &'a Settings,
     links: Vec<LinkData>,
     slider_dof: Vec<usize>,
     slider_angle: Vec<f64>,
@@ -496,10 +375,10 @@ impl DofBuilder {
 impl<'a> KedRun<'a> {
     /// Validates and prepares a run. Errors: invalid parameters or model
     /// ([`Mechanism::validate`]), an over-constrained node.
-    pub fn new(mech: &'a Mechanism, settings: &'a KedSettings) -> Result<Self> {
-        settings.validate()?;
+    pub fn new(mech: &'a Mechanism, settings: &'a Settings) -> Result<Self> {
+        validate_settings(settings)?;
         let link_nodes: Vec<usize> = mech.links.iter().map(|l| l.nodes()).collect();
-        settings.record.joint_spec().validate(mech.joints.len(), &link_nodes)?;
+        settings.record.validate(mech.joints.len(), &link_nodes)?;
         mech.validate(settings.t_end)?;
         // Union-find over node translations, sliders and ground.
         let offs: Vec<usize> = mech
@@ -758,7 +637,7 @@ impl<'a> KedRun<'a> {
         let rec = &settings.record;
         let joints = (0..nj)
             .map(|j| KedJointHistory {
-                recorded: rec.joint_histories && rec.joints.as_ref().is_none_or(|js| js.contains(&j)),
+                recorded: rec.histories && rec.joints.as_ref().is_none_or(|js| js.contains(&j)),
                 ..Default::default()
             })
             .collect();
@@ -795,7 +674,7 @@ impl<'a> KedRun<'a> {
             contact_was: vec![false; mech.joints.len()],
             nominal_offset: (0..nj).map(|j| mech.joint_moves_apart(j, settings.t_end)).collect(),
             t_frames: 0.0,
-            rec: Recorder::new(&settings.record.joint_spec(), nj, |_, _| 0, 0),
+            rec: Recorder::new(&joint_spec(&settings.record), nj, |_, _| 0, 0),
             jpen: vec![0.0; nj],
             jforce: vec![0.0; nj],
             jq: vec![[0.0; 2]; nj],
@@ -1440,10 +1319,10 @@ impl<'a> KedRun<'a> {
             if !last_corr.is_finite() {
                 break false;
             }
-            if linear || last_corr <= self.settings.tol {
+            if linear || last_corr <= self.settings.newton.tol {
                 break true;
             }
-            if iters >= self.settings.max_iter {
+            if iters >= self.settings.newton.max_iter {
                 break false;
             }
         };
@@ -1454,7 +1333,7 @@ impl<'a> KedRun<'a> {
         }
         self.restore();
         self.update_frames(t);
-        if depth < self.settings.step_halving && last_corr.is_finite() {
+        if depth < self.settings.newton.step_halving && last_corr.is_finite() {
             self.step(t, 0.5 * h, step, depth + 1)?;
             self.step(t + 0.5 * h, 0.5 * h, step, depth + 1)?;
             self.stats.halved_substeps += 2;
@@ -1587,26 +1466,27 @@ impl<'a> KedRun<'a> {
             let mut hist = std::mem::take(&mut self.out.links[li]);
             hist.frame.push([f.origin[0], f.origin[1], f.angle, f.rate]);
             let nn = l.nodes();
-            let need_w = rec.displacements || rec.axial_force || rec.midspan || rec.energy;
+            let ch = rec.links;
+            let need_w = ch.displacements || ch.axial_force || ch.midspan || ch.energy;
             if need_w {
                 buf.clear();
                 for nd in 0..nn {
                     let nt = self.nt(li, nd);
                     buf.push(Self::local(&nt, &self.y, &self.yd, &self.ydd));
                 }
-                if rec.displacements {
+                if ch.displacements {
                     for w in &buf {
                         hist.displacements.extend_from_slice(&w[0]);
                     }
                 }
                 let ld = &self.links[li];
                 let e = l.element();
-                if rec.axial_force {
+                if ch.axial_force {
                     for k in 0..l.elements {
                         hist.axial_force.push(ld.ea_l * (buf[k + 1][0][0] - buf[k][0][0]));
                     }
                 }
-                if rec.midspan {
+                if ch.midspan {
                     let xm = 0.5 * l.elements as f64;
                     let k = (xm.floor() as usize).min(l.elements - 1);
                     let xi = xm - k as f64;
@@ -1614,7 +1494,7 @@ impl<'a> KedRun<'a> {
                     let vm = e.transverse_at(xi, &q);
                     hist.midspan.push(vm - 0.5 * (buf[0][0][1] + buf[nn - 1][0][1]));
                 }
-                if rec.energy {
+                if ch.energy {
                     let r = rot(f.angle);
                     let v0 = [
                         r[0][0] * f.origin_vel[0] + r[1][0] * f.origin_vel[1],
@@ -1671,7 +1551,7 @@ impl<'a> KedRun<'a> {
 
     /// Tracks the joints at the current state, time `t` (s): the running extremes, and the
     /// shared recorder, as step `step` of length `dt` (s) or, with `step = None`, at the cut of
-    /// an event step. Nothing before [`KedRecord::start`] counts.
+    /// an event step. Nothing before [`RecordSpec::start`] counts.
     fn track_joints(&mut self, t: f64, step: Option<(u64, f64)>) {
         let counts = t >= self.settings.record.start;
         for j in 0..self.mech.joints.len() {
@@ -1806,7 +1686,7 @@ impl<'a> KedRun<'a> {
 
     /// Runs to `t_end`. `control(fraction)` is called every 256 steps; returning false stops
     /// the run with [`Error::Interrupted`]. Failures carry everything recorded until then.
-    /// With [`KedSettings::events`] each step goes through [`Self::step_with_events`]; a step
+    /// With [`Settings::events`] each step goes through [`Self::step_with_events`]; a step
     /// without a status change is the fixed step.
     pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<KedOutput, Box<KedFailure>> {
         if let Err(e) = self.initialize() {
@@ -1866,7 +1746,7 @@ impl<'a> KedRun<'a> {
 /// Runs a mechanism. See [`KedRun::run`].
 pub fn simulate_mechanism(
     mech: &Mechanism,
-    settings: &KedSettings,
+    settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<KedOutput, Box<KedFailure>> {
     let run = KedRun::new(mech, settings).map_err(|error| {

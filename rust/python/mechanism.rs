@@ -12,14 +12,16 @@ use super::errors::{run_detached, to_pyerr};
 use super::{err, parse_damping_law, PyMotion};
 use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
-use crate::integrator::ked::{simulate_mechanism, KedOutput, KedRecord, KedRun, KedSettings};
+use crate::integrator::ked::{simulate_mechanism, KedOutput, KedRun};
 use crate::integrator::Newmark;
 use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankLink};
 use crate::model::mechanism::{
     Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
 };
 use crate::model::{check_elements, Motion};
+use crate::recorder::{LinkChannels, RecordSpec};
 use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
+use crate::simulation::{NewtonSettings, Settings};
 
 /// A prescribed angle `phi(t)` (see `flexclear.kinematics`).
 #[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
@@ -626,7 +628,7 @@ impl PyMechanism {
 
     /// The unknowns: list of `(link, node, component)`.
     fn dof_map(&self, py: Python<'_>) -> PyResult<Vec<(i64, i64, String)>> {
-        let settings = KedSettings::new(1.0, 1.0);
+        let settings = Settings::new(1.0, 1.0);
         let run = KedRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
         Ok(run
             .dof_map()
@@ -658,7 +660,7 @@ impl PyMechanism {
         Bound<'py, PyArray2<f64>>,
         Bound<'py, PyArray1<f64>>,
     )> {
-        let settings = KedSettings::new(t.max(1e-9) * 2.0 + 1.0, 1.0);
+        let settings = Settings::new(t.max(1e-9) * 2.0 + 1.0, 1.0);
         let mut run = KedRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
         let n = run.unknowns();
         let y = y.as_slice()?.to_vec();
@@ -721,28 +723,32 @@ impl PyMechanism {
                 ))
             }
         };
-        let settings = KedSettings {
-            t_end,
-            dt,
+        let settings = Settings {
             newmark: Newmark { beta, gamma },
             coupling,
-            tol,
-            max_iter,
-            step_halving,
             divergence_limit,
             events,
-            record: KedRecord {
+            newton: NewtonSettings {
+                tol,
+                max_iter,
+                step_halving,
+            },
+            record: RecordSpec {
                 every,
-                displacements,
-                axial_force,
-                midspan,
-                energy,
+                links: LinkChannels {
+                    displacements,
+                    axial_force,
+                    midspan,
+                    energy,
+                },
                 joints,
                 joint_position,
-                joint_histories: histories,
+                histories,
                 start,
-                impact_log,
+                impacts: impact_log,
+                nodes: Vec::new(),
             },
+            ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
         let (res, pending) = run_detached(py, progress, |control| simulate_mechanism(mech, &settings, control));

@@ -396,6 +396,7 @@ impl PyModel {
                 histories,
                 start,
                 impacts: impact_log,
+                links: Default::default(),
             },
         )?;
         settings.events = events;
@@ -488,6 +489,7 @@ fn build_settings(
         divergence_limit,
         record,
         events: false,
+        newton: Default::default(),
     };
     Ok(settings)
 }
@@ -778,6 +780,7 @@ fn run_batch<'py>(
         histories,
         start,
         impacts: false,
+        links: Default::default(),
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {
