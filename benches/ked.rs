@@ -79,7 +79,7 @@ fn quiet(t_end: f64, dt: f64) -> Settings {
 
 fn run(m: &Mechanism, s: &Settings) -> f64 {
     let out = simulate_mechanism(m, s, &mut |_| true).expect("bench run failed");
-    out.t
+    out.time
 }
 
 /// 1000 steps of 1e-4 s; criterion's time / 1000 is the cost per step.

@@ -156,6 +156,25 @@ pub struct NodeHistory {
     pub theta: Vec<f64>,
 }
 
+/// Histories of one link in a moving frame, on the output grid.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinkHistory {
+    /// Frame state at each record: origin x, y (m), angle (rad), rate (rad/s).
+    pub frame: Vec<[f64; 4]>,
+    /// Nodal displacements, `3 (N + 1)` per record (link frame; m, m, rad).
+    pub displacements: Vec<f64>,
+    /// Element axial forces, N per record, N.
+    pub axial_force: Vec<f64>,
+    /// Midspan deflection relative to the chord, m.
+    pub midspan: Vec<f64>,
+    /// Kinetic energy, J.
+    pub kinetic: Vec<f64>,
+    /// Linear strain energy `Q^T K1 Q / 2`, J.
+    pub strain: Vec<f64>,
+    /// Angular momentum about the frame origin, kg m^2/s.
+    pub momentum: Vec<f64>,
+}
+
 /// Running extremes of one joint from `RecordSpec::start` on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointExtremes {
@@ -219,6 +238,9 @@ pub struct Recorder {
     pub joints: Vec<JointHistory>,
     /// Node histories.
     pub nodes: Vec<NodeHistory>,
+    /// Link histories of a moving-frame run (one per link; empty for the constant stepper,
+    /// whose link channels come from `nodes`).
+    pub links: Vec<LinkHistory>,
     /// Extremes of every joint (indexed like the model's joints).
     pub extremes: Vec<JointExtremes>,
     /// Impact logs of the recorded joints (parallel to `joints` of the spec; empty unless
@@ -274,6 +296,7 @@ impl Recorder {
             } else {
                 Vec::new()
             },
+            links: Vec::new(),
             node_dofs: spec.nodes.iter().map(|&(l, n)| node_dof(l, n)).collect(),
             impacts: if spec.impacts {
                 js.iter().map(|&j| (j, Vec::new())).collect()

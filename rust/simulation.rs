@@ -179,6 +179,19 @@ pub struct RunStats {
     pub event_steps: u64,
     /// Terms active in the equations, in words.
     pub terms: Vec<String>,
+    /// Which stepper ran: `"constant"` (one factorization of a constant effective matrix,
+    /// contact by Woodbury) or `"newton"` (moving frames: Newton iterations, the Jacobian
+    /// refactorized when it changes).
+    pub stepper: &'static str,
+    /// Newton stepper: substeps taken by step halving.
+    pub halved_substeps: u64,
+    /// Newton stepper: event steps kept whole because a substep did not converge where the
+    /// whole step did.
+    pub event_fallbacks: u64,
+    /// Number of unknowns (0 where the stepper does not report it).
+    pub unknowns: usize,
+    /// Half-bandwidth of the Newton Jacobian (0 for the constant stepper).
+    pub bandwidth: usize,
 }
 
 /// What a run produced.

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::element::BeamElement;
-use flexclear::integrator::ked::{simulate_mechanism, KedOutput, KedRun};
+use flexclear::integrator::ked::{simulate_mechanism, KedRun};
 use flexclear::kinematics::{
     FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
 };
@@ -18,6 +18,7 @@ use flexclear::model::Motion;
 use flexclear::recorder::{LinkChannels, RecordSpec};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Error;
+use flexclear::RunOutput;
 use flexclear::Settings;
 use nalgebra::{DMatrix, DVector};
 
@@ -291,9 +292,9 @@ fn kane_beam(rate: f64, ramp: f64, geometric: Option<bool>) -> Mechanism {
 }
 
 /// Tip transverse deflection (link frame) at every record, m.
-fn tip_v(out: &KedOutput) -> Vec<f64> {
-    let h = &out.links[0];
-    let per = h.displacements.len() / out.time.len();
+fn tip_v(out: &RunOutput) -> Vec<f64> {
+    let h = &out.record.links[0];
+    let per = h.displacements.len() / out.record.time.len();
     h.displacements.chunks(per).map(|w| w[per - 2]).collect()
 }
 
@@ -307,6 +308,7 @@ fn spin_up_stays_bounded_with_geometric_stiffening_and_diverges_without() {
     let v = tip_v(&with);
     let peak = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let settle: f64 = with
+        .record
         .time
         .iter()
         .zip(&v)
@@ -318,7 +320,7 @@ fn spin_up_stays_bounded_with_geometric_stiffening_and_diverges_without() {
     );
     println!(
         "with K2: peak |tip v| = {peak:.4} m at t = {:.2} s (tip lags: v = {:.4} m); after the ramp (t >= 16 s) |v| <= {settle:.4} m",
-        with.time[i_peak], v[i_peak]
+        with.record.time[i_peak], v[i_peak]
     );
     // Bounded: the lag stays a small fraction of the length, below L/10 = 0.8 m (for scale: the
     // quasi-static tip deflection under the peak angular acceleration 2W/T, without stiffening,
@@ -468,12 +470,12 @@ struct Balance {
     nonconservative: Vec<f64>,
 }
 
-fn balance(mech: &Mechanism, out: &KedOutput, geometric: bool) -> Balance {
+fn balance(mech: &Mechanism, out: &RunOutput, geometric: bool) -> Balance {
     let l = &mech.links[0];
     let e: BeamElement = l.element();
     let k2u = e.geometric_stiffness(1.0);
     let (ea, le) = (e.youngs_modulus * e.area, e.length);
-    let h = &out.links[0];
+    let h = &out.record.links[0];
     let per = 3 * l.nodes();
     let mut b = Balance {
         energy: vec![],
@@ -760,7 +762,7 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
                 correction,
             } => {
                 // What was recorded until then is kept, up to the start of the failing step.
-                assert!((f.output.t - time).abs() < 1e-12 && step >= 1);
+                assert!((f.output.time - time).abs() < 1e-12 && step >= 1);
                 (time, step, iterations, residual, correction)
             }
             e => panic!("expected NotConverged, got {e}"),
@@ -793,7 +795,7 @@ fn a_step_that_does_not_converge_reports_where_and_halving_rescues_it() {
     );
     assert_eq!(out.stats.steps, 20);
     assert!(out.stats.halved_substeps > 0 && out.stats.max_iterations <= 2);
-    assert!((out.t - 2.0).abs() < 1e-12);
+    assert!((out.time - 2.0).abs() < 1e-12);
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -879,9 +881,9 @@ fn linear_links_factor_once_and_take_one_solve_per_step() {
 // ------------------------------------------------------------------------------------------------
 
 /// Largest |value| of the recorded unknown-level displacements (link frame), m.
-fn max_disp(out: &KedOutput) -> (f64, f64) {
-    let h = &out.links[0];
-    let per = h.displacements.len() / out.time.len();
+fn max_disp(out: &RunOutput) -> (f64, f64) {
+    let h = &out.record.links[0];
+    let per = h.displacements.len() / out.record.time.len();
     let (mut trans, mut rot) = (0.0f64, 0.0f64);
     for w in h.displacements.chunks(per) {
         for n in w.chunks(3) {
@@ -997,8 +999,8 @@ fn slider_crank_clearance_converges_with_implicit_contact_and_the_lagged_kappa_p
     let mut peaks = Vec::new();
     for dt in [1e-5, 5e-6, 2.5e-6] {
         let out = run(dt, implicit(), None).unwrap();
-        let j = &out.joints[0];
-        let comp = -out.links[0].axial_force.iter().fold(0.0f64, |m, &f| m.min(f));
+        let j = &out.record.extremes[0];
+        let comp = -out.record.links[0].axial_force.iter().fold(0.0f64, |m, &f| m.min(f));
         println!(
             "implicit dt = {dt:e}: peak force {:.1} N, penetration {:.2} um, {} impacts, rod compression {comp:.0} N (Euler {euler:.0} N), {} iterations in {} steps",
             j.max_force,
@@ -1028,9 +1030,9 @@ fn slider_crank_clearance_converges_with_implicit_contact_and_the_lagged_kappa_p
     let out = run(1e-5, lagged, Some(false)).unwrap();
     println!(
         "lagged kappa, no geometric terms: peak {:.3e} N",
-        out.joints[0].max_force
+        out.record.extremes[0].max_force
     );
-    assert!(out.joints[0].max_force > 100.0 * f_ref);
+    assert!(out.record.extremes[0].max_force > 100.0 * f_ref);
     // With them, it fails (measured: diverged at t = 17.6 ms).
     assert!(run(1e-5, lagged, None).is_err());
 }
@@ -1115,11 +1117,11 @@ fn clearance_between_two_flexible_links_reduces_to_the_ideal_pin_when_stiff_and_
         (d, scale)
     };
     for li in 0..2 {
-        let (d, scale) = diff(&ideal.links[li].midspan, &stiff.links[li].midspan);
+        let (d, scale) = diff(&ideal.record.links[li].midspan, &stiff.record.links[li].midspan);
         println!("link {li}: midspan max {scale:.4e} m, max difference {d:.3e} m");
         assert!(d < 0.01 * scale, "link {li}: {d} vs {scale}");
     }
-    let j = &stiff.joints[0];
+    let j = &stiff.record.extremes[0];
     println!(
         "stiff pin: peak force {:.1} N, largest compression {:.3e} m",
         j.max_force, j.max_penetration
@@ -1185,17 +1187,19 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
             ..RecordSpec::default()
         };
         let out = simulate_mechanism(&mech, &s, &mut |_| true).expect("the run completes");
-        let n = out.time.len();
-        let pen = &out.joints[0].penetration;
+        let n = out.record.time.len();
+        let pen = &out.record.joints[0].penetration;
         let energy: Vec<f64> = (0..n)
             .map(|i| {
-                let links: f64 = out.links.iter().map(|h| h.kinetic[i] + h.strain[i]).sum();
+                let links: f64 = out.record.links.iter().map(|h| h.kinetic[i] + h.strain[i]).sum();
                 links + 0.5 * k_b * pen[i].max(0.0).powi(2)
             })
             .collect();
-        let momentum: Vec<f64> = (0..n).map(|i| out.links.iter().map(|h| h.momentum[i]).sum()).collect();
+        let momentum: Vec<f64> = (0..n)
+            .map(|i| out.record.links.iter().map(|h| h.momentum[i]).sum())
+            .collect();
         let e_dev = energy.iter().fold(0.0f64, |m, e| m.max((e / energy[0] - 1.0).abs()));
-        let h_scale = out.links[0]
+        let h_scale = out.record.links[0]
             .momentum
             .iter()
             .fold(0.0f64, |m, h| m.max(h.abs()))
@@ -1203,15 +1207,20 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
         let h_dev = momentum.iter().fold(0.0f64, |m, h| m.max((h - momentum[0]).abs())) / h_scale;
         println!(
             "{coupling:?}: {} impacts, peak force {:.1} N, energy {:.6e} J -> {:.6e} J (largest deviation {:.3e}), angular momentum deviation {:.3e} of {:.3e}",
-            out.joints[0].impacts,
-            out.joints[0].max_force,
+            out.record.extremes[0].impacts,
+            out.record.extremes[0].max_force,
             energy[0],
             energy[n - 1],
             e_dev,
             h_dev,
             h_scale
         );
-        (out.joints[0].impacts, e_dev, h_dev, energy[n - 1] / energy[0] - 1.0)
+        (
+            out.record.extremes[0].impacts,
+            e_dev,
+            h_dev,
+            energy[n - 1] / energy[0] - 1.0,
+        )
     };
     let (impacts, e_dev, h_dev, _) = run(implicit(), 0.01);
     assert!(impacts >= 20, "{impacts} impacts");

@@ -236,8 +236,11 @@ class Result:
         equations), ``method``, ``iterate``, ``iter_tol``, ``max_iter`` (the settings chosen),
         ``steps``, ``factorizations``, ``iterations``, ``max_iterations``, ``event_steps``,
         ``woodbury_steps``, ``woodbury_fallbacks``, ``unconverged_steps``, ``halved_substeps``,
-        ``event_fallbacks`` (counters that do not apply to the engine are 0), and ``terms`` (the
-        terms active in the equations).
+        ``event_fallbacks`` (counters that do not apply to the engine are 0), ``stepper``
+        (``"constant"``: one factorization of a constant effective matrix, contact by Woodbury;
+        ``"newton"``: the Jacobian refactorized when it changes), ``unknowns`` (number of
+        unknowns), ``bandwidth`` (half-bandwidth of the Newton Jacobian, 0 for the constant
+        stepper) and ``terms`` (the terms active in the equations).
     complete : bool
         False when the run stopped early (divergence, non-convergence, interruption).
     error : FlexclearError or None
@@ -272,7 +275,9 @@ class Result:
         self.error = error
         self.complete = error is None
         self.end_time: float = raw["t"]
-        #: ``(u, v, a)`` at the end, global DOF vectors (models whose links all translate; else None).
+        #: ``(u, v, a)`` at the end (m or rad, per s, per s^2): the global DOF vectors where every
+        #: link translates, else the moving-frame unknowns in the order of
+        #: :meth:`flexclear.Model.dof_map`.
         self.state: Optional[tuple[np.ndarray, np.ndarray, np.ndarray]] = raw.get("state")
         self.joint_names = list(joint_names)
         self.link_names = [name for name, *_ in links]

@@ -38,8 +38,8 @@ use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
 use crate::linsolve::BandLu;
 use crate::model::mechanism::{Endpoint, Mechanism};
-use crate::recorder::{RecordSpec, Recorder};
-use crate::simulation::Settings;
+use crate::recorder::{JointHistory, LinkHistory, RecordSpec, Recorder};
+use crate::simulation::{RunFailure, RunOutput, RunStats, Settings};
 
 const NONE: usize = usize::MAX;
 
@@ -70,97 +70,14 @@ fn joint_spec(record: &RecordSpec) -> RecordSpec {
     }
 }
 
-/// Histories of one link.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct LinkHistory {
-    /// Frame state at each record: origin x, y (m), angle (rad), rate (rad/s).
-    pub frame: Vec<[f64; 4]>,
-    /// Nodal displacements, `3 (N + 1)` per record (link frame).
-    pub displacements: Vec<f64>,
-    /// Element axial forces, N per record, N.
-    pub axial_force: Vec<f64>,
-    /// Midspan deflection relative to the chord, m.
-    pub midspan: Vec<f64>,
-    /// Kinetic energy, J.
-    pub kinetic: Vec<f64>,
-    /// Linear strain energy `Q^T K1 Q / 2`, J.
-    pub strain: Vec<f64>,
-    /// Angular momentum about the frame origin, kg m^2/s.
-    pub momentum: Vec<f64>,
-}
-
-/// Histories and extremes of one clearance joint.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct KedJointHistory {
-    /// Whether its histories are kept ([`RecordSpec::joints`]).
-    pub recorded: bool,
-    /// Penetration `delta_r - delta_c`, m.
-    pub penetration: Vec<f64>,
-    /// Contact force magnitude, N.
-    pub force: Vec<f64>,
-    /// Journal position relative to the bearing, global axes, m (when asked).
-    pub qx: Vec<f64>,
-    /// See `qx`.
-    pub qy: Vec<f64>,
-    /// Largest penetration over every step, m.
-    pub max_penetration: f64,
-    /// Largest force over every step, N.
-    pub max_force: f64,
-    /// Open-to-closed transitions.
-    pub impacts: u64,
-}
-
-/// Counters of a KED run.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct KedStats {
-    /// Steps completed (halved substeps count once, as their parent step).
-    pub steps: u64,
-    /// Substeps taken by step halving.
-    pub halved_substeps: u64,
-    /// Steps cut at a contact status change (event-aware stepping).
-    pub event_steps: u64,
-    /// Event steps kept whole because a substep did not converge where the whole step did.
-    pub event_fallbacks: u64,
-    /// Numeric factorizations: the mass matrix once for the initial accelerations, then the
-    /// Jacobian each time it changes.
-    pub factorizations: u64,
-    /// Newton iterations in all.
-    pub iterations: u64,
-    /// Largest number of iterations in one step.
-    pub max_iterations: u64,
-    /// Terms active in the equations, in words, per link.
-    pub terms: Vec<String>,
-    /// Number of unknowns and the half-bandwidth of the Jacobian.
-    pub unknowns: usize,
-    /// Half-bandwidth of the Jacobian.
-    pub bandwidth: usize,
-}
-
-/// What a KED run produced.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct KedOutput {
-    /// Recorded times, s.
-    pub time: Vec<f64>,
-    /// Per link.
-    pub links: Vec<LinkHistory>,
-    /// Per clearance joint.
-    pub joints: Vec<KedJointHistory>,
-    /// The joints' extremes beyond the ones above (contact time, RMS, velocities, time of the
-    /// largest penetration) and their impact logs: the translating engine's recorder.
-    pub joint_record: Recorder,
-    /// Counters.
-    pub stats: KedStats,
-    /// Time reached, s.
-    pub t: f64,
-}
-
-/// A KED run that stopped early, with what it recorded.
-#[derive(Debug, Clone, PartialEq)]
-pub struct KedFailure {
-    /// Why.
-    pub error: Error,
-    /// Recorded until then.
-    pub output: KedOutput,
+/// The running extremes of one clearance joint that the stepper tracks itself (every step from
+/// [`RecordSpec::start`] on, the law at the reached state), and whether its histories are kept.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct JointTrack {
+    recorded: bool,
+    max_penetration: f64,
+    max_force: f64,
+    impacts: u64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -331,8 +248,15 @@ pub struct KedRun<'a> {
     /// Scratch for recording: local states of a link's nodes (reused, no allocation per record).
     node_states: Vec<[[f64; 3]; 3]>,
     nonlinear_geometric: bool,
-    stats: KedStats,
-    out: KedOutput,
+    stats: RunStats,
+    /// Per joint: its running extremes and whether its histories are kept.
+    track: Vec<JointTrack>,
+    /// Histories on the output grid (kept apart from `rec`, which an event step clones): sample
+    /// times, per link, per recorded joint (in joint order), and each joint's slot there.
+    hist_time: Vec<f64>,
+    hist_links: Vec<LinkHistory>,
+    hist_joints: Vec<JointHistory>,
+    hist_slot: Vec<Option<usize>>,
     limit: f64,
 }
 
@@ -605,7 +529,8 @@ impl<'a> KedRun<'a> {
         let limit = settings
             .divergence_limit
             .unwrap_or(10.0 * mech.links.iter().fold(0.0f64, |s, l| s.max(l.length)));
-        let mut stats = KedStats {
+        let mut stats = RunStats {
+            stepper: "newton",
             unknowns: n,
             bandwidth: b,
             ..Default::default()
@@ -635,17 +560,25 @@ impl<'a> KedRun<'a> {
         }
         let nj = mech.joints.len();
         let rec = &settings.record;
-        let joints = (0..nj)
-            .map(|j| KedJointHistory {
+        let track: Vec<JointTrack> = (0..nj)
+            .map(|j| JointTrack {
                 recorded: rec.histories && rec.joints.as_ref().is_none_or(|js| js.contains(&j)),
-                ..Default::default()
+                max_penetration: 0.0,
+                max_force: 0.0,
+                impacts: 0,
             })
             .collect();
-        let out = KedOutput {
-            links: vec![LinkHistory::default(); mech.links.len()],
-            joints,
-            ..Default::default()
-        };
+        let mut hist_slot = vec![None; nj];
+        let mut hist_joints = Vec::new();
+        for (j, t) in track.iter().enumerate() {
+            if t.recorded {
+                hist_slot[j] = Some(hist_joints.len());
+                hist_joints.push(JointHistory {
+                    joint: j,
+                    ..Default::default()
+                });
+            }
+        }
         Ok(KedRun {
             mech,
             settings,
@@ -683,7 +616,11 @@ impl<'a> KedRun<'a> {
             damping_at_start: vec![([[0.0; 2]; 2], [0.0; 2]); mech.joints.len()],
             nonlinear_geometric,
             stats,
-            out,
+            track,
+            hist_time: Vec::new(),
+            hist_links: vec![LinkHistory::default(); mech.links.len()],
+            hist_joints,
+            hist_slot,
             limit,
         })
     }
@@ -1459,11 +1396,11 @@ impl<'a> KedRun<'a> {
         let settings = self.settings;
         let rec = &settings.record;
         let mut buf = std::mem::take(&mut self.node_states);
-        self.out.time.push(t);
+        self.hist_time.push(t);
         for li in 0..self.links.len() {
             let l = &self.mech.links[li];
             let f = self.frames[li];
-            let mut hist = std::mem::take(&mut self.out.links[li]);
+            let mut hist = std::mem::take(&mut self.hist_links[li]);
             hist.frame.push([f.origin[0], f.origin[1], f.angle, f.rate]);
             let nn = l.nodes();
             let ch = rec.links;
@@ -1528,18 +1465,18 @@ impl<'a> KedRun<'a> {
                     hist.momentum.push(he);
                 }
             }
-            self.out.links[li] = hist;
+            self.hist_links[li] = hist;
         }
         self.node_states = buf;
         for j in 0..self.mech.joints.len() {
+            let Some(slot) = self.hist_slot[j] else {
+                continue;
+            };
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
             let jt = &self.mech.joints[j];
             let terms = jt.law.evaluate(q, qd, jt.clearance);
             let f = terms.force(q, qd);
-            let h = &mut self.out.joints[j];
-            if !h.recorded {
-                continue;
-            }
+            let h = &mut self.hist_joints[slot];
             h.penetration.push(terms.penetration);
             h.force.push((f[0] * f[0] + f[1] * f[1]).sqrt());
             if settings.record.joint_position {
@@ -1560,7 +1497,7 @@ impl<'a> KedRun<'a> {
             let terms = jt.law.evaluate(q, qd, jt.clearance);
             let f = terms.force(q, qd);
             let fmag = (f[0] * f[0] + f[1] * f[1]).sqrt();
-            let h = &mut self.out.joints[j];
+            let h = &mut self.track[j];
             let closed = terms.penetration > 0.0;
             if counts {
                 if closed && !self.contact_was[j] {
@@ -1638,12 +1575,8 @@ impl<'a> KedRun<'a> {
         };
         ev.was.clone_from(&self.contact_was);
         ev.extremes.clear();
-        ev.extremes.extend(
-            self.out
-                .joints
-                .iter()
-                .map(|j| (j.max_penetration, j.max_force, j.impacts)),
-        );
+        ev.extremes
+            .extend(self.track.iter().map(|j| (j.max_penetration, j.max_force, j.impacts)));
         ev.rec = Some(self.rec.clone());
         if self.cut_step(t0, h, k, ev, theta, jstar).is_ok() {
             self.stats.event_steps += 1;
@@ -1653,7 +1586,7 @@ impl<'a> KedRun<'a> {
         // tracking at the cut)
         self.stats.event_fallbacks += 1;
         self.contact_was.clone_from(&ev.was);
-        for (j, &(p, f, n)) in self.out.joints.iter_mut().zip(&ev.extremes) {
+        for (j, &(p, f, n)) in self.track.iter_mut().zip(&ev.extremes) {
             (j.max_penetration, j.max_force, j.impacts) = (p, f, n);
         }
         if let Some(rec) = ev.rec.take() {
@@ -1688,12 +1621,12 @@ impl<'a> KedRun<'a> {
     /// the run with [`Error::Interrupted`]. Failures carry everything recorded until then.
     /// With [`Settings::events`] each step goes through [`Self::step_with_events`]; a step
     /// without a status change is the fixed step.
-    pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<KedOutput, Box<KedFailure>> {
+    pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<RunOutput, Box<RunFailure>> {
         if let Err(e) = self.initialize() {
             return Err(self.fail(e, 0.0));
         }
         for j in 0..self.mech.joints.len() {
-            self.out.joints[j].max_penetration = f64::NEG_INFINITY;
+            self.track[j].max_penetration = f64::NEG_INFINITY;
         }
         let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let h = self.settings.dt;
@@ -1726,20 +1659,32 @@ impl<'a> KedRun<'a> {
                 return Err(self.fail(Error::Interrupted { time: t1, step: k }, t1));
             }
         }
-        self.out.t = steps as f64 * h;
-        self.out.stats = self.stats.clone();
-        self.out.joint_record = self.rec;
-        Ok(self.out)
+        Ok(self.output(steps as f64 * h))
     }
 
-    fn fail(mut self, error: Error, t: f64) -> Box<KedFailure> {
-        self.out.t = t;
-        self.out.stats = self.stats.clone();
-        self.out.joint_record = std::mem::take(&mut self.rec);
-        Box::new(KedFailure {
-            error,
-            output: self.out,
-        })
+    /// What the run has produced when it ends at `t` (s): the shared recorder's joint extremes
+    /// (the largest penetration, force and the impact count from the stepper's own tracking) and
+    /// impact logs, with the histories on the output grid; the counters; the unknowns'
+    /// displacement, velocity and acceleration (see [`Self::dof_map`]).
+    fn output(&mut self, t: f64) -> RunOutput {
+        let mut record = std::mem::take(&mut self.rec);
+        record.time = std::mem::take(&mut self.hist_time);
+        record.links = std::mem::take(&mut self.hist_links);
+        record.joints = std::mem::take(&mut self.hist_joints);
+        for (e, j) in record.extremes.iter_mut().zip(&self.track) {
+            (e.max_penetration, e.max_force, e.impacts) = (j.max_penetration, j.max_force, j.impacts);
+        }
+        RunOutput {
+            record,
+            stats: self.stats.clone(),
+            state: [self.y.clone(), self.yd.clone(), self.ydd.clone()],
+            time: t,
+        }
+    }
+
+    fn fail(mut self, error: Error, t: f64) -> Box<RunFailure> {
+        let output = self.output(t);
+        Box::new(RunFailure { error, output })
     }
 }
 
@@ -1748,11 +1693,11 @@ pub fn simulate_mechanism(
     mech: &Mechanism,
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
-) -> std::result::Result<KedOutput, Box<KedFailure>> {
+) -> std::result::Result<RunOutput, Box<RunFailure>> {
     let run = KedRun::new(mech, settings).map_err(|error| {
-        Box::new(KedFailure {
+        Box::new(RunFailure {
             error,
-            output: KedOutput::default(),
+            output: RunOutput::default(),
         })
     })?;
     run.run(control)

@@ -653,6 +653,8 @@ impl<'m> Lane<'m> {
             limit,
             stats: RunStats {
                 terms: terms_desc,
+                stepper: "constant",
+                unknowns: n,
                 ..Default::default()
             },
             rec,

@@ -3,16 +3,16 @@
 
 use std::sync::Arc;
 
-use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, ToPyArray};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt};
 
 use super::errors::{run_detached, to_pyerr};
+use super::output::{mat, output_dict};
 use super::{err, parse_damping_law, PyMotion};
 use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
-use crate::integrator::ked::{simulate_mechanism, KedOutput, KedRun};
+use crate::integrator::ked::{simulate_mechanism, KedRun};
 use crate::integrator::Newmark;
 use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankLink};
 use crate::model::mechanism::{
@@ -302,76 +302,6 @@ impl PyMechanism {
             )),
         }
     }
-}
-
-fn vec1<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
-    PyArray1::from_vec(py, v)
-}
-
-fn mat<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let a = Array2::from_shape_vec((rows, cols), v)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("internal shape error: {e}")))?;
-    Ok(a.to_pyarray(py))
-}
-
-fn output_dict<'py>(py: Python<'py>, m: &Mechanism, out: KedOutput) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let rows = out.time.len();
-    d.set_item("time", vec1(py, out.time))?;
-    d.set_item("t", out.t)?;
-    let links = PyList::empty(py);
-    for (l, h) in m.links.iter().zip(out.links) {
-        let ld = PyDict::new(py);
-        let fr: Vec<f64> = h.frame.iter().flatten().copied().collect();
-        let fr_rows = h.frame.len();
-        ld.set_item("frame", mat(py, fr, fr_rows, 4)?)?;
-        let nn = l.elements + 1;
-        let drows = h.displacements.len() / (3 * nn);
-        ld.set_item("displacements", mat(py, h.displacements, drows, 3 * nn)?)?;
-        let arows = h.axial_force.len() / l.elements;
-        ld.set_item("axial_force", mat(py, h.axial_force, arows, l.elements)?)?;
-        ld.set_item("midspan", vec1(py, h.midspan))?;
-        ld.set_item("kinetic", vec1(py, h.kinetic))?;
-        ld.set_item("strain", vec1(py, h.strain))?;
-        ld.set_item("momentum", vec1(py, h.momentum))?;
-        links.append(ld)?;
-    }
-    let _ = rows;
-    d.set_item("links", links)?;
-    // The joints in the translating engine's layout: histories of the recorded joints, the
-    // extremes of every joint (the running largest penetration, force and the impact count of
-    // the KED tracking, the rest from the shared recorder), the impact logs.
-    let mut extremes = out.joint_record.extremes.clone();
-    let joints = PyList::empty(py);
-    for (i, (j, e)) in out.joints.into_iter().zip(extremes.iter_mut()).enumerate() {
-        (e.max_penetration, e.max_force, e.impacts) = (j.max_penetration, j.max_force, j.impacts);
-        if j.recorded {
-            let jd = PyDict::new(py);
-            jd.set_item("joint", i)?;
-            jd.set_item("penetration", vec1(py, j.penetration))?;
-            jd.set_item("force", vec1(py, j.force))?;
-            jd.set_item("qx", vec1(py, j.qx))?;
-            jd.set_item("qy", vec1(py, j.qy))?;
-            joints.append(jd)?;
-        }
-    }
-    d.set_item("joints", joints)?;
-    d.set_item("extremes", super::extremes_list(py, &extremes)?)?;
-    d.set_item("impact_log", super::impact_logs(py, out.joint_record.impacts)?)?;
-    let s = out.stats;
-    let st = PyDict::new(py);
-    st.set_item("steps", s.steps)?;
-    st.set_item("halved_substeps", s.halved_substeps)?;
-    st.set_item("event_steps", s.event_steps)?;
-    st.set_item("event_fallbacks", s.event_fallbacks)?;
-    st.set_item("factorizations", s.factorizations)?;
-    st.set_item("iterations", s.iterations)?;
-    st.set_item("max_iterations", s.max_iterations)?;
-    st.set_item("unknowns", s.unknowns)?;
-    st.set_item("bandwidth", s.bandwidth)?;
-    st.set_item("terms", s.terms)?;
-    d.set_item("stats", st)?;
-    Ok(d)
 }
 
 #[pymethods]
@@ -669,7 +599,12 @@ impl PyMechanism {
             None => vec![0.0; n],
         };
         let [m, c, k, r] = run.linearize_with(t, &y, &yd, contacts).map_err(|e| err(py, e))?;
-        Ok((mat(py, m, n, n)?, mat(py, c, n, n)?, mat(py, k, n, n)?, vec1(py, r)))
+        Ok((
+            mat(py, m, n, n)?,
+            mat(py, c, n, n)?,
+            mat(py, k, n, n)?,
+            PyArray1::from_vec(py, r),
+        ))
     }
 
     /// Runs the mechanism; returns a dict of histories (see `flexclear.Mechanism.simulate`).
@@ -751,16 +686,17 @@ impl PyMechanism {
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
+        let link_elements: Vec<usize> = mech.links.iter().map(|l| l.elements).collect();
         let (res, pending) = run_detached(py, progress, |control| simulate_mechanism(mech, &settings, control));
         match res {
-            Ok(out) => output_dict(py, mech, out),
+            Ok(out) => output_dict(py, out, &link_elements),
             Err(fail) => {
                 if let Some(e) = pending {
                     if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
                         return Err(e);
                     }
                 }
-                let partial = output_dict(py, mech, fail.output)?;
+                let partial = output_dict(py, fail.output, &link_elements)?;
                 Err(to_pyerr(py, &fail.error, Some(partial)))
             }
         }

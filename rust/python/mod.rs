@@ -3,6 +3,7 @@
 
 mod errors;
 mod mechanism;
+mod output;
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -16,12 +17,13 @@ use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
 use crate::integrator::Newmark;
 use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
-use crate::recorder::{JointExtremes, RecordSpec};
+use crate::recorder::RecordSpec;
 use crate::scenes::{SliderYoke, SliderYokeGeometry};
-use crate::simulation::{simulate, RunOutput, Settings, SolverMode};
+use crate::simulation::{simulate, Settings, SolverMode};
 use crate::study::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 
 use errors::{run_detached, to_pyerr};
+use output::{extremes_list, output_dict};
 
 pub(crate) fn err(py: Python<'_>, e: Error) -> PyErr {
     to_pyerr(py, &e, None)
@@ -403,14 +405,14 @@ impl PyModel {
         let model = &self.inner;
         let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
         match res {
-            Ok(out) => output_dict(py, out),
+            Ok(out) => output_dict(py, out, &[]),
             Err(fail) => {
                 if let Some(e) = pending {
                     if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
                         return Err(e); // the progress callback raised: propagate it as is
                     }
                 }
-                let partial = output_dict(py, fail.output)?;
+                let partial = output_dict(py, fail.output, &[])?;
                 Err(to_pyerr(py, &fail.error, Some(partial)))
             }
         }
@@ -492,100 +494,6 @@ fn build_settings(
         newton: Default::default(),
     };
     Ok(settings)
-}
-
-/// The impact logs of a recorder as a list of dicts of arrays (`joint`, `time`, `speed`,
-/// `peak_force`, `peak_penetration`, `duration`); shared by both bindings modules.
-pub(super) fn impact_logs(
-    py: Python<'_>,
-    impacts: Vec<(usize, Vec<crate::recorder::Impact>)>,
-) -> PyResult<Bound<'_, PyList>> {
-    let logs = PyList::empty(py);
-    for (joint, log) in impacts {
-        let x = PyDict::new(py);
-        x.set_item("joint", joint)?;
-        let col = |f: fn(&crate::recorder::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
-        x.set_item("time", col(|i| i.time))?;
-        x.set_item("speed", col(|i| i.speed))?;
-        x.set_item("peak_force", col(|i| i.peak_force))?;
-        x.set_item("peak_penetration", col(|i| i.peak_penetration))?;
-        x.set_item("duration", col(|i| i.duration))?;
-        logs.append(x)?;
-    }
-    Ok(logs)
-}
-
-/// The running extremes of every joint as a list of dicts (the keys of `flexclear.JointResult`);
-/// shared by both bindings modules.
-pub(super) fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {
-    let ext = PyList::empty(py);
-    for e in extremes {
-        let x = PyDict::new(py);
-        x.set_item("max_penetration", e.max_penetration)?;
-        x.set_item("time_of_max_penetration", e.time_of_max_penetration)?;
-        x.set_item("max_force", e.max_force)?;
-        x.set_item("impacts", e.impacts)?;
-        x.set_item("contact_time", e.contact_time)?;
-        x.set_item("max_velocity", e.max_velocity)?;
-        x.set_item("max_impact_velocity", e.max_impact_velocity)?;
-        x.set_item("rms_penetration", e.rms_penetration())?;
-        x.set_item("rms_force", e.rms_force())?;
-        ext.append(x)?;
-    }
-    Ok(ext)
-}
-
-fn output_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
-    let d = PyDict::new(py);
-    let rec = out.record;
-    d.set_item("time", PyArray1::from_vec(py, rec.time))?;
-    let joints = PyList::empty(py);
-    for h in rec.joints {
-        let j = PyDict::new(py);
-        j.set_item("joint", h.joint)?;
-        j.set_item("penetration", PyArray1::from_vec(py, h.penetration))?;
-        j.set_item("force", PyArray1::from_vec(py, h.force))?;
-        j.set_item("qx", PyArray1::from_vec(py, h.qx))?;
-        j.set_item("qy", PyArray1::from_vec(py, h.qy))?;
-        joints.append(j)?;
-    }
-    d.set_item("joints", joints)?;
-    let nodes = PyList::empty(py);
-    for h in rec.nodes {
-        let n = PyDict::new(py);
-        n.set_item("link", h.link)?;
-        n.set_item("node", h.node)?;
-        n.set_item("u", PyArray1::from_vec(py, h.u))?;
-        n.set_item("v", PyArray1::from_vec(py, h.v))?;
-        n.set_item("theta", PyArray1::from_vec(py, h.theta))?;
-        nodes.append(n)?;
-    }
-    d.set_item("nodes", nodes)?;
-    d.set_item("extremes", extremes_list(py, &rec.extremes)?)?;
-    d.set_item("impact_log", impact_logs(py, rec.impacts)?)?;
-    let s = out.stats;
-    let st = PyDict::new(py);
-    st.set_item("steps", s.steps)?;
-    st.set_item("factorizations", s.factorizations)?;
-    st.set_item("woodbury_steps", s.woodbury_steps)?;
-    st.set_item("woodbury_fallbacks", s.woodbury_fallbacks)?;
-    st.set_item("event_steps", s.event_steps)?;
-    st.set_item("iterations", s.iterations)?;
-    st.set_item("max_iterations", s.max_iterations)?;
-    st.set_item("unconverged_steps", s.unconverged_steps)?;
-    st.set_item("terms", s.terms)?;
-    d.set_item("stats", st)?;
-    let [u, v, a] = out.state;
-    d.set_item(
-        "state",
-        (
-            PyArray1::from_vec(py, u),
-            PyArray1::from_vec(py, v),
-            PyArray1::from_vec(py, a),
-        ),
-    )?;
-    d.set_item("t", out.time)?;
-    Ok(d)
 }
 
 /// Builds the slider-yoke scene (see `flexclear.scenes.slider_yoke`). Returns the model and the
