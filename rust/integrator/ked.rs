@@ -249,6 +249,9 @@ pub struct KedRun<'a> {
     node_states: Vec<[[f64; 3]; 3]>,
     nonlinear_geometric: bool,
     stats: RunStats,
+    /// Per unknown: whether it is a displacement in metres (nodal translations, slider travel),
+    /// checked against the divergence limit; rotations are checked for finiteness only.
+    translational: Vec<bool>,
     /// Per joint: its running extremes and whether its histories are kept.
     track: Vec<JointTrack>,
     /// Histories on the output grid (kept apart from `rec`, which an event step clones): sample
@@ -526,6 +529,14 @@ impl<'a> KedRun<'a> {
             couple(&[a[0], a[1], c[0], c[1]]);
         }
         let nonlinear_geometric = links.iter().any(|l| l.active.geometric);
+        let mut translational = vec![true; n];
+        for ld in &links {
+            for m in &ld.nodes {
+                if m.rot != NONE {
+                    translational[m.rot] = false;
+                }
+            }
+        }
         let limit = settings
             .divergence_limit
             .unwrap_or(10.0 * mech.links.iter().fold(0.0f64, |s, l| s.max(l.length)));
@@ -616,6 +627,7 @@ impl<'a> KedRun<'a> {
             damping_at_start: vec![([[0.0; 2]; 2], [0.0; 2]); mech.joints.len()],
             nonlinear_geometric,
             stats,
+            translational,
             track,
             hist_time: Vec::new(),
             hist_links: vec![LinkHistory::default(); mech.links.len()],
@@ -1338,27 +1350,18 @@ impl<'a> KedRun<'a> {
         self.factorize(0.0)
     }
 
+    /// The divergence rule of [`crate::integrator::divergence`] on the unknowns.
     fn check_divergence(&self, t: f64, step: u64) -> Result<()> {
-        for i in 0..self.n {
-            let v = self.y[i];
-            if !v.is_finite() || v.abs() > self.limit || !self.yd[i].is_finite() {
-                return Err(Error::Diverged {
-                    time: t,
-                    step,
-                    dof: self.describe(i),
-                    reason: if v.is_finite() {
-                        format!(
-                            "|displacement| = {:.3e} exceeds the limit {:.3e} m",
-                            v.abs(),
-                            self.limit
-                        )
-                    } else {
-                        "non-finite state".into()
-                    },
-                });
-            }
+        let (y, yd) = (&self.y, &self.yd);
+        match super::divergence::first_bad(self.n, |i| self.translational[i], |i| y[i], |i| yd[i], self.limit) {
+            None => Ok(()),
+            Some(i) => Err(Error::Diverged {
+                time: t,
+                step,
+                dof: self.describe(i),
+                reason: super::divergence::reason(y[i], yd[i], self.translational[i], self.limit),
+            }),
         }
-        Ok(())
     }
 
     fn describe(&self, i: usize) -> String {
@@ -1647,7 +1650,9 @@ impl<'a> KedRun<'a> {
             self.stats.steps = k;
             let t1 = k as f64 * h;
             self.track_joints(t1, Some((k, h)));
-            if (k % 16 == 0 || k == steps) && self.check_divergence(t1, k).is_err() {
+            if (k.is_multiple_of(super::divergence::CHECK_STRIDE) || k == steps)
+                && self.check_divergence(t1, k).is_err()
+            {
                 let e = self.check_divergence(t1, k).unwrap_err();
                 return Err(self.fail(e, t1));
             }

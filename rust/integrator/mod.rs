@@ -2,6 +2,7 @@
 //! path with a contact-free factorization and Woodbury updates) and for kineto-elastodynamic
 //! mechanisms with rotating links ([`ked`]).
 
+mod divergence;
 mod events;
 pub mod ked;
 pub mod newmark;

@@ -35,11 +35,13 @@
 //! cut only the contact force enters the running largest force (it is the peak of an entry with
 //! contact damping). A step without a status change is bitwise the fixed-step one.
 //!
-//! **Divergence checks.** Every step, each joint's penetration `delta` (positive = overlap; an
-//! open gap of any width passes) is compared with the divergence limit (one comparison per
-//! joint, which is also the finite check); every `CHECK_STRIDE` steps the
-//! whole state is checked for finiteness and the translational DOFs against the limit.
+//! **Divergence checks**: the one rule of [`super::divergence`]. Every step, each joint's
+//! penetration `delta` (positive = overlap; an open gap of any width passes) is compared with the
+//! divergence limit (one comparison per joint, which is also the finite check); every
+//! `CHECK_STRIDE` steps and at the last step the whole state is checked for finiteness and the
+//! translational DOFs against the limit.
 
+use super::divergence::{self, CHECK_STRIDE};
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use crate::assembly::{Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
@@ -82,7 +84,6 @@ impl Newmark {
 /// Steps between calls of the caller's control function (progress and interruption).
 const CONTROL_STRIDE: u64 = 1 << 14;
 /// Steps between full finite/limit checks of the state.
-const CHECK_STRIDE: u64 = 16;
 /// Woodbury is abandoned for a step whose capacitance pivot ratio is below this.
 const WOODBURY_RCOND: f64 = 1e-12;
 
@@ -1145,21 +1146,15 @@ impl<'m> Lane<'m> {
 
     /// Finite and within-limit check of this lane's state (`u`, `v` give the lane's entries).
     fn check_state(&self, u: impl DofAt, v: impl DofAt, translational: &[bool], t: f64, step: u64) -> Result<()> {
-        let bad = (0..translational.len()).position(|i| {
-            let (x, y) = (u.at(i), v.at(i));
-            !(x.is_finite() && y.is_finite()) || (translational[i] && x.abs() > self.limit)
-        });
+        let bad = divergence::first_bad(
+            translational.len(),
+            |i| translational[i],
+            |i| u.at(i),
+            |i| v.at(i),
+            self.limit,
+        );
         if let Some(d) = bad {
-            let x = u.at(d);
-            let reason = if x.is_finite() && v.at(d).is_finite() {
-                format!(
-                    "|displacement| = {:.3e} m exceeds the divergence limit {:.3e} m",
-                    x.abs(),
-                    self.limit
-                )
-            } else {
-                "non-finite displacement or velocity".to_string()
-            };
+            let reason = divergence::reason(u.at(d), v.at(d), translational[d], self.limit);
             return Err(Error::Diverged {
                 time: t,
                 step,
@@ -1388,7 +1383,25 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         }
         for l in 0..self.lanes.len() {
             if self.active[l] {
-                self.retire(l, None, self.step, self.t);
+                // the last step is checked like every CHECK_STRIDE-th one (divergence rule)
+                let mut error = None;
+                if !self.step.is_multiple_of(CHECK_STRIDE) && self.step == steps {
+                    let lane = &self.lanes[l];
+                    let (step, t) = (self.step, self.t);
+                    error = if L == 1 {
+                        lane.check_state(
+                            self.u.as_flattened(),
+                            self.v.as_flattened(),
+                            &self.sh.translational,
+                            t,
+                            step,
+                        )
+                    } else {
+                        lane.check_state(LaneOf(&self.u, l), LaneOf(&self.v, l), &self.sh.translational, t, step)
+                    }
+                    .err();
+                }
+                self.retire(l, error, self.step, self.t);
             }
         }
         self.lanes
