@@ -112,7 +112,8 @@ impl Coulomb {
     pub fn force(&self, v: f64, f_n: f64) -> f64 {
         let (mu, _) = self.coefficient(v);
         let (cd, _) = self.regularization_factor(v);
-        -mu * cd * f_n.max(0.0) * sign(v)
+        // `+ 0.0` turns the -0.0 of a zero product into 0.0
+        -mu * cd * f_n.max(0.0) * sign(v) + 0.0
     }
 
     /// Closed-form tangents `(dF_t/dv, dF_t/dF_N)` in N s/m and N/N. At the kinks of the
