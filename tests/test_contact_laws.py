@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from flexclear import ConvergenceError, InvalidParameterError, contact
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 DATA = Path(__file__).parent / "data"
 K_FLORES = 6.61e10  # N/m^1.5, the pin of the Flores benchmark (CONTACT.md section 2)
@@ -432,3 +434,24 @@ def test_friction_errors():
     with pytest.raises(InvalidParameterError) as ex:
         contact.LuGre(0.1, 0.15, sigma0=0.0)
     assert ex.value.parameter == "sigma0"
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    k=st.floats(1e3, 1e13),
+    e=st.floats(0.01, 1.0),
+    n=st.floats(1.0, 3.0),
+    d=st.floats(-1.0, 1.0),
+    dd=st.floats(-1e3, 1e3),
+    v0=st.floats(0.0, 1e2),
+    mass=st.floats(1e-3, 1e3),
+)
+def test_any_law_any_input_is_finite(k, e, n, d, dd, v0, mass):
+    # property: finite forces, tangents and impacts over the extremes (or a named error)
+    for cls in HYSTERESIS:
+        law = cls(k, e, exponent=n)
+        assert math.isfinite(law.force(d, dd, v0))
+        assert all(math.isfinite(t) for t in law.tangent(d, dd, v0))
+    imp = contact.effective_restitution(cls(k, e, exponent=n), mass, max(v0, 1e-3))
+    assert 0.0 <= imp.restitution <= 1.0 + 1e-9
+    assert math.isfinite(imp.contact_time) and math.isfinite(imp.max_penetration)
