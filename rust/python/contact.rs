@@ -14,6 +14,9 @@ use crate::contact::laws::{
 use crate::contact::restitution::effective_restitution;
 use crate::error::Error;
 
+/// A float64 array handed to Python.
+type Array<'py> = Bound<'py, PyArray1<f64>>;
+
 /// The slices of `arrays`, which must all have the length of the first.
 fn slices<'a>(py: Python<'_>, names: &str, arrays: &[&'a PyReadonlyArray1<'_, f64>]) -> PyResult<Vec<&'a [f64]>> {
     let out = arrays.iter().map(|a| a.as_slice()).collect::<Result<Vec<_>, _>>()?;
@@ -120,7 +123,7 @@ impl PyNormalLaw {
         penetration: PyReadonlyArray1<'_, f64>,
         rate: PyReadonlyArray1<'_, f64>,
         approach_speed: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    ) -> PyResult<Array<'py>> {
         let s = slices(
             py,
             "penetration, rate, approach_speed",
@@ -139,7 +142,7 @@ impl PyNormalLaw {
         penetration: PyReadonlyArray1<'_, f64>,
         rate: PyReadonlyArray1<'_, f64>,
         approach_speed: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    ) -> PyResult<(Array<'py>, Array<'py>)> {
         let s = slices(
             py,
             "penetration, rate, approach_speed",
@@ -219,7 +222,7 @@ impl PyCoulomb {
         py: Python<'py>,
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    ) -> PyResult<Array<'py>> {
         let s = slices(py, "slip_speed, normal_force", &[&slip_speed, &normal_force])?;
         let f: Vec<f64> = (0..s[0].len()).map(|i| self.inner.force(s[0][i], s[1][i])).collect();
         Ok(PyArray1::from_vec(py, f))
@@ -231,7 +234,7 @@ impl PyCoulomb {
         py: Python<'py>,
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    ) -> PyResult<(Array<'py>, Array<'py>)> {
         let s = slices(py, "slip_speed, normal_force", &[&slip_speed, &normal_force])?;
         let (a, b): (Vec<f64>, Vec<f64>) = (0..s[0].len()).map(|i| self.inner.tangent(s[0][i], s[1][i])).unzip();
         Ok((PyArray1::from_vec(py, a), PyArray1::from_vec(py, b)))
@@ -277,7 +280,7 @@ impl PyLuGre {
         py: Python<'py>,
         state: PyReadonlyArray1<'_, f64>,
         slip_speed: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    ) -> PyResult<Array<'py>> {
         let s = slices(py, "state, slip_speed", &[&state, &slip_speed])?;
         let f: Vec<f64> = (0..s[0].len())
             .map(|i| self.inner.derivative(s[0][i], s[1][i]))
@@ -292,7 +295,7 @@ impl PyLuGre {
         state: PyReadonlyArray1<'_, f64>,
         slip_speed: PyReadonlyArray1<'_, f64>,
         dt: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    ) -> PyResult<Array<'py>> {
         let s = slices(py, "state, slip_speed, dt", &[&state, &slip_speed, &dt])?;
         let f: Vec<f64> = (0..s[0].len())
             .map(|i| self.inner.advance(s[0][i], s[1][i], s[2][i]))
@@ -301,11 +304,7 @@ impl PyLuGre {
     }
 
     /// Steady state (m) at slip speed (m/s).
-    fn steady_state<'py>(
-        &self,
-        py: Python<'py>,
-        slip_speed: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn steady_state<'py>(&self, py: Python<'py>, slip_speed: PyReadonlyArray1<'_, f64>) -> PyResult<Array<'py>> {
         let v = slip_speed.as_slice()?;
         Ok(PyArray1::from_vec(
             py,
@@ -320,7 +319,7 @@ impl PyLuGre {
         state: PyReadonlyArray1<'_, f64>,
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    ) -> PyResult<Array<'py>> {
         let s = slices(
             py,
             "state, slip_speed, normal_force",
@@ -333,18 +332,13 @@ impl PyLuGre {
     }
 
     /// Tangents `(dF/dz` in N/m, `dF/dv` in N s/m, `dF/dF_N)`.
-    #[allow(clippy::type_complexity)]
     fn tangent<'py>(
         &self,
         py: Python<'py>,
         state: PyReadonlyArray1<'_, f64>,
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
-    ) -> PyResult<(
-        Bound<'py, PyArray1<f64>>,
-        Bound<'py, PyArray1<f64>>,
-        Bound<'py, PyArray1<f64>>,
-    )> {
+    ) -> PyResult<(Array<'py>, Array<'py>, Array<'py>)> {
         let s = slices(
             py,
             "state, slip_speed, normal_force",
