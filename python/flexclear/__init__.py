@@ -18,7 +18,7 @@ Every mechanism is a :class:`Model` with one :meth:`Model.simulate` returning on
 Monte Carlo studies of any model are in :mod:`flexclear.study`.
 """
 
-from . import motion, scenes, study
+from . import contact, motion, scenes, study
 from ._core import __version__
 from .errors import (
     ConvergenceError,
@@ -51,6 +51,7 @@ __all__ = [
     "SimulationInterrupted",
     "SingularMatrixError",
     "__version__",
+    "contact",
     "motion",
     "scenes",
     "study",

@@ -14,6 +14,9 @@ __all__ = [
     "slider_yoke",
     "slider_crank",
     "run_batch",
+    "NormalLaw",
+    "CoulombFriction",
+    "LuGreFriction",
     "__version__",
 ]
 
@@ -352,3 +355,64 @@ def run_batch(
     the exception that stopped the batch (KeyboardInterrupt, or one raised by `progress(done)`),
     else None. `lanes` is the largest lockstep group (0 = default 8, 1 = none, at most 8).
     """
+
+# Contact laws (rust/python/contact.rs); the public API is flexclear.contact. Array arguments are
+# one-dimensional float64 arrays of one length.
+
+_F64 = npt.NDArray[np.float64]
+
+@final
+class NormalLaw:
+    def __new__(
+        cls,
+        kind: str,
+        stiffness: float,
+        exponent: float = ...,
+        restitution: float = ...,
+        min_approach_speed: float = ...,
+        clip_tension: bool = ...,
+        damping: float = ...,
+        damping_law: str = ...,
+    ) -> NormalLaw: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def velocity_dependent(self) -> bool: ...
+    @property
+    def needs_approach_speed(self) -> bool: ...
+    def force(self, penetration: _F64, rate: _F64, approach_speed: _F64) -> _F64: ...
+    def tangent(self, penetration: _F64, rate: _F64, approach_speed: _F64) -> tuple[_F64, _F64]: ...
+    def effective_restitution(self, mass: float, approach_speed: float) -> tuple[float, float, float]: ...
+
+@final
+class CoulombFriction:
+    def __new__(
+        cls,
+        mu: float,
+        regularization: str = ...,
+        v0: float = ...,
+        v1: float = ...,
+        v_reg: float = ...,
+        mu_static: Optional[float] = ...,
+        stribeck_speed: float = ...,
+        stribeck_exponent: float = ...,
+    ) -> CoulombFriction: ...
+    def force(self, slip_speed: _F64, normal_force: _F64) -> _F64: ...
+    def tangent(self, slip_speed: _F64, normal_force: _F64) -> tuple[_F64, _F64]: ...
+
+@final
+class LuGreFriction:
+    def __new__(
+        cls,
+        mu: float,
+        mu_static: float,
+        stribeck_speed: float,
+        sigma0: float = ...,
+        sigma1: float = ...,
+        sigma2: float = ...,
+    ) -> LuGreFriction: ...
+    def derivative(self, state: _F64, slip_speed: _F64) -> _F64: ...
+    def advance(self, state: _F64, slip_speed: _F64, dt: _F64) -> _F64: ...
+    def steady_state(self, slip_speed: _F64) -> _F64: ...
+    def force(self, state: _F64, slip_speed: _F64, normal_force: _F64) -> _F64: ...
+    def tangent(self, state: _F64, slip_speed: _F64, normal_force: _F64) -> tuple[_F64, _F64, _F64]: ...

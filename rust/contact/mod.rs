@@ -9,6 +9,9 @@
 //! `c` into the effective matrix and keeps `f_explicit` on the right-hand side.
 
 mod coupling;
+pub mod friction;
+pub mod laws;
+pub mod restitution;
 mod spring_damper;
 
 pub use coupling::Coupling;

@@ -1,6 +1,7 @@
 //! Python bindings (`flexclear._core`), behind the `python` feature: the only code that knows
 //! about Python. Conversions, the model builder class, runs and modes; errors in `errors.rs`.
 
+mod contact;
 mod errors;
 mod mechanism;
 mod output;
@@ -782,6 +783,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(slider_yoke, m)?)?;
     m.add_function(wrap_pyfunction!(mechanism::slider_crank, m)?)?;
     m.add_function(wrap_pyfunction!(run_batch, m)?)?;
+    contact::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,0 +1,369 @@
+//! Bindings of the contact laws (`flexclear.contact`): normal-force laws, friction laws and the
+//! single-impact calibration. The Python classes of `flexclear/contact.py` hold one of these and
+//! do the broadcasting; here every array argument is one-dimensional and of one length.
+
+use numpy::{PyArray1, PyReadonlyArray1};
+use pyo3::prelude::*;
+
+use super::err;
+use super::parse_damping_law;
+use crate::contact::friction::{Coulomb, LuGre, Regularization, Stribeck};
+use crate::contact::laws::{
+    CarvalhoMartins, Flores, Gonthier, Hertz, HuntCrossley, KelvinVoigt, LankaraniNikravesh, NormalLaw,
+};
+use crate::contact::restitution::effective_restitution;
+use crate::error::Error;
+
+/// A float64 array handed to Python.
+type Array<'py> = Bound<'py, PyArray1<f64>>;
+
+/// The slices of `arrays`, which must all have the length of the first.
+fn slices<'a>(py: Python<'_>, names: &str, arrays: &[&'a PyReadonlyArray1<'_, f64>]) -> PyResult<Vec<&'a [f64]>> {
+    let out = arrays.iter().map(|a| a.as_slice()).collect::<Result<Vec<_>, _>>()?;
+    let n = out[0].len();
+    if out.iter().any(|s| s.len() != n) {
+        let lens: Vec<String> = out.iter().map(|s| s.len().to_string()).collect();
+        return Err(err(
+            py,
+            Error::param(names, format!("lengths {}", lens.join(", ")), "arrays of one length"),
+        ));
+    }
+    Ok(out)
+}
+
+/// A normal-force law (kind = the Python class name).
+#[pyclass(name = "NormalLaw", module = "flexclear._core", frozen)]
+pub(super) struct PyNormalLaw {
+    inner: Box<dyn NormalLaw>,
+}
+
+#[pymethods]
+impl PyNormalLaw {
+    /// Builds and validates the law `kind` ("Hertz", "HuntCrossley", "LankaraniNikravesh",
+    /// "Flores", "Gonthier", "CarvalhoMartins", "KelvinVoigt"). `restitution` is ignored by
+    /// Hertz and KelvinVoigt, `exponent`, `min_approach_speed` by KelvinVoigt, `damping` and
+    /// `damping_law` by all but KelvinVoigt; for KelvinVoigt `clip_tension` is `no_tension`.
+    #[new]
+    #[pyo3(signature = (kind, stiffness, exponent=1.5, restitution=1.0, min_approach_speed=1e-3, clip_tension=true,
+                        damping=0.0, damping_law="viscous"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        kind: &str,
+        stiffness: f64,
+        exponent: f64,
+        restitution: f64,
+        min_approach_speed: f64,
+        clip_tension: bool,
+        damping: f64,
+        damping_law: &str,
+    ) -> PyResult<Self> {
+        macro_rules! hysteresis {
+            ($ty:ident) => {
+                Box::new($ty {
+                    stiffness,
+                    exponent,
+                    restitution,
+                    min_approach_speed,
+                    clip_tension,
+                }) as Box<dyn NormalLaw>
+            };
+        }
+        let inner: Box<dyn NormalLaw> = match kind {
+            "Hertz" => Box::new(Hertz { stiffness, exponent }),
+            "HuntCrossley" => hysteresis!(HuntCrossley),
+            "LankaraniNikravesh" => hysteresis!(LankaraniNikravesh),
+            "Flores" => hysteresis!(Flores),
+            "Gonthier" => hysteresis!(Gonthier),
+            "CarvalhoMartins" => hysteresis!(CarvalhoMartins),
+            "KelvinVoigt" => Box::new(KelvinVoigt {
+                stiffness,
+                damping,
+                damping_law: parse_damping_law(py, damping_law)?,
+                no_tension: clip_tension,
+            }),
+            other => {
+                return Err(err(
+                    py,
+                    Error::param(
+                        "kind",
+                        format!("{other:?}"),
+                        "one of \"Hertz\", \"HuntCrossley\", \"LankaraniNikravesh\", \"Flores\", \"Gonthier\", \
+                         \"CarvalhoMartins\", \"KelvinVoigt\"",
+                    ),
+                ))
+            }
+        };
+        inner.validate("").map_err(|e| err(py, e))?;
+        Ok(PyNormalLaw { inner })
+    }
+
+    /// The law's name.
+    #[getter]
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+
+    /// Whether the force depends on the penetration rate.
+    #[getter]
+    fn velocity_dependent(&self) -> bool {
+        self.inner.velocity_dependent()
+    }
+
+    /// Whether the force depends on the approach speed of the episode.
+    #[getter]
+    fn needs_approach_speed(&self) -> bool {
+        self.inner.needs_approach_speed()
+    }
+
+    /// Normal force (N) at penetration (m), rate (m/s) and approach speed (m/s).
+    fn force<'py>(
+        &self,
+        py: Python<'py>,
+        penetration: PyReadonlyArray1<'_, f64>,
+        rate: PyReadonlyArray1<'_, f64>,
+        approach_speed: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Array<'py>> {
+        let s = slices(
+            py,
+            "penetration, rate, approach_speed",
+            &[&penetration, &rate, &approach_speed],
+        )?;
+        let f: Vec<f64> = (0..s[0].len())
+            .map(|i| self.inner.force(s[0][i], s[1][i], s[2][i]))
+            .collect();
+        Ok(PyArray1::from_vec(py, f))
+    }
+
+    /// Tangents `(dF/dd` in N/m, `dF/d(dd)` in N s/m) at the same arguments as `force`.
+    fn tangent<'py>(
+        &self,
+        py: Python<'py>,
+        penetration: PyReadonlyArray1<'_, f64>,
+        rate: PyReadonlyArray1<'_, f64>,
+        approach_speed: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<(Array<'py>, Array<'py>)> {
+        let s = slices(
+            py,
+            "penetration, rate, approach_speed",
+            &[&penetration, &rate, &approach_speed],
+        )?;
+        let (a, b): (Vec<f64>, Vec<f64>) = (0..s[0].len())
+            .map(|i| self.inner.tangent(s[0][i], s[1][i], s[2][i]))
+            .unzip();
+        Ok((PyArray1::from_vec(py, a), PyArray1::from_vec(py, b)))
+    }
+
+    /// One impact of `mass` (kg) at `approach_speed` (m/s): `(restitution, contact_time` in s,
+    /// `max_penetration` in m).
+    fn effective_restitution(&self, py: Python<'_>, mass: f64, approach_speed: f64) -> PyResult<(f64, f64, f64)> {
+        let law = self.inner.as_ref();
+        let r = py.detach(|| effective_restitution(law, mass, approach_speed));
+        let imp = r.map_err(|e| err(py, e))?;
+        Ok((imp.restitution, imp.contact_time, imp.max_penetration))
+    }
+}
+
+/// Regularized Coulomb friction.
+#[pyclass(name = "CoulombFriction", module = "flexclear._core", frozen)]
+pub(super) struct PyCoulomb {
+    inner: Coulomb,
+}
+
+#[pymethods]
+impl PyCoulomb {
+    /// `regularization` is "ambrosio" (`v0`, `v1`, m/s) or "linear" (`v_reg`, m/s); a Stribeck
+    /// curve when `mu_static` is given (`stribeck_speed` m/s, `stribeck_exponent`).
+    #[new]
+    #[pyo3(signature = (mu, regularization="ambrosio", v0=1e-4, v1=1e-2, v_reg=1e-3, mu_static=None,
+                        stribeck_speed=1e-3, stribeck_exponent=2.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        mu: f64,
+        regularization: &str,
+        v0: f64,
+        v1: f64,
+        v_reg: f64,
+        mu_static: Option<f64>,
+        stribeck_speed: f64,
+        stribeck_exponent: f64,
+    ) -> PyResult<Self> {
+        let regularization = match regularization {
+            "ambrosio" => Regularization::Ambrosio { v0, v1 },
+            "linear" => Regularization::Linear { v_reg },
+            other => {
+                return Err(err(
+                    py,
+                    Error::param(
+                        "regularization",
+                        format!("{other:?}"),
+                        "one of \"ambrosio\", \"linear\"",
+                    ),
+                ))
+            }
+        };
+        let inner = Coulomb {
+            mu,
+            regularization,
+            stribeck: mu_static.map(|mu_static| Stribeck {
+                mu_static,
+                speed: stribeck_speed,
+                exponent: stribeck_exponent,
+            }),
+        };
+        inner.validate("").map_err(|e| err(py, e))?;
+        Ok(PyCoulomb { inner })
+    }
+
+    /// Friction force (N) at slip speed (m/s) and normal force (N).
+    fn force<'py>(
+        &self,
+        py: Python<'py>,
+        slip_speed: PyReadonlyArray1<'_, f64>,
+        normal_force: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Array<'py>> {
+        let s = slices(py, "slip_speed, normal_force", &[&slip_speed, &normal_force])?;
+        let f: Vec<f64> = (0..s[0].len()).map(|i| self.inner.force(s[0][i], s[1][i])).collect();
+        Ok(PyArray1::from_vec(py, f))
+    }
+
+    /// Tangents `(dF/dv` in N s/m, `dF/dF_N)`.
+    fn tangent<'py>(
+        &self,
+        py: Python<'py>,
+        slip_speed: PyReadonlyArray1<'_, f64>,
+        normal_force: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<(Array<'py>, Array<'py>)> {
+        let s = slices(py, "slip_speed, normal_force", &[&slip_speed, &normal_force])?;
+        let (a, b): (Vec<f64>, Vec<f64>) = (0..s[0].len()).map(|i| self.inner.tangent(s[0][i], s[1][i])).unzip();
+        Ok((PyArray1::from_vec(py, a), PyArray1::from_vec(py, b)))
+    }
+}
+
+/// LuGre friction normalized by the normal force.
+#[pyclass(name = "LuGreFriction", module = "flexclear._core", frozen)]
+pub(super) struct PyLuGre {
+    inner: LuGre,
+}
+
+#[pymethods]
+impl PyLuGre {
+    /// Coefficients `mu`, `mu_static`, Stribeck speed (m/s), `sigma0` (1/m), `sigma1` (s/m),
+    /// `sigma2` (N s/m).
+    #[new]
+    #[pyo3(signature = (mu, mu_static, stribeck_speed, sigma0=1e5, sigma1=0.0, sigma2=0.0))]
+    fn new(
+        py: Python<'_>,
+        mu: f64,
+        mu_static: f64,
+        stribeck_speed: f64,
+        sigma0: f64,
+        sigma1: f64,
+        sigma2: f64,
+    ) -> PyResult<Self> {
+        let inner = LuGre {
+            mu,
+            mu_static,
+            stribeck_speed,
+            sigma0,
+            sigma1,
+            sigma2,
+        };
+        inner.validate("").map_err(|e| err(py, e))?;
+        Ok(PyLuGre { inner })
+    }
+
+    /// `dz/dt` (m/s) at state (m) and slip speed (m/s).
+    fn derivative<'py>(
+        &self,
+        py: Python<'py>,
+        state: PyReadonlyArray1<'_, f64>,
+        slip_speed: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Array<'py>> {
+        let s = slices(py, "state, slip_speed", &[&state, &slip_speed])?;
+        let f: Vec<f64> = (0..s[0].len())
+            .map(|i| self.inner.derivative(s[0][i], s[1][i]))
+            .collect();
+        Ok(PyArray1::from_vec(py, f))
+    }
+
+    /// The state (m) after `dt` (s) at constant slip speed, exactly.
+    fn advance<'py>(
+        &self,
+        py: Python<'py>,
+        state: PyReadonlyArray1<'_, f64>,
+        slip_speed: PyReadonlyArray1<'_, f64>,
+        dt: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Array<'py>> {
+        let s = slices(py, "state, slip_speed, dt", &[&state, &slip_speed, &dt])?;
+        let f: Vec<f64> = (0..s[0].len())
+            .map(|i| self.inner.advance(s[0][i], s[1][i], s[2][i]))
+            .collect();
+        Ok(PyArray1::from_vec(py, f))
+    }
+
+    /// Steady state (m) at slip speed (m/s).
+    fn steady_state<'py>(&self, py: Python<'py>, slip_speed: PyReadonlyArray1<'_, f64>) -> PyResult<Array<'py>> {
+        let v = slip_speed.as_slice()?;
+        Ok(PyArray1::from_vec(
+            py,
+            v.iter().map(|&v| self.inner.steady_state(v)).collect(),
+        ))
+    }
+
+    /// Friction force (N) at state (m), slip speed (m/s) and normal force (N).
+    fn force<'py>(
+        &self,
+        py: Python<'py>,
+        state: PyReadonlyArray1<'_, f64>,
+        slip_speed: PyReadonlyArray1<'_, f64>,
+        normal_force: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Array<'py>> {
+        let s = slices(
+            py,
+            "state, slip_speed, normal_force",
+            &[&state, &slip_speed, &normal_force],
+        )?;
+        let f: Vec<f64> = (0..s[0].len())
+            .map(|i| self.inner.force(s[0][i], s[1][i], s[2][i]))
+            .collect();
+        Ok(PyArray1::from_vec(py, f))
+    }
+
+    /// Tangents `(dF/dz` in N/m, `dF/dv` in N s/m, `dF/dF_N)`.
+    fn tangent<'py>(
+        &self,
+        py: Python<'py>,
+        state: PyReadonlyArray1<'_, f64>,
+        slip_speed: PyReadonlyArray1<'_, f64>,
+        normal_force: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<(Array<'py>, Array<'py>, Array<'py>)> {
+        let s = slices(
+            py,
+            "state, slip_speed, normal_force",
+            &[&state, &slip_speed, &normal_force],
+        )?;
+        let n = s[0].len();
+        let (mut a, mut b, mut c) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        for i in 0..n {
+            let t = self.inner.tangent(s[0][i], s[1][i], s[2][i]);
+            a.push(t.0);
+            b.push(t.1);
+            c.push(t.2);
+        }
+        Ok((
+            PyArray1::from_vec(py, a),
+            PyArray1::from_vec(py, b),
+            PyArray1::from_vec(py, c),
+        ))
+    }
+}
+
+/// Registers the classes of this file on `_core`.
+pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyNormalLaw>()?;
+    m.add_class::<PyCoulomb>()?;
+    m.add_class::<PyLuGre>()?;
+    Ok(())
+}
