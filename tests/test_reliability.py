@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import flexclear
+import numpy as np
 import pandas as pd
 import pytest
 from flexclear import study as study_mod
@@ -324,3 +325,46 @@ def test_item3_parts_are_written_as_samples_finish_within_a_chunk(tmp_path, monk
     assert len(list(tmp_path.glob("part-*.parquet"))) == 12
     same(res.frame, s.run(progress=False).frame)
     same(open_store(tmp_path).frame, res.frame)
+
+
+# -- item 4: no silent NaN ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("start", [0.01, 0.02, 1.0])
+def test_item4_record_start_at_or_after_t_end_is_refused(start):
+    model = flexclear.scenes.slider_yoke()
+    with pytest.raises(flexclear.InvalidParameterError, match=r"record.start.*t_end = 0.01 s") as exc:
+        model.simulate(0.01, 1e-5, record=flexclear.Record(start=start), progress=False)
+    assert exc.value.parameter == "record.start"
+    crank = flexclear.scenes.slider_crank(clearance_at="crank_pin")
+    with pytest.raises(flexclear.InvalidParameterError, match="record.start"):
+        crank.simulate(0.01, 1e-5, record={"start": start}, progress=False)
+
+
+def test_item4_a_window_without_a_step_is_refused_and_a_valid_one_is_finite():
+    model = flexclear.scenes.slider_yoke()
+    # t_end = 1.04e-5 rounds to one step of 1e-5: nothing at or after 1.02e-5
+    with pytest.raises(flexclear.InvalidParameterError, match="last step is at 1e-05 s"):
+        model.simulate(1.04e-5, 1e-5, record=flexclear.Record(start=1.02e-5), progress=False)
+    j = model.simulate(0.002, 1e-5, record=flexclear.Record(start=0.00199), progress=False).joint("bearing")
+    for o in study_mod.OUTPUTS:
+        assert np.isfinite(getattr(j, o)), o
+
+
+def test_item4_study_start_at_or_after_t_end_is_refused():
+    with pytest.raises(flexclear.InvalidParameterError, match=r"`start` = 0.5.*t_end = 0.5 s"):
+        small_study(start=0.5, t_end=0.5)
+    # with a varied t_end the samples whose window is empty are invalid rows, not NaN outputs
+    s = small_study(vary={"t_end": [0.002, 0.004]}, design="grid", start=0.003)
+    f = s.run(progress=False).frame
+    assert list(f["status"]) == ["invalid", "ok"]
+    assert "start" in f["message"].iloc[0]
+    assert np.isfinite(f.iloc[1][s.output_columns].to_numpy(dtype=float)).all()
+
+
+def test_item4_exceedance_over_no_completed_sample_is_refused():
+    s = small_study(vary={"clearance": [-1e-5]}, design="grid")
+    res = s.run(progress=False)
+    assert list(res.frame["status"]) == ["invalid"]
+    with pytest.raises(flexclear.InvalidParameterError, match="no completed sample"):
+        res.exceedance("max_force", 1.0)

@@ -14,6 +14,7 @@ Jacobian changes). ``Result.stats["engine"]`` says which ran.
 
 from __future__ import annotations
 
+import math
 import sys
 import time as _time
 from collections.abc import Sequence
@@ -61,6 +62,29 @@ def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
     e = InvalidParameterError(f"invalid parameter `{parameter}` = {value!r}: allowed {allowed}")
     e.parameter, e.value, e.allowed = parameter, repr(value), allowed
     return e
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def check_window(start: Any, t_end: Any, dt: Any, parameter: str = "record.start") -> None:
+    """Refuses a reduction window ``[start, t_end]`` (s) that holds no step of ``dt``: the
+    extremes would be -inf and the RMS values NaN."""
+    for name, v in (("t_end", t_end), ("dt", dt)):
+        if not (_is_number(v) and math.isfinite(v) and v > 0):
+            raise _bad(name, v, "finite and > 0 s")
+    if not (_is_number(start) and math.isfinite(start) and start >= 0):
+        raise _bad(parameter, start, f"finite, 0 <= start < t_end = {float(t_end):g} s")
+    last = max(round(float(t_end) / float(dt)), 1) * float(dt)  # the last step's time
+    if start >= t_end or start > last:
+        raise _bad(
+            parameter,
+            start,
+            f"0 <= start < t_end = {float(t_end):g} s with a step of dt = {float(dt):g} s in between "
+            f"(the last step is at {last:g} s): the extremes and RMS values are reduced over "
+            "[start, t_end], which must not be empty",
+        )
 
 
 def _progress_callback(progress, label: str = "simulate"):
@@ -637,6 +661,7 @@ class Model:
         if method not in METHODS:
             raise _bad("method", method, f"one of {METHODS}")
         rec = record if isinstance(record, Record) else Record(**(record or {}))
+        check_window(rec.start, t_end, dt, "record.start")
         kind = self._kind
         if iterate is None:
             iterate = self._iterate_default(method)

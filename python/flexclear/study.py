@@ -444,8 +444,13 @@ class Study:
                 f"outputs = {bad or outputs} is not allowed; allowed: a non-empty subset of {list(OUTPUTS)}"
             )
         self.outputs = outputs
-        if not (math.isfinite(start) and start >= 0):
+        numeric = isinstance(start, (int, float, np.integer, np.floating))
+        if not (numeric and math.isfinite(start) and start >= 0):
             raise InvalidParameterError(f"start = {start!r} is not allowed; allowed: finite and >= 0 s")
+        if "t_end" not in (vary or {}) and "dt" not in (vary or {}):
+            from .model import check_window
+
+            check_window(start, self.t_end, self.dt, "start")
         self.start = float(start)
         if history_every is not None and (
             not isinstance(history_every, (int, np.integer)) or history_every < 1
@@ -859,6 +864,8 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     threads, lanes = pool
     import pandas as pd
 
+    from .model import check_window
+
     records: list[dict] = []
     batch: list[tuple[int, Any, float, float]] = []
     moving: list[tuple[int, Any, float, float]] = []
@@ -872,6 +879,12 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             records.append(rec)
             continue
         job = (len(records), model, float(row.get("t_end", study.t_end)), float(row.get("dt", study.dt)))
+        try:  # a varied t_end or dt may leave no step after `start`
+            check_window(study.start, job[2], job[3], "start")
+        except FlexclearError as e:
+            rec.update(status="invalid", message=str(e), dt_used=job[3], retries=0, wall_time=0.0)
+            records.append(rec)
+            continue
         (batch if model.engine == "translating" else moving).append(job)
         records.append(rec)
     hist = study.history_every is not None
@@ -1552,6 +1565,11 @@ class StudyResult:
         if not 0 < confidence < 1:
             raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: 0 < c < 1")
         x = self.ok[output].to_numpy(dtype=float)
+        if x.size == 0:
+            raise InvalidParameterError(
+                f"exceedance of {output!r}: no completed sample to estimate it from "
+                f"({len(self.frame)} samples, none 'ok'); allowed: a result with a completed sample"
+            )
         n, k = x.size, int(np.sum(x > threshold))
         a = 1 - confidence
         low = stats.beta.ppf(a / 2, k, n - k + 1) if k > 0 else 0.0
