@@ -368,3 +368,81 @@ def test_item4_exceedance_over_no_completed_sample_is_refused():
     assert list(res.frame["status"]) == ["invalid"]
     with pytest.raises(flexclear.InvalidParameterError, match="no completed sample"):
         res.exceedance("max_force", 1.0)
+
+
+# -- item 1 / "memory is planned" ----------------------------------------------------------------
+
+
+def _history_bytes(res: flexclear.Result) -> int:
+    raw = res._raw
+    n = res.time.nbytes
+    n += sum(h[k].nbytes for h in raw["joints"] for k in ("penetration", "force", "qx", "qy"))
+    n += sum(h[k].nbytes for h in raw.get("nodes", ()) for k in ("u", "v", "theta"))
+    n += sum(a.nbytes for lk in raw["links"] for a in lk.values())
+    return n
+
+
+def test_item1_a_run_too_long_for_memory_is_refused_before_anything_is_reserved():
+    import resource
+
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    with pytest.raises(flexclear.ResourceError) as exc:
+        flexclear.scenes.slider_yoke().simulate(1e4, 1e-6)
+    assert time.perf_counter() - t0 < 1.0
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0 < 100_000  # kB: nothing reserved
+    e = exc.value
+    assert isinstance(e, flexclear.FlexclearError) and isinstance(e, MemoryError)
+    assert e.estimate == 8 * 3 * (10**10 + 2) > e.limit  # time, penetration, force every step
+    msg = str(e)
+    for way in ("224 GiB", "Record(every=", "Record(histories=False)", "Record(start=", "shorter t_end"):
+        assert way in msg, way
+    # the way out it names works: every=k fits the limit
+    k = int(msg.split("Record(every=")[1].split(")")[0])
+    assert flexclear.scenes.slider_yoke().memory_estimate(1e4, 1e-6, {"every": k}) <= e.limit
+
+
+def test_item1_moving_frame_histories_are_planned_too(monkeypatch):
+    crank = flexclear.scenes.slider_crank(elements=200)
+    est = crank.memory_estimate(0.5, 1e-6)
+    assert est > 2e9  # every node of 200 elements, every step: 603 values per step
+    monkeypatch.setenv("FLEXCLEAR_MEMORY_LIMIT", "1G")
+    with pytest.raises(flexclear.ResourceError, match=r"FLEXCLEAR_MEMORY_LIMIT=1G.*displacements=False"):
+        crank.simulate(0.5, 1e-6)
+    monkeypatch.setenv("FLEXCLEAR_MEMORY_LIMIT", "lots")
+    with pytest.raises(flexclear.InvalidParameterError, match="FLEXCLEAR_MEMORY_LIMIT"):
+        crank.simulate(0.5, 1e-6)
+    monkeypatch.delenv("FLEXCLEAR_MEMORY_LIMIT")
+    with pytest.raises(flexclear.InvalidParameterError, match="memory_limit"):
+        crank.simulate(0.5, 1e-6, memory_limit=-1.0)
+
+
+@pytest.mark.parametrize(
+    ("scene", "record"),
+    [
+        ("slider_yoke", {}),
+        ("slider_yoke", {"nodes": [("slider", 3)], "position": True, "every": 7, "start": 0.004}),
+        ("slider_yoke", {"displacements": True, "midspan": True, "axial_force": True}),
+        ("slider_crank", {}),
+        ("slider_crank", {"axial_force": True, "midspan": True, "energy": True, "every": 3}),
+        ("slider_crank", {"histories": False, "displacements": False}),
+    ],
+)
+def test_item1_the_estimate_is_what_the_run_keeps_and_the_limit_is_exact(scene, record):
+    model = getattr(flexclear.scenes, scene)(elements=4)
+    est = model.memory_estimate(0.01, 1e-5, record)
+    res = model.simulate(0.01, 1e-5, record=record, progress=False, memory_limit=est)
+    kept = _history_bytes(res)
+    assert kept <= est <= kept + 8 * 2 * (est // (8 * max(res.time.size, 1)))  # within two records
+    with pytest.raises(flexclear.ResourceError):
+        model.simulate(0.01, 1e-5, record=record, progress=False, memory_limit=est - 1)
+
+
+def test_item1_a_study_with_histories_is_planned_before_it_runs(tmp_path):
+    s = small_study(samples=1000, t_end=10.0, dt=1e-6, history_every=1)
+    assert s.memory_estimate() == 1000 * (10**7 + 2) * 2 * 8
+    with pytest.raises(flexclear.ResourceError, match="history_every"):
+        s.run(store=tmp_path / "store", progress=False)
+    assert not (tmp_path / "store").exists()
+    with pytest.raises(flexclear.InvalidParameterError, match=r"run_options: unknown \['tolerance'\]"):
+        small_study(run_options={"tolerance": 1e-9})

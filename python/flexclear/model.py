@@ -15,6 +15,7 @@ Jacobian changes). ``Result.stats["engine"]`` says which ran.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time as _time
 from collections.abc import Sequence
@@ -28,6 +29,7 @@ from .errors import (
     FlexclearError,
     InvalidParameterError,
     ModelError,
+    ResourceError,
     SimulationDivergedError,
 )
 from .frames import Frame, Rotation
@@ -85,6 +87,59 @@ def check_window(start: Any, t_end: Any, dt: Any, parameter: str = "record.start
             f"(the last step is at {last:g} s): the extremes and RMS values are reduced over "
             "[start, t_end], which must not be empty",
         )
+
+
+#: Environment variable that sets the memory limit of a run's histories, bytes (a number, with an
+#: optional suffix k, M, G or T, powers of 1024; ``inf`` for none). ``simulate(memory_limit=)``
+#: takes precedence; the default is half the available memory (``MemAvailable`` of
+#: ``/proc/meminfo``), or 8 GiB where that cannot be read.
+MEMORY_LIMIT_ENV = "FLEXCLEAR_MEMORY_LIMIT"
+_DEFAULT_LIMIT = 8 * 2**30
+_SUFFIX = {"": 1, "k": 2**10, "m": 2**20, "g": 2**30, "t": 2**40}
+
+
+def _fmt_bytes(n: float) -> str:
+    for unit, size in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("kiB", 2**10)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
+def _mem_available() -> Optional[int]:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _memory_limit(value: Any = None) -> tuple[float, str]:
+    """The memory limit of a run's histories, bytes, and where it comes from: ``value`` (the
+    ``memory_limit=`` argument of :meth:`Model.simulate`), else :data:`MEMORY_LIMIT_ENV`, else
+    half of ``MemAvailable`` (``/proc/meminfo``), else 8 GiB."""
+    if value is not None:
+        if not (_is_number(value) and value > 0) or math.isnan(value):
+            raise _bad("memory_limit", value, "a number of bytes > 0 (inf: no limit), or None")
+        return float(value), f"memory_limit={value:g}"
+    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    if text:
+        t = text.lower().removesuffix("b").removesuffix("i")
+        try:
+            limit = float(t[:-1]) * _SUFFIX[t[-1]] if t and t[-1] in _SUFFIX else float(t)
+        except ValueError:
+            limit = float("nan")
+        if not limit > 0:
+            raise _bad(
+                MEMORY_LIMIT_ENV, text, "a number of bytes > 0 with an optional suffix k, M, G, T (or inf)"
+            )
+        return limit, f"{MEMORY_LIMIT_ENV}={text}"
+    avail = _mem_available()
+    if avail:
+        return 0.5 * avail, f"half the available memory, {_fmt_bytes(avail)}"
+    return float(_DEFAULT_LIMIT), "the default 8 GiB (the available memory cannot be read here)"
 
 
 def _progress_callback(progress, label: str = "simulate"):
@@ -571,6 +626,87 @@ class Model:
         return w[: int(count)] / (2.0 * np.pi)
 
     # -- running -------------------------------------------------------------------------------
+    def memory_estimate(self, t_end: float, dt: float, record: Union[Record, dict, None] = None) -> int:
+        """Bytes the histories of ``simulate(t_end, dt, record=record)`` would take (8 bytes per
+        recorded value: channels x recorded steps), without running anything. ``simulate``
+        refuses a run above its memory limit with :class:`~flexclear.ResourceError`."""
+        rec = record if isinstance(record, Record) else Record(**(record or {}))
+        check_window(rec.start, t_end, dt, "record.start")
+        return self._history_plan(float(t_end), float(dt), rec)[0]
+
+    def _history_plan(self, t_end: float, dt: float, rec: Record) -> tuple[int, int, int, dict]:
+        """``(bytes, records, channels, channels by kind)`` of the histories of a run."""
+        every = rec.every
+        if not (isinstance(every, (int, np.integer)) and not isinstance(every, bool) and every >= 1):
+            raise _bad("record.every", every, "an integer >= 1")
+        steps = max(round(t_end / dt), 1)
+        elements = list(self._core.link_elements)
+        n_joints = len(self.joint_names) if rec.joints is None else len(rec.joints)
+        per_joint = 2 + (2 if rec.position else 0)
+        moving = self._kind == MOVING
+        disp = moving if rec.displacements is None else bool(rec.displacements)
+        if moving and rec.nodes:
+            disp = True
+        link_channels = 0
+        if disp:
+            for n in elements:
+                link_channels += 3 * (n + 1) + (n if rec.axial_force else 0) + (1 if rec.midspan else 0)
+        ch: dict[str, int] = {}
+        if moving:
+            records = steps // every + 2
+            ch["time and link frames"] = 1 + 4 * len(elements)
+            if disp:
+                ch["link displacements"] = link_channels
+            if rec.energy:
+                ch["energy"] = 3 * len(elements)
+            if rec.histories:
+                ch["joint histories"] = n_joints * per_joint
+        else:
+            if not rec.histories:
+                return 0, 0, 0, {}
+            first = min(int(rec.start / dt), steps)
+            records = (steps - first) // every + 2
+            ch["time"] = 1
+            ch["joint histories"] = n_joints * per_joint
+            nodes = {(ln, int(k)) for ln, k in rec.nodes}
+            if disp:  # every node, and the links' arrays made from them
+                nodes |= {(ln, k) for ln, n in zip(self.link_names, elements) for k in range(n + 1)}
+                ch["link displacements"] = link_channels + 4 * len(elements)
+            if nodes:
+                ch["node histories"] = 3 * len(nodes)
+        channels = sum(ch.values())
+        return 8 * records * channels, records, channels, ch
+
+    def _check_memory(self, t_end: float, dt: float, rec: Record, limit_arg: Any) -> None:
+        estimate, records, channels, ch = self._history_plan(t_end, dt, rec)
+        limit, source = _memory_limit(limit_arg)
+        if estimate <= limit:
+            return
+        steps = max(round(t_end / dt), 1)
+        fits = limit / (8 * channels) - 2
+        ways = []
+        if fits >= 1:
+            k = math.ceil(steps / fits)
+            ways.append(f"Record(every={k}) or more (keeps every k-th step)")
+        if self._kind == MOVING:
+            if "link displacements" in ch:
+                ways.append("Record(displacements=False) (or a few nodes in Record(nodes=...))")
+            if rec.histories:
+                ways.append("Record(histories=False) (the joints' extremes stay exact)")
+        else:
+            ways.append("Record(histories=False) (the joints' extremes stay exact)")
+            ways.append("Record(start=...) (nothing is kept before it)")
+        ways.append(f"a shorter t_end (now {t_end:g} s)")
+        ways.append(f"a higher limit: simulate(memory_limit=bytes) or {MEMORY_LIMIT_ENV}")
+        what = ", ".join(f"{v} {k}" for k, v in ch.items())
+        e = ResourceError(
+            f"the run would keep about {_fmt_bytes(estimate)} of histories ({records:,} records of "
+            f"{channels} values: {what}; 8 bytes each), above the memory limit of {_fmt_bytes(limit)} "
+            f"({source}); nothing was reserved. Ways out: " + "; ".join(ways)
+        )
+        e.estimate, e.limit = int(estimate), int(min(limit, 2**63 - 1))
+        raise e
+
     def _iterate_default(self, method: str) -> bool:
         """Implicit contact where a clearance joint sits on a rotating link or body (the lagged
         couplings pump energy into every impact there), lagged as in the paper otherwise."""
@@ -598,6 +734,7 @@ class Model:
         divergence_limit: Optional[float] = None,
         progress: Union[bool, Callable[[float], None], None] = None,
         raise_on_failure: bool = True,
+        memory_limit: Optional[float] = None,
     ) -> Result:
         """Runs the model from t = 0 to ``t_end`` with Newmark at fixed step ``dt``.
 
@@ -648,11 +785,21 @@ class Model:
         raise_on_failure : bool
             False returns the partial :class:`Result` of a run that diverged or did not converge
             (``complete=False``, ``error`` set) instead of raising.
+        memory_limit : float, optional
+            Largest memory the recorded histories may take, bytes (see :meth:`memory_estimate`;
+            ``inf``: no limit). Default: the ``FLEXCLEAR_MEMORY_LIMIT`` environment variable
+            (bytes, suffixes k, M, G, T allowed), else half the available memory
+            (``MemAvailable`` of ``/proc/meminfo``), else 8 GiB. The estimate is made before
+            anything is reserved; histories then grow in chunks as the run goes.
 
         Raises
         ------
         InvalidParameterError
             A parameter is out of range.
+        ResourceError
+            The histories asked for would exceed the memory limit (nothing ran); the message
+            gives the estimate and the ways out (``Record(every=k)``,
+            ``Record(histories=False)``, a shorter window, a start time, a higher limit).
         SimulationDivergedError, ConvergenceError
             The run blew up or a step did not converge; ``exc.result`` holds what was recorded.
         SimulationInterrupted
@@ -680,6 +827,7 @@ class Model:
             displacements = True  # node histories come from the link displacements
         if (rec.midspan or rec.axial_force) and not displacements:
             raise _bad("record.displacements", rec.displacements, "True (midspan and axial_force need them)")
+        self._check_memory(float(t_end), float(dt), rec, memory_limit)
         cb, bar = _progress_callback(progress)
         chosen = dict(
             engine=kind,

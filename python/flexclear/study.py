@@ -48,6 +48,7 @@ from .errors import (
     ConvergenceError,
     FlexclearError,
     InvalidParameterError,
+    ResourceError,
     SimulationInterrupted,
     StoreError,
     StoreLockedError,
@@ -234,6 +235,24 @@ def _dist_to_dict(d: Distribution) -> dict:
 
 #: Parameters that belong to the run rather than to the scene.
 RUN_PARAMETERS = ("dt", "t_end")
+
+#: Keywords of :meth:`flexclear.Model.simulate` a study's ``run_options`` may set.
+RUN_OPTIONS = (
+    "iterate",
+    "iter_tol",
+    "max_iter",
+    "events",
+    "gap_stiffness",
+    "gap_damping",
+    "beta",
+    "gamma",
+    "solver",
+    "step_halving",
+    "divergence_limit",
+    "memory_limit",
+)
+#: Older spellings accepted in ``run_options`` (the batch engine's names).
+_RUN_OPTION_ALIASES = {"tol": "iter_tol"}
 
 #: Per-sample outputs, all from running reductions (no history needed), with units.
 OUTPUTS = {
@@ -469,6 +488,12 @@ class Study:
         clash = sorted(set(self.run_options) & reserved)
         if clash:
             raise InvalidParameterError(f"run_options may not set {clash}; they are Study arguments")
+        unknown = sorted(set(self.run_options) - set(RUN_OPTIONS) - set(_RUN_OPTION_ALIASES))
+        if unknown:
+            raise InvalidParameterError(
+                f"run_options: unknown {unknown}; allowed: {sorted(RUN_OPTIONS)} "
+                "(keywords of flexclear.Model.simulate)"
+            )
         # Check the base model builds and the joints exist, so a typo fails now, not per sample.
         try:
             probe = self._scene_fn(**self._scene_kwargs({}))
@@ -697,6 +722,7 @@ class Study:
                 f"build = {self.build!r} is defined in the main script, which Dask workers cannot "
                 "import; allowed with a client: a function in an importable module"
             )
+        self._check_memory(inputs)
         # The lock is taken and the folder's writability checked before any sample runs.
         store_ = _Store(Path(store), self) if store is not None else None
         bar = None
@@ -726,6 +752,34 @@ class Study:
             if store_ is not None:
                 store_.close()
         return StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
+
+    def memory_estimate(self) -> int:
+        """Bytes the histories of every sample would take in the result (``history_every``: two
+        channels per reported joint; 0 without histories), 8 bytes per value."""
+        if self.history_every is None:
+            return 0
+        inputs = self.inputs()
+        t_end = inputs["t_end"].to_numpy(float) if "t_end" in inputs else np.full(len(inputs), self.t_end)
+        dt = inputs["dt"].to_numpy(float) if "dt" in inputs else np.full(len(inputs), self.dt)
+        steps = np.maximum(np.round(t_end / dt), 1)
+        return int(np.sum(steps // self.history_every + 2) * 2 * len(self.joints) * 8)
+
+    def _check_memory(self, inputs) -> None:
+        from .model import MEMORY_LIMIT_ENV, _fmt_bytes, _memory_limit
+
+        estimate = self.memory_estimate()
+        limit, source = _memory_limit(self.run_options.get("memory_limit"))
+        if estimate <= limit:
+            return
+        e = ResourceError(
+            f"the study's histories would take about {_fmt_bytes(estimate)} ({len(inputs)} samples, "
+            f"history_every = {self.history_every}, {len(self.joints)} joints), above the memory limit "
+            f"of {_fmt_bytes(limit)} ({source}); nothing ran. Ways out: a larger history_every, "
+            "history_every=None (the outputs need no history), fewer samples, a shorter t_end, or a "
+            f"higher limit: run_options={{'memory_limit': bytes}} or {MEMORY_LIMIT_ENV}"
+        )
+        e.estimate, e.limit = estimate, int(min(limit, 2**63 - 1))
+        raise e
 
     def _default_chunk(self, total: int, client: Any) -> int:
         steps = self.t_end / self.dt
@@ -896,6 +950,20 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
         if progress is not None:
             progress(done[0] + done[1])
 
+    simulate_options = {_RUN_OPTION_ALIASES.get(k, k): v for k, v in study.run_options.items()}
+    simulate_options.pop("memory_limit", None)  # checked once for the whole study
+    batch_options = {k: v for k, v in simulate_options.items() if v is not None}
+    if "iter_tol" in batch_options:
+        batch_options["tol"] = batch_options.pop("iter_tol")
+    halving = batch_options.pop("step_halving", 0)
+    if batch and halving:
+        from .model import _bad
+
+        message = str(_bad("step_halving", halving, "0 while every link translates (no Newton to halve)"))
+        for k, *_ in batch:
+            records[k].update(status="invalid", message=message, dt_used=float("nan"), retries=0)
+            records[k]["wall_time"] = 0.0
+        batch = []
     if batch:
 
         def batch_progress(n: int) -> None:
@@ -916,7 +984,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             histories=hist,
             start=study.start,
             progress=batch_progress if progress is not None else None,
-            **study.run_options,
+            **batch_options,
         )
         for (k, *_), out in zip(batch, outs):
             outcomes[k] = out
@@ -926,7 +994,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             done[1] += 1
             report()
 
-        more, pending = _run_moving(study, moving, threads, one_done)
+        more, pending = _run_moving(study, moving, threads, one_done, simulate_options)
         outcomes.update(more)
     for k, out in outcomes.items():
         rec = records[k]
@@ -959,7 +1027,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     return frame, pending
 
 
-def _run_one_moving(study: Study, model, t_end: float, dt: float) -> dict:
+def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict) -> dict:
     """One moving-frame sample, with retries at a smaller step after a divergence or a step that
     does not converge; the outcome in the layout of the Rust batch."""
     from .result import Record
@@ -976,7 +1044,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float) -> dict:
     t0 = time.perf_counter()
     while True:
         try:
-            res = model.simulate(t_end, dt, study.method, record=record, progress=False, **study.run_options)
+            res = model.simulate(t_end, dt, study.method, record=record, progress=False, **options)
         except FlexclearError as e:
             from .errors import SimulationDivergedError, SingularMatrixError
 
@@ -1021,7 +1089,7 @@ def _outcome(status: str, message: str, dt: float, retries: int, wall: float) ->
     }
 
 
-def _run_moving(study: Study, jobs: list, threads: int, one_done):
+def _run_moving(study: Study, jobs: list, threads: int, one_done, options: dict):
     """Moving-frame samples on ``threads`` worker threads (0 = one per core); each run releases
     the GIL. Returns ``({record index: outcome}, pending exception)``; on Ctrl-C the samples not
     started are dropped and the finished ones kept."""
@@ -1030,7 +1098,7 @@ def _run_moving(study: Study, jobs: list, threads: int, one_done):
     workers = threads if threads > 0 else (os.cpu_count() or 1)
     out: dict[int, dict] = {}
     with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
-        futures = {ex.submit(_run_one_moving, study, m, t, d): k for k, m, t, d in jobs}
+        futures = {ex.submit(_run_one_moving, study, m, t, d, options): k for k, m, t, d in jobs}
         try:
             for fut in as_completed(futures):
                 out[futures[fut]] = fut.result()
