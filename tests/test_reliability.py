@@ -446,3 +446,67 @@ def test_item1_a_study_with_histories_is_planned_before_it_runs(tmp_path):
     assert not (tmp_path / "store").exists()
     with pytest.raises(flexclear.InvalidParameterError, match=r"run_options: unknown \['tolerance'\]"):
         small_study(run_options={"tolerance": 1e-9})
+
+
+# -- item 6: a flexclear error for every mistake -------------------------------------------------
+
+
+def test_item6_static_state_and_frequencies_of_a_free_link_are_finite_or_a_flexclear_error():
+    crank = flexclear.scenes.slider_crank(clearance_at="slider_pin")
+    assert np.isfinite(crank.static_state(0.0)).all()
+    assert np.isfinite(crank.natural_frequencies(3)).all()
+    massless = flexclear.scenes.slider_crank(clearance_at="slider_pin", slider_mass=0.0)
+    with pytest.raises(flexclear.SingularMatrixError, match="mass matrix.*singular") as exc:
+        massless.natural_frequencies(3)
+    assert exc.value.matrix == "mass"
+
+
+@pytest.mark.parametrize("node", [-1, -(2**70), 2.5, 13, "3", None])
+def test_item6_a_bad_node_index_is_an_invalid_parameter_naming_it(node):
+    yoke = flexclear.scenes.slider_yoke()
+    allowed = 'allowed a node of link "slider": an integer 0 ..= 12'
+    with pytest.raises(flexclear.InvalidParameterError, match=allowed) as exc:
+        yoke.add_joint("stop", "slider", node, body="yoke", clearance=1e-4, stiffness=1e6, damping=0.0)
+    assert exc.value.parameter == "node"
+    with pytest.raises(flexclear.InvalidParameterError, match="record.nodes"):
+        yoke.simulate(0.001, 1e-5, record={"nodes": [("slider", node)]}, progress=False)
+    crank = flexclear.scenes.slider_crank()
+    for add in (
+        lambda: crank.add_mass("rod", node, 1.0),
+        lambda: crank.add_load("rod", node, fv=1.0),
+        lambda: crank.add_support("rod", node),
+        lambda: crank.add_pin("p", "rod", node, body="crank"),
+    ):
+        with pytest.raises(flexclear.InvalidParameterError, match='link "rod": an integer 0 ..= 8'):
+            add()
+    # an integral float is the integer
+    assert yoke.simulate(0.001, 1e-5, record={"nodes": [("slider", 3.0)]}, progress=False).node("slider", 3)
+
+
+def test_item6_float_elements_in_a_study_and_a_scene():
+    s = Study("slider_yoke", fixed={"elements": 8.0}, samples=2, t_end=0.002)
+    assert s.fixed == {"elements": 8}
+    assert (s.run(progress=False).frame["status"] == "ok").all()
+    with pytest.raises(flexclear.InvalidParameterError, match=r"fixed.elements = 8.5"):
+        Study("slider_yoke", fixed={"elements": 8.5})
+    with pytest.raises(flexclear.InvalidParameterError, match="`elements` = 8.0"):
+        flexclear.scenes.slider_yoke(elements=8.0)
+    with pytest.raises(flexclear.InvalidParameterError, match="`elements` = 2.5"):
+        flexclear.Model().add_link(
+            "l", length=1.0, elements=2.5, youngs_modulus=1e9, density=1e3, area=1e-4, inertia=1e-8
+        )
+
+
+def test_item6_a_bad_run_options_key_is_refused_at_study():
+    with pytest.raises(flexclear.InvalidParameterError, match=r"run_options: unknown \['itrate'\]"):
+        small_study(run_options={"itrate": True})
+    # every simulate keyword is accepted, and the batch engine's `tol` too
+    s = small_study(samples=2, t_end=0.002, run_options={"iter_tol": 1e-9, "max_iter": 40, "step_halving": 0})
+    assert (s.run(progress=False).frame["status"] == "ok").all()
+    assert (
+        small_study(samples=2, t_end=0.002, run_options={"tol": 1e-9}).run(progress=False).frame["status"]
+        == "ok"
+    ).all()
+    # step halving asked of a translating sample: an invalid row saying why, not a TypeError
+    f = small_study(samples=2, t_end=0.002, run_options={"step_halving": 2}).run(progress=False).frame
+    assert (f["status"] == "invalid").all() and f["message"].str.contains("step_halving").all()

@@ -31,6 +31,7 @@ from .errors import (
     ModelError,
     ResourceError,
     SimulationDivergedError,
+    SingularMatrixError,
 )
 from .frames import Frame, Rotation
 from .result import Record, Result
@@ -142,6 +143,12 @@ def _memory_limit(value: Any = None) -> tuple[float, str]:
     return float(_DEFAULT_LIMIT), "the default 8 GiB (the available memory cannot be read here)"
 
 
+def _singular(matrix: str, message: str) -> SingularMatrixError:
+    e = SingularMatrixError(message)
+    e.matrix = matrix
+    return e
+
+
 def _progress_callback(progress, label: str = "simulate"):
     if progress is None or progress is False:
         return None, None
@@ -243,6 +250,17 @@ class Model:
         except (KeyError, TypeError):
             raise ModelError(f"unknown link {name!r}; the model has {list(self._link_ids)}") from None
 
+    def _node(self, link_i: int, node: Any, parameter: str = "node") -> int:
+        """``node`` of link number ``link_i`` as an index, checked: an integer (an integral float
+        is accepted) in ``0 ..= elements``; else :class:`InvalidParameterError` naming it."""
+        n = int(self._core.link_elements[link_i])
+        allowed = f'a node of link "{self.link_names[link_i]}": an integer 0 ..= {n}'
+        if isinstance(node, (bool, np.bool_)) or not _is_number(node):
+            raise _bad(parameter, node, allowed)
+        if not float(node).is_integer() or not 0 <= node <= n:
+            raise _bad(parameter, node, allowed)
+        return int(node)
+
     def _joint_index(self, name: str) -> int:
         names = self.joint_names
         if name not in names:
@@ -339,6 +357,9 @@ class Model:
         terms = (coriolis, inertia_coupling, geometric, inertia_load)
         if frame is not None or any(t is not None for t in terms):
             self._to_moving(f"link {name!r} (a moving frame or a term switch)")
+        integral = _is_number(elements) and float(elements).is_integer()
+        if isinstance(elements, (bool, np.bool_)) or not integral:
+            raise _bad("elements", elements, "an integer in 1 ..= 1000000")
         args = (
             float(length),
             int(elements),
@@ -430,7 +451,7 @@ class Model:
             return {
                 "target": "node",
                 "target_link": self._link_index(target[0]),
-                "target_node": int(target[1]),
+                "target_node": self._node(self._link_index(target[0]), target[1], "target[1]"),
             }
         pt = (float(point[0]), float(point[1]))
         if self._kind == TRANSLATING:
@@ -476,6 +497,7 @@ class Model:
         """
         self._unique("joint", name, self._connectors)
         link_i = self._link_index(link)
+        node = self._node(link_i, node)
         side = self._other_side(body, point, target, slider)
         law = dict(
             clearance=float(clearance),
@@ -508,7 +530,10 @@ class Model:
         self._unique("joint", name, self._connectors)
         self._to_moving(f"pin {name!r}")
         self._core.add_pin(
-            name, self._link_index(link), int(node), **self._other_side(body, point, target, slider)
+            name,
+            self._link_index(link),
+            self._node(self._link_index(link), node),
+            **self._other_side(body, point, target, slider),
         )
         self._connectors.add(name)
         return self
@@ -519,7 +544,8 @@ class Model:
         """Holds the chosen elastic DOFs of a node at zero in its link frame (a simple support by
         default: ``u`` and ``v``)."""
         self._to_moving("a support")
-        self._core.add_support(self._link_index(link), int(node), bool(u), bool(v), bool(theta))
+        li = self._link_index(link)
+        self._core.add_support(li, self._node(li, node), bool(u), bool(v), bool(theta))
         return self
 
     def add_clamp(self, link: str, node: int) -> Model:
@@ -529,7 +555,8 @@ class Model:
     def add_mass(self, link: str, node: int, mass: float) -> Model:
         """A point mass (kg, >= 0) at a node."""
         self._to_moving("a point mass")
-        self._core.add_mass(self._link_index(link), int(node), float(mass))
+        li = self._link_index(link)
+        self._core.add_mass(li, self._node(li, node), float(mass))
         return self
 
     def add_load(
@@ -538,7 +565,8 @@ class Model:
         """A constant nodal load in the link frame: axial ``fu`` and transverse ``fv`` (N),
         ``moment`` (N m)."""
         self._to_moving("a load")
-        self._core.add_load(self._link_index(link), int(node), float(fu), float(fv), float(moment))
+        li = self._link_index(link)
+        self._core.add_load(li, self._node(li, node), float(fu), float(fv), float(moment))
         return self
 
     def add_gravity(self, gx: float, gy: float) -> Model:
@@ -587,11 +615,17 @@ class Model:
             y = np.zeros(n)
             for _ in range(max_iter):
                 _, _, k, r = core.linearize(float(t), y, contacts=contacts)
-                dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
+                try:
+                    dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
+                except np.linalg.LinAlgError as e:  # SVD did not converge: non-finite entries
+                    msg = f"static_state: the secant stiffness at t = {t:g} s cannot be solved ({e})"
+                    raise _singular("stiffness", msg) from None
                 y = y + dy
                 if np.max(np.abs(dy), initial=0.0) <= tol * max(np.max(np.abs(y), initial=0.0), 1e-30):
                     return y
-        raise ConvergenceError(f"static_state did not converge in {max_iter} iterations (t = {t} s)")
+                if not np.all(np.isfinite(y)):
+                    break
+        raise ConvergenceError(f"static_state did not converge in {max_iter} iterations (t = {t:g} s)")
 
     def natural_frequencies(self, count: int = 3, *, t: float = 0.0, coriolis: bool = True) -> np.ndarray:
         """The lowest ``count`` natural frequencies, **Hz**, ascending, with every clearance joint
@@ -610,6 +644,18 @@ class Model:
         core = self._core
         y = self.static_state(t, contacts=False)
         m, c, k, _ = core.linearize(float(t), y, contacts=False)
+        try:
+            return self._frequencies(m, c, k, int(count), coriolis)
+        except np.linalg.LinAlgError as e:
+            raise _singular(
+                "mass",
+                f"natural_frequencies: the mass matrix of the moving-frame unknowns is singular ({e}): a "
+                "degree of freedom without mass (a massless slider, a link held by clearance joints "
+                "only); give it mass",
+            ) from None
+
+    @staticmethod
+    def _frequencies(m, c, k, count: int, coriolis: bool) -> np.ndarray:
         n = m.shape[0]
         g = 0.5 * (c - c.T) if coriolis else np.zeros_like(c)
         if not np.any(g):
@@ -821,7 +867,9 @@ class Model:
         if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 1):
             raise _bad("max_iter", max_iter, "an integer >= 1")
         joints = None if rec.joints is None else [self._joint_index(j) for j in rec.joints]
-        nodes = [(self._link_index(ln), int(n)) for ln, n in rec.nodes]
+        nodes = [
+            (self._link_index(ln), self._node(self._link_index(ln), n, "record.nodes")) for ln, n in rec.nodes
+        ]
         displacements = (kind == MOVING) if rec.displacements is None else bool(rec.displacements)
         if kind == MOVING and nodes:
             displacements = True  # node histories come from the link displacements

@@ -438,6 +438,11 @@ class Study:
             if k in RUN_PARAMETERS:
                 raise InvalidParameterError(f"fixed: {k!r} is a run parameter; pass {k}= to Study instead")
         self.vary: dict[str, Distribution] = {k: _as_distribution(k, v) for k, v in vary.items()}
+        for k, v in fixed.items():
+            if self._is_integer(k) and isinstance(v, (float, np.floating)):
+                if not float(v).is_integer():
+                    raise InvalidParameterError(f"fixed.{k} = {v!r} is not allowed; allowed: an integer")
+                fixed[k] = int(v)  # 8.0 from a TOML file or a computation: the integer 8
         self.fixed = fixed
         if design not in DESIGNS:
             raise InvalidParameterError(
