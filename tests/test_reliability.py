@@ -510,3 +510,73 @@ def test_item6_a_bad_run_options_key_is_refused_at_study():
     # step halving asked of a translating sample: an invalid row saying why, not a TypeError
     f = small_study(samples=2, t_end=0.002, run_options={"step_halving": 2}).run(progress=False).frame
     assert (f["status"] == "invalid").all() and f["message"].str.contains("step_halving").all()
+
+
+# -- item 7: cosmetics -----------------------------------------------------------------------------
+
+
+def test_item7_numbers_in_error_messages_are_short():
+    with pytest.raises(flexclear.InvalidParameterError) as exc:
+        flexclear.scenes.slider_yoke(clearance=-1e-300)
+    assert "= -1e-300: allowed" in str(exc.value) and len(str(exc.value)) < 100
+    with pytest.raises(flexclear.ResourceError) as exc:
+        flexclear.scenes.slider_yoke().simulate(0.01, 1e-300)
+    assert len(str(exc.value)) < 800 and "1e+298 records" in str(exc.value)
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "flexclear.cli", *args], capture_output=True, text=True, timeout=120, env=env()
+    )
+
+
+def test_item7_cli_errors_are_usage_errors_and_version_is_known(tmp_path):
+    r = run_cli("--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"flexclear {flexclear.__version__}"
+    for args, what in [
+        (("frequencies", "--elements", "0"), "`elements` = 0"),
+        (("frequencies", "--count", "-3"), "`count` = -3"),
+        (("montecarlo", str(tmp_path / "missing.toml")), "does not exist"),
+        (("spin-up", "--dt", "-1", "--out", str(tmp_path)), "`dt` = -1"),
+    ]:
+        r = run_cli(*args)
+        assert r.returncode == 2, r.stderr
+        assert r.stderr.startswith(f"usage: flexclear {args[0]}")
+        assert f"flexclear {args[0]}: error: " in r.stderr and what in r.stderr
+        assert "Traceback" not in r.stderr
+
+
+def test_item7_conditionally_stable_newmark_parameters_warn_with_the_step_limit():
+    yoke = flexclear.scenes.slider_yoke()
+    with pytest.warns(flexclear.NewmarkStabilityWarning, match=r"dt_crit = 1.21e-06 s.*will diverge"):
+        with pytest.raises(flexclear.SimulationDivergedError):
+            yoke.simulate(0.002, 1e-5, beta=0.1, gamma=0.5, progress=False)
+    with pytest.warns(flexclear.NewmarkStabilityWarning, match="below it"):
+        res = yoke.simulate(2e-5, 1e-6, beta=0.1, gamma=0.5, progress=False)
+    assert res.complete
+    # unconditionally stable choices do not warn (warnings are errors in this suite)
+    yoke.simulate(2e-4, 1e-5, beta=0.3025, gamma=0.6, progress=False)
+
+
+def test_item7_a_history_that_was_not_recorded_says_so():
+    res = flexclear.scenes.slider_yoke().simulate(0.002, 1e-5, record={"histories": False}, progress=False)
+    j = res.joint("bearing")
+    assert np.isfinite(j.max_penetration)
+    with pytest.raises(flexclear.RecordingError, match=r"Record\(histories=False\)"):
+        _ = j.penetration
+    assert not hasattr(j, "force")  # an AttributeError
+    kept = flexclear.scenes.slider_yoke().simulate(0.002, 1e-5, progress=False).joint("bearing")
+    assert kept.penetration.size == 201
+    with pytest.raises(flexclear.RecordingError, match=r"Record\(position=True\)"):
+        _ = kept.qx
+    assert "not recorded" in repr(j)
+
+
+def test_item7_a_refused_resume_names_the_changed_field(tmp_path):
+    small_study(samples=2).run(store=tmp_path, progress=False)
+    with pytest.raises(
+        flexclear.InvalidParameterError, match=r"different study.*changed: samples \(stored 2, now 3\)"
+    ):
+        small_study(samples=3).run(store=tmp_path, progress=False)
+    with pytest.raises(flexclear.InvalidParameterError, match=r"changed: dt \(stored 1e-05, now 2e-05\)"):
+        small_study(samples=2, dt=2e-5).run(store=tmp_path, progress=False)

@@ -18,6 +18,7 @@ import math
 import os
 import sys
 import time as _time
+import warnings
 from collections.abc import Sequence
 from typing import Any, Callable, Optional, Union
 
@@ -29,6 +30,7 @@ from .errors import (
     FlexclearError,
     InvalidParameterError,
     ModelError,
+    NewmarkStabilityWarning,
     ResourceError,
     SimulationDivergedError,
     SingularMatrixError,
@@ -104,6 +106,11 @@ def _fmt_bytes(n: float) -> str:
         if n >= size:
             return f"{n / size:.3g} {unit}"
     return f"{n:.0f} bytes"
+
+
+def _count(n: int) -> str:
+    """A count for a message: ``1,234,567``, or ``1.23e+20`` when it is astronomical."""
+    return f"{n:,}" if n < 10**15 else f"{float(n):.3g}"
 
 
 def _mem_available() -> Optional[int]:
@@ -733,7 +740,7 @@ class Model:
         ways = []
         if fits >= 1:
             k = math.ceil(steps / fits)
-            ways.append(f"Record(every={k}) or more (keeps every k-th step)")
+            ways.append(f"Record(every={_count(k)}) or more (keeps every k-th step)")
         if self._kind == MOVING:
             if "link displacements" in ch:
                 ways.append("Record(displacements=False) (or a few nodes in Record(nodes=...))")
@@ -746,12 +753,53 @@ class Model:
         ways.append(f"a higher limit: simulate(memory_limit=bytes) or {MEMORY_LIMIT_ENV}")
         what = ", ".join(f"{v} {k}" for k, v in ch.items())
         e = ResourceError(
-            f"the run would keep about {_fmt_bytes(estimate)} of histories ({records:,} records of "
+            f"the run would keep about {_fmt_bytes(estimate)} of histories ({_count(records)} records of "
             f"{channels} values: {what}; 8 bytes each), above the memory limit of {_fmt_bytes(limit)} "
             f"({source}); nothing was reserved. Ways out: " + "; ".join(ways)
         )
         e.estimate, e.limit = int(estimate), int(min(limit, 2**63 - 1))
         raise e
+
+    def _omega_max(self) -> Optional[float]:
+        """Highest natural circular frequency with every clearance joint open, rad/s, at t = 0
+        (None for a model above 1000 unknowns, where the dense estimate would cost too much, or
+        when it cannot be had)."""
+        try:
+            core = self._moving_core()
+            n = len(core.dof_map())
+            if not 0 < n <= 1000:
+                return None
+            m, _, k, _ = core.linearize(0.0, np.zeros(n), contacts=False)
+            chol = np.linalg.cholesky(0.5 * (m + m.T))
+            a = np.linalg.solve(chol, np.linalg.solve(chol, 0.5 * (k + k.T)).T)
+            w2 = float(np.max(np.linalg.eigvalsh(0.5 * (a + a.T))))
+        except (FlexclearError, np.linalg.LinAlgError, ValueError):
+            return None
+        return math.sqrt(w2) if w2 > 0 and math.isfinite(w2) else None
+
+    def _check_newmark(self, beta: Any, gamma: Any, dt: float) -> None:
+        """Warns (:class:`~flexclear.NewmarkStabilityWarning`) for valid but only conditionally
+        stable Newmark parameters (``2 beta < gamma``), with the step limit."""
+        if not (_is_number(beta) and _is_number(gamma) and 0 < beta <= 0.5 and 0.5 <= gamma <= 1):
+            return  # out of range: the core refuses it, naming the parameter
+        if 2 * beta >= gamma:
+            return
+        factor = 1.0 / math.sqrt(gamma / 2 - beta)
+        w = self._omega_max()
+        text = (
+            f"Newmark beta = {beta:g}, gamma = {gamma:g} is only conditionally stable (2 beta < gamma): "
+            f"steps above dt_crit = 1/(omega_max sqrt(gamma/2 - beta)) = {factor:.4g}/omega_max grow "
+            "without bound"
+        )
+        if w is not None:
+            crit = factor / w
+            text += (
+                f"; here omega_max = {w:.4g} rad/s (every clearance joint open; contact stiffness raises "
+                f"it), so dt_crit = {crit:.3g} s and dt = {dt:g} s is "
+                + (f"{dt / crit:.3g} x that: the run will diverge" if dt > crit else "below it")
+            )
+        text += "; beta >= gamma/2 (the default 1/4, 1/2) is unconditionally stable"
+        warnings.warn(text, NewmarkStabilityWarning, stacklevel=3)
 
     def _iterate_default(self, method: str) -> bool:
         """Implicit contact where a clearance joint sits on a rotating link or body (the lagged
@@ -815,7 +863,10 @@ class Model:
             Gap element (``method="gap"``): stiffness (N/m; default 1000 x 12 E I / l^3 of the
             element at the joint) and radial damping (N s/m).
         beta, gamma : float
-            Newmark parameters; default average acceleration (1/4, 1/2).
+            Newmark parameters; default average acceleration (1/4, 1/2). Parameters with
+            ``2 beta < gamma`` are only conditionally stable: a
+            :class:`~flexclear.NewmarkStabilityWarning` states the step limit
+            ``dt_crit = 1/(omega_max sqrt(gamma/2 - beta))``.
         solver : {"woodbury", "refactor"}
             While every link translates: contact terms by a low-rank correction of the
             contact-free factorization (fast) or by numeric refactorization (reference). In
@@ -876,6 +927,7 @@ class Model:
         if (rec.midspan or rec.axial_force) and not displacements:
             raise _bad("record.displacements", rec.displacements, "True (midspan and axial_force need them)")
         self._check_memory(float(t_end), float(dt), rec, memory_limit)
+        self._check_newmark(beta, gamma, float(dt))
         cb, bar = _progress_callback(progress)
         chosen = dict(
             engine=kind,
@@ -978,6 +1030,7 @@ class Model:
             wall_time=wall,
             stats=stats,
             error=error,
+            record=rec,
         )
 
     def __repr__(self) -> str:
