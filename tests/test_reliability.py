@@ -166,12 +166,12 @@ WRITER = textwrap.dedent(
 CONCURRENT_STUDY = textwrap.dedent(
     """
     build = "slider_yoke"
-    samples = 160
+    samples = 240
     seed = 18
     outputs = ["max_penetration", "max_force", "impacts", "rms_force"]
 
     [run]
-    t_end = 1.0
+    t_end = 2.0
     dt = 1e-5
 
     [vary.clearance]
@@ -183,7 +183,7 @@ CONCURRENT_STUDY = textwrap.dedent(
 
 
 def test_item2_two_writers_killed_at_random_and_restarted_end_with_one_row_per_sample(tmp_path):
-    """Two processes (chunk sizes 2 and 3) on one store, one of them SIGKILLed every 0.25-1.2 s
+    """Two processes (chunk sizes 2 and 3) on one store, one of them SIGKILLed every 0.2-1.0 s
     and both restarted, 20 kills; then run to the end. The store has each sample exactly once,
     bitwise equal to an uninterrupted run, and no temporary file is left."""
     definition = tmp_path / "study.toml"
@@ -204,7 +204,7 @@ def test_item2_two_writers_killed_at_random_and_restarted_end_with_one_row_per_s
     try:
         while kills < 20:
             assert time.monotonic() - t0 < 100, f"too slow: {kills} kills"
-            time.sleep(rng.uniform(0.25, 1.2))
+            time.sleep(rng.uniform(0.2, 1.0))
             for k, p in enumerate(procs):
                 if p.poll() is not None:  # refused (the other holds the lock) or done
                     err = p.stderr.read()
@@ -217,13 +217,13 @@ def test_item2_two_writers_killed_at_random_and_restarted_end_with_one_row_per_s
                         finished += 1
                     procs[k] = start(k)
             victim = rng.randrange(2)
+            if (out / "study.json").exists():
+                progress.append(len(open_store(out).frame))
             procs[victim].kill()
             procs[victim].wait()
             procs[victim].stderr.close()
             kills += 1
             procs[victim] = start(victim)
-            if (out / "study.json").exists():
-                progress.append(len(open_store(out).frame))
     finally:
         for p in procs:
             if p.poll() is None:
@@ -238,14 +238,16 @@ def test_item2_two_writers_killed_at_random_and_restarted_end_with_one_row_per_s
     final = open_store(out).frame
     reference = load(definition).run(threads=2, progress=False)
     assert final.index.is_unique
-    assert list(final.index) == list(range(160))
+    assert list(final.index) == list(range(240))
     same(final, reference.frame)
     assert not list(out.glob("*.tmp"))
     assert not (out / study_mod.LOCK_FILE).exists()
-    # the kills landed mid-study (the store grew between kills and was not done at the 20th)
-    assert killed_at < 160 and max(progress) > 0, (killed_at, progress)
+    # the kills landed mid-study: the store grew between kills, and most kills found it unfinished
+    mid = sum(0 < n < 240 for n in progress)
+    assert mid >= 15 and progress[-1] > progress[0], progress
     assert refused > 0  # the lock was contended
-    print(f"20 kills in {time.monotonic() - t0:.1f} s; refused {refused}; {killed_at}/160 samples then")
+    took = time.monotonic() - t0
+    print(f"20 kills in {took:.1f} s, {mid} mid-study; refused {refused}; {killed_at}/240 then")
 
 
 # -- item 3: a read-only store, a failed write ------------------------------------------------------
