@@ -69,9 +69,19 @@ impl Error {
     pub fn param(name: impl Into<String>, value: impl fmt::Display, allowed: impl Into<String>) -> Self {
         Error::InvalidParameter {
             name: name.into(),
-            value: value.to_string(),
+            value: short_number(value.to_string()),
             allowed: allowed.into(),
         }
+    }
+}
+
+/// A number printed the way `%g` would: `1e-300`, not `0.000...001` with three hundred digits.
+/// Anything that is not a long plain number is kept as it is.
+fn short_number(text: String) -> String {
+    let long = text.len() > 16 && text.bytes().all(|b| b.is_ascii_digit() || b == b'.' || b == b'-');
+    match text.parse::<f64>() {
+        Ok(x) if long && x.is_finite() => format!("{x:e}"),
+        _ => text,
     }
 }
 
@@ -140,5 +150,24 @@ pub fn check_finite(name: &str, value: f64, unit: &str) -> Result<()> {
         Ok(())
     } else {
         Err(Error::param(name, value, format!("finite {unit}")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameter_values_print_like_percent_g() {
+        let shown = |v: f64| match Error::param("x", v, "") {
+            Error::InvalidParameter { value, .. } => value,
+            _ => unreachable!(),
+        };
+        assert_eq!(shown(-1e-300), "-1e-300");
+        assert_eq!(shown(1e300), "1e300");
+        assert_eq!(shown(0.5), "0.5");
+        assert_eq!(shown(1.2e6), "1200000");
+        assert_eq!(shown(f64::NAN), "NaN");
+        assert!(Error::param("x", -1e-300, "").to_string().len() < 60);
     }
 }

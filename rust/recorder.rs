@@ -256,9 +256,14 @@ pub struct Recorder {
     node_dofs: Vec<usize>,
 }
 
+/// Samples reserved per history channel when a recorder is made; beyond that the histories grow
+/// (amortized doubling) as the run records them.
+pub const INITIAL_SAMPLES: usize = 1 << 16;
+
 impl Recorder {
-    /// A recorder for `spec`; `node_dof(link, node)` gives a node's first global DOF; `capacity`
-    /// is the expected number of samples (reserved up front so the time loop does not allocate).
+    /// A recorder for `spec`; `node_dof(link, node)` gives a node's first global DOF; `steps` sets
+    /// the expected number of samples, of which at most [`INITIAL_SAMPLES`] are reserved up front
+    /// (histories then grow in chunks: a long run never reserves its whole history at once).
     pub fn new(spec: &RecordSpec, joints: usize, node_dof: impl Fn(usize, usize) -> usize, steps: u64) -> Self {
         let js: Vec<usize> = spec.joints.clone().unwrap_or_else(|| (0..joints).collect());
         let samples = if spec.histories {
@@ -266,6 +271,7 @@ impl Recorder {
         } else {
             0
         };
+        let samples = samples.min(INITIAL_SAMPLES);
         let cap = |on: bool| if on { Vec::with_capacity(samples) } else { Vec::new() };
         Recorder {
             time: cap(spec.histories),

@@ -234,7 +234,9 @@ def test_moving_frame_joints_report_every_field_from_their_own_histories():
         0.01, 1e-5, record=Record(start=0.005, histories=False)
     )
     lj = late.joint("crank_pin")
-    assert lj.impacts < j.impacts and lj.penetration.size == 0
+    assert lj.impacts < j.impacts and not lj.recorded("penetration")
+    with pytest.raises(fc.RecordingError, match=r"Record\(histories=False\)"):
+        _ = lj.penetration
 
 
 def _stop_model(moving: bool) -> Model:

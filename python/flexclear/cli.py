@@ -15,7 +15,10 @@ def _default_rotating_table():
 
 
 def main(argv: Optional[list] = None) -> int:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="flexclear", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"flexclear {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("paper", help="reproduce Hong & Kim (1993) Table 1, Fig. 5 and Fig. 6 (slider-yoke)")
     p.add_argument("--out", default="flexclear-report", help="output folder (default: %(default)s)")
@@ -122,6 +125,23 @@ def main(argv: Optional[list] = None) -> int:
         help="which scene (default: %(default)s)",
     )
     args = parser.parse_args(argv)
+    from .errors import FlexclearError
+
+    # A bad value (out of range, a missing file) is a usage error of the subcommand, reported as
+    # argparse reports one (its usage, then "prog: error: message"; status 2), without a traceback.
+    try:
+        return _run(args)
+    except KeyboardInterrupt:
+        print(f"\nflexclear {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except (FlexclearError, OSError) as e:
+        sp = sub.choices[args.command]
+        sp.print_usage(sys.stderr)
+        print(f"{sp.prog}: error: {e}", file=sys.stderr)
+        return 2
+
+
+def _run(args) -> int:
     if args.command == "accuracy":
         return _accuracy(args)
     if args.command == "paper":
@@ -143,50 +163,45 @@ def main(argv: Optional[list] = None) -> int:
 
 
 def _ked(args) -> int:
-    from .errors import FlexclearError
     from .reports import mechanisms as kr
 
     def log(s: str) -> None:
         print(s, file=sys.stderr)
 
-    try:
-        if args.command == "spin-up":
-            path = kr.spin_up_report(
-                args.out,
-                dt=args.dt,
-                t_end=args.t_end,
-                elements=args.elements,
-                data=args.data,
-                speeds=args.speeds,
-                max_speed=args.max_speed,
-                reference=args.reference,
-                reference_flapwise=not args.reference_inplane,
-                log=log,
-            )
-        elif args.command == "slider-crank":
-            path = kr.slider_crank_report(
-                args.out,
-                dt=args.dt,
-                t_end=args.t_end,
-                elements=args.elements,
-                clearance_at=args.clearance_at,
-                clearance=args.clearance,
-                method=args.method,
-                log=log,
-            )
-        else:
-            path = kr.four_bar_report(
-                args.out,
-                dt=args.dt,
-                t_end=args.t_end,
-                elements=args.elements,
-                crank_speed=args.crank_speed,
-                flexible_rocker=args.flexible_rocker,
-                log=log,
-            )
-    except FlexclearError as e:
-        print(f"flexclear {args.command}: error: {e}", file=sys.stderr)
-        return 2
+    if args.command == "spin-up":
+        path = kr.spin_up_report(
+            args.out,
+            dt=args.dt,
+            t_end=args.t_end,
+            elements=args.elements,
+            data=args.data,
+            speeds=args.speeds,
+            max_speed=args.max_speed,
+            reference=args.reference,
+            reference_flapwise=not args.reference_inplane,
+            log=log,
+        )
+    elif args.command == "slider-crank":
+        path = kr.slider_crank_report(
+            args.out,
+            dt=args.dt,
+            t_end=args.t_end,
+            elements=args.elements,
+            clearance_at=args.clearance_at,
+            clearance=args.clearance,
+            method=args.method,
+            log=log,
+        )
+    else:
+        path = kr.four_bar_report(
+            args.out,
+            dt=args.dt,
+            t_end=args.t_end,
+            elements=args.elements,
+            crank_speed=args.crank_speed,
+            flexible_rocker=args.flexible_rocker,
+            log=log,
+        )
     print(path.read_text())
     print(f"report written to {path}", file=sys.stderr)
     return 0
@@ -205,14 +220,10 @@ def _accuracy(args) -> int:
 def _montecarlo(args) -> int:
     from pathlib import Path
 
-    from .errors import FlexclearError, SimulationInterrupted
+    from .errors import SimulationInterrupted
     from .study import load, write_report
 
-    try:
-        study = load(args.study)
-    except FlexclearError as e:
-        print(f"flexclear montecarlo: error: {e}", file=sys.stderr)
-        return 2
+    study = load(args.study)
     out = Path(args.out) if args.out else Path(Path(args.study).stem)
     client, cluster = None, None
     if args.scheduler or args.local_cluster:
@@ -237,9 +248,6 @@ def _montecarlo(args) -> int:
     except SimulationInterrupted as e:
         print(f"\n{e}; run the same command again to resume", file=sys.stderr)
         return 130
-    except FlexclearError as e:
-        print(f"flexclear montecarlo: error: {e}", file=sys.stderr)
-        return 2
     finally:
         if client is not None:
             client.close()

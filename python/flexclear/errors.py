@@ -113,6 +113,59 @@ class SimulationInterrupted(FlexclearError, KeyboardInterrupt):
     result: Any = None
 
 
+class StoreError(FlexclearError, OSError):
+    """A study store cannot be used: not writable, a failed write (full disk, removed folder),
+    or two different results stored for one sample. What the run had computed is in
+    :attr:`partial` (a :class:`flexclear.study.StudyResult`), written or not.
+
+    Attributes
+    ----------
+    path : str
+        The store folder.
+    partial : StudyResult or None
+        Every sample computed so far, including those whose write failed.
+    """
+
+    path: str = ""
+
+
+class StoreLockedError(StoreError):
+    """Another live process is writing to the study store (one writer per store).
+
+    Attributes
+    ----------
+    owner : dict
+        The lock's owner as recorded in the lock file: ``pid``, ``host``, ``started``.
+    """
+
+    owner: dict = {}
+
+
+class ResourceError(FlexclearError, MemoryError):
+    """A run would need more memory than allowed (checked before anything is reserved).
+
+    Attributes
+    ----------
+    estimate : int
+        Bytes the recorded histories would take.
+    limit : int
+        The limit, bytes (``memory_limit=`` of :meth:`flexclear.Model.simulate`, the
+        ``FLEXCLEAR_MEMORY_LIMIT`` environment variable, or half the available memory).
+    """
+
+    estimate: int = 0
+    limit: int = 0
+
+
+class RecordingError(FlexclearError, AttributeError):
+    """A channel of a result that the run's :class:`~flexclear.Record` did not keep."""
+
+
+class NewmarkStabilityWarning(UserWarning):
+    """Newmark parameters that are only conditionally stable (``2 beta < gamma``), with the
+    step limit stated."""
+
+
 __all__ = [
     "FlexclearError",
     "InvalidParameterError",
@@ -121,4 +174,9 @@ __all__ = [
     "SimulationDivergedError",
     "ConvergenceError",
     "SimulationInterrupted",
+    "StoreError",
+    "StoreLockedError",
+    "ResourceError",
+    "RecordingError",
+    "NewmarkStabilityWarning",
 ]

@@ -14,8 +14,11 @@ Jacobian changes). ``Result.stats["engine"]`` says which ran.
 
 from __future__ import annotations
 
+import math
+import os
 import sys
 import time as _time
+import warnings
 from collections.abc import Sequence
 from typing import Any, Callable, Optional, Union
 
@@ -27,7 +30,10 @@ from .errors import (
     FlexclearError,
     InvalidParameterError,
     ModelError,
+    NewmarkStabilityWarning,
+    ResourceError,
     SimulationDivergedError,
+    SingularMatrixError,
 )
 from .frames import Frame, Rotation
 from .result import Record, Result
@@ -60,6 +66,93 @@ _STAT_KEYS = (
 def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
     e = InvalidParameterError(f"invalid parameter `{parameter}` = {value!r}: allowed {allowed}")
     e.parameter, e.value, e.allowed = parameter, repr(value), allowed
+    return e
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def check_window(start: Any, t_end: Any, dt: Any, parameter: str = "record.start") -> None:
+    """Refuses a reduction window ``[start, t_end]`` (s) that holds no step of ``dt``: the
+    extremes would be -inf and the RMS values NaN."""
+    for name, v in (("t_end", t_end), ("dt", dt)):
+        if not (_is_number(v) and math.isfinite(v) and v > 0):
+            raise _bad(name, v, "finite and > 0 s")
+    if not (_is_number(start) and math.isfinite(start) and start >= 0):
+        raise _bad(parameter, start, f"finite, 0 <= start < t_end = {float(t_end):g} s")
+    last = max(round(float(t_end) / float(dt)), 1) * float(dt)  # the last step's time
+    if start >= t_end or start > last:
+        raise _bad(
+            parameter,
+            start,
+            f"0 <= start < t_end = {float(t_end):g} s with a step of dt = {float(dt):g} s in between "
+            f"(the last step is at {last:g} s): the extremes and RMS values are reduced over "
+            "[start, t_end], which must not be empty",
+        )
+
+
+#: Environment variable that sets the memory limit of a run's histories, bytes (a number, with an
+#: optional suffix k, M, G or T, powers of 1024; ``inf`` for none). ``simulate(memory_limit=)``
+#: takes precedence; the default is half the available memory (``MemAvailable`` of
+#: ``/proc/meminfo``), or 8 GiB where that cannot be read.
+MEMORY_LIMIT_ENV = "FLEXCLEAR_MEMORY_LIMIT"
+_DEFAULT_LIMIT = 8 * 2**30
+_SUFFIX = {"": 1, "k": 2**10, "m": 2**20, "g": 2**30, "t": 2**40}
+
+
+def _fmt_bytes(n: float) -> str:
+    for unit, size in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("kiB", 2**10)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
+def _count(n: int) -> str:
+    """A count for a message: ``1,234,567``, or ``1.23e+20`` when it is astronomical."""
+    return f"{n:,}" if n < 10**15 else f"{float(n):.3g}"
+
+
+def _mem_available() -> Optional[int]:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _memory_limit(value: Any = None) -> tuple[float, str]:
+    """The memory limit of a run's histories, bytes, and where it comes from: ``value`` (the
+    ``memory_limit=`` argument of :meth:`Model.simulate`), else :data:`MEMORY_LIMIT_ENV`, else
+    half of ``MemAvailable`` (``/proc/meminfo``), else 8 GiB."""
+    if value is not None:
+        if not (_is_number(value) and value > 0) or math.isnan(value):
+            raise _bad("memory_limit", value, "a number of bytes > 0 (inf: no limit), or None")
+        return float(value), f"memory_limit={value:g}"
+    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    if text:
+        t = text.lower().removesuffix("b").removesuffix("i")
+        try:
+            limit = float(t[:-1]) * _SUFFIX[t[-1]] if t and t[-1] in _SUFFIX else float(t)
+        except ValueError:
+            limit = float("nan")
+        if not limit > 0:
+            raise _bad(
+                MEMORY_LIMIT_ENV, text, "a number of bytes > 0 with an optional suffix k, M, G, T (or inf)"
+            )
+        return limit, f"{MEMORY_LIMIT_ENV}={text}"
+    avail = _mem_available()
+    if avail:
+        return 0.5 * avail, f"half the available memory, {_fmt_bytes(avail)}"
+    return float(_DEFAULT_LIMIT), "the default 8 GiB (the available memory cannot be read here)"
+
+
+def _singular(matrix: str, message: str) -> SingularMatrixError:
+    e = SingularMatrixError(message)
+    e.matrix = matrix
     return e
 
 
@@ -164,6 +257,17 @@ class Model:
         except (KeyError, TypeError):
             raise ModelError(f"unknown link {name!r}; the model has {list(self._link_ids)}") from None
 
+    def _node(self, link_i: int, node: Any, parameter: str = "node") -> int:
+        """``node`` of link number ``link_i`` as an index, checked: an integer (an integral float
+        is accepted) in ``0 ..= elements``; else :class:`InvalidParameterError` naming it."""
+        n = int(self._core.link_elements[link_i])
+        allowed = f'a node of link "{self.link_names[link_i]}": an integer 0 ..= {n}'
+        if isinstance(node, (bool, np.bool_)) or not _is_number(node):
+            raise _bad(parameter, node, allowed)
+        if not float(node).is_integer() or not 0 <= node <= n:
+            raise _bad(parameter, node, allowed)
+        return int(node)
+
     def _joint_index(self, name: str) -> int:
         names = self.joint_names
         if name not in names:
@@ -260,6 +364,9 @@ class Model:
         terms = (coriolis, inertia_coupling, geometric, inertia_load)
         if frame is not None or any(t is not None for t in terms):
             self._to_moving(f"link {name!r} (a moving frame or a term switch)")
+        integral = _is_number(elements) and float(elements).is_integer()
+        if isinstance(elements, (bool, np.bool_)) or not integral:
+            raise _bad("elements", elements, "an integer in 1 ..= 1000000")
         args = (
             float(length),
             int(elements),
@@ -351,7 +458,7 @@ class Model:
             return {
                 "target": "node",
                 "target_link": self._link_index(target[0]),
-                "target_node": int(target[1]),
+                "target_node": self._node(self._link_index(target[0]), target[1], "target[1]"),
             }
         pt = (float(point[0]), float(point[1]))
         if self._kind == TRANSLATING:
@@ -397,6 +504,7 @@ class Model:
         """
         self._unique("joint", name, self._connectors)
         link_i = self._link_index(link)
+        node = self._node(link_i, node)
         side = self._other_side(body, point, target, slider)
         law = dict(
             clearance=float(clearance),
@@ -429,7 +537,10 @@ class Model:
         self._unique("joint", name, self._connectors)
         self._to_moving(f"pin {name!r}")
         self._core.add_pin(
-            name, self._link_index(link), int(node), **self._other_side(body, point, target, slider)
+            name,
+            self._link_index(link),
+            self._node(self._link_index(link), node),
+            **self._other_side(body, point, target, slider),
         )
         self._connectors.add(name)
         return self
@@ -440,7 +551,8 @@ class Model:
         """Holds the chosen elastic DOFs of a node at zero in its link frame (a simple support by
         default: ``u`` and ``v``)."""
         self._to_moving("a support")
-        self._core.add_support(self._link_index(link), int(node), bool(u), bool(v), bool(theta))
+        li = self._link_index(link)
+        self._core.add_support(li, self._node(li, node), bool(u), bool(v), bool(theta))
         return self
 
     def add_clamp(self, link: str, node: int) -> Model:
@@ -450,7 +562,8 @@ class Model:
     def add_mass(self, link: str, node: int, mass: float) -> Model:
         """A point mass (kg, >= 0) at a node."""
         self._to_moving("a point mass")
-        self._core.add_mass(self._link_index(link), int(node), float(mass))
+        li = self._link_index(link)
+        self._core.add_mass(li, self._node(li, node), float(mass))
         return self
 
     def add_load(
@@ -459,7 +572,8 @@ class Model:
         """A constant nodal load in the link frame: axial ``fu`` and transverse ``fv`` (N),
         ``moment`` (N m)."""
         self._to_moving("a load")
-        self._core.add_load(self._link_index(link), int(node), float(fu), float(fv), float(moment))
+        li = self._link_index(link)
+        self._core.add_load(li, self._node(li, node), float(fu), float(fv), float(moment))
         return self
 
     def add_gravity(self, gx: float, gy: float) -> Model:
@@ -508,11 +622,17 @@ class Model:
             y = np.zeros(n)
             for _ in range(max_iter):
                 _, _, k, r = core.linearize(float(t), y, contacts=contacts)
-                dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
+                try:
+                    dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
+                except np.linalg.LinAlgError as e:  # SVD did not converge: non-finite entries
+                    msg = f"static_state: the secant stiffness at t = {t:g} s cannot be solved ({e})"
+                    raise _singular("stiffness", msg) from None
                 y = y + dy
                 if np.max(np.abs(dy), initial=0.0) <= tol * max(np.max(np.abs(y), initial=0.0), 1e-30):
                     return y
-        raise ConvergenceError(f"static_state did not converge in {max_iter} iterations (t = {t} s)")
+                if not np.all(np.isfinite(y)):
+                    break
+        raise ConvergenceError(f"static_state did not converge in {max_iter} iterations (t = {t:g} s)")
 
     def natural_frequencies(self, count: int = 3, *, t: float = 0.0, coriolis: bool = True) -> np.ndarray:
         """The lowest ``count`` natural frequencies, **Hz**, ascending, with every clearance joint
@@ -531,6 +651,18 @@ class Model:
         core = self._core
         y = self.static_state(t, contacts=False)
         m, c, k, _ = core.linearize(float(t), y, contacts=False)
+        try:
+            return self._frequencies(m, c, k, int(count), coriolis)
+        except np.linalg.LinAlgError as e:
+            raise _singular(
+                "mass",
+                f"natural_frequencies: the mass matrix of the moving-frame unknowns is singular ({e}): a "
+                "degree of freedom without mass (a massless slider, a link held by clearance joints "
+                "only); give it mass",
+            ) from None
+
+    @staticmethod
+    def _frequencies(m, c, k, count: int, coriolis: bool) -> np.ndarray:
         n = m.shape[0]
         g = 0.5 * (c - c.T) if coriolis else np.zeros_like(c)
         if not np.any(g):
@@ -547,6 +679,128 @@ class Model:
         return w[: int(count)] / (2.0 * np.pi)
 
     # -- running -------------------------------------------------------------------------------
+    def memory_estimate(self, t_end: float, dt: float, record: Union[Record, dict, None] = None) -> int:
+        """Bytes the histories of ``simulate(t_end, dt, record=record)`` would take (8 bytes per
+        recorded value: channels x recorded steps), without running anything. ``simulate``
+        refuses a run above its memory limit with :class:`~flexclear.ResourceError`."""
+        rec = record if isinstance(record, Record) else Record(**(record or {}))
+        check_window(rec.start, t_end, dt, "record.start")
+        return self._history_plan(float(t_end), float(dt), rec)[0]
+
+    def _history_plan(self, t_end: float, dt: float, rec: Record) -> tuple[int, int, int, dict]:
+        """``(bytes, records, channels, channels by kind)`` of the histories of a run."""
+        every = rec.every
+        if not (isinstance(every, (int, np.integer)) and not isinstance(every, bool) and every >= 1):
+            raise _bad("record.every", every, "an integer >= 1")
+        steps = max(round(t_end / dt), 1)
+        elements = list(self._core.link_elements)
+        n_joints = len(self.joint_names) if rec.joints is None else len(rec.joints)
+        per_joint = 2 + (2 if rec.position else 0)
+        moving = self._kind == MOVING
+        disp = moving if rec.displacements is None else bool(rec.displacements)
+        if moving and rec.nodes:
+            disp = True
+        link_channels = 0
+        if disp:
+            for n in elements:
+                link_channels += 3 * (n + 1) + (n if rec.axial_force else 0) + (1 if rec.midspan else 0)
+        ch: dict[str, int] = {}
+        if moving:
+            records = steps // every + 2
+            ch["time and link frames"] = 1 + 4 * len(elements)
+            if disp:
+                ch["link displacements"] = link_channels
+            if rec.energy:
+                ch["energy"] = 3 * len(elements)
+            if rec.histories:
+                ch["joint histories"] = n_joints * per_joint
+        else:
+            if not rec.histories:
+                return 0, 0, 0, {}
+            first = min(int(rec.start / dt), steps)
+            records = (steps - first) // every + 2
+            ch["time"] = 1
+            ch["joint histories"] = n_joints * per_joint
+            nodes = {(ln, int(k)) for ln, k in rec.nodes}
+            if disp:  # every node, and the links' arrays made from them
+                nodes |= {(ln, k) for ln, n in zip(self.link_names, elements) for k in range(n + 1)}
+                ch["link displacements"] = link_channels + 4 * len(elements)
+            if nodes:
+                ch["node histories"] = 3 * len(nodes)
+        channels = sum(ch.values())
+        return 8 * records * channels, records, channels, ch
+
+    def _check_memory(self, t_end: float, dt: float, rec: Record, limit_arg: Any) -> None:
+        estimate, records, channels, ch = self._history_plan(t_end, dt, rec)
+        limit, source = _memory_limit(limit_arg)
+        if estimate <= limit:
+            return
+        steps = max(round(t_end / dt), 1)
+        fits = limit / (8 * channels) - 2
+        ways = []
+        if fits >= 1:
+            k = math.ceil(steps / fits)
+            ways.append(f"Record(every={_count(k)}) or more (keeps every k-th step)")
+        if self._kind == MOVING:
+            if "link displacements" in ch:
+                ways.append("Record(displacements=False) (or a few nodes in Record(nodes=...))")
+            if rec.histories:
+                ways.append("Record(histories=False) (the joints' extremes stay exact)")
+        else:
+            ways.append("Record(histories=False) (the joints' extremes stay exact)")
+            ways.append("Record(start=...) (nothing is kept before it)")
+        ways.append(f"a shorter t_end (now {t_end:g} s)")
+        ways.append(f"a higher limit: simulate(memory_limit=bytes) or {MEMORY_LIMIT_ENV}")
+        what = ", ".join(f"{v} {k}" for k, v in ch.items())
+        e = ResourceError(
+            f"the run would keep about {_fmt_bytes(estimate)} of histories ({_count(records)} records of "
+            f"{channels} values: {what}; 8 bytes each), above the memory limit of {_fmt_bytes(limit)} "
+            f"({source}); nothing was reserved. Ways out: " + "; ".join(ways)
+        )
+        e.estimate, e.limit = int(estimate), int(min(limit, 2**63 - 1))
+        raise e
+
+    def _omega_max(self) -> Optional[float]:
+        """Highest natural circular frequency with every clearance joint open, rad/s, at t = 0
+        (None for a model above 1000 unknowns, where the dense estimate would cost too much, or
+        when it cannot be had)."""
+        try:
+            core = self._moving_core()
+            n = len(core.dof_map())
+            if not 0 < n <= 1000:
+                return None
+            m, _, k, _ = core.linearize(0.0, np.zeros(n), contacts=False)
+            chol = np.linalg.cholesky(0.5 * (m + m.T))
+            a = np.linalg.solve(chol, np.linalg.solve(chol, 0.5 * (k + k.T)).T)
+            w2 = float(np.max(np.linalg.eigvalsh(0.5 * (a + a.T))))
+        except (FlexclearError, np.linalg.LinAlgError, ValueError):
+            return None
+        return math.sqrt(w2) if w2 > 0 and math.isfinite(w2) else None
+
+    def _check_newmark(self, beta: Any, gamma: Any, dt: float) -> None:
+        """Warns (:class:`~flexclear.NewmarkStabilityWarning`) for valid but only conditionally
+        stable Newmark parameters (``2 beta < gamma``), with the step limit."""
+        if not (_is_number(beta) and _is_number(gamma) and 0 < beta <= 0.5 and 0.5 <= gamma <= 1):
+            return  # out of range: the core refuses it, naming the parameter
+        if 2 * beta >= gamma:
+            return
+        factor = 1.0 / math.sqrt(gamma / 2 - beta)
+        w = self._omega_max()
+        text = (
+            f"Newmark beta = {beta:g}, gamma = {gamma:g} is only conditionally stable (2 beta < gamma): "
+            f"steps above dt_crit = 1/(omega_max sqrt(gamma/2 - beta)) = {factor:.4g}/omega_max grow "
+            "without bound"
+        )
+        if w is not None:
+            crit = factor / w
+            text += (
+                f"; here omega_max = {w:.4g} rad/s (every clearance joint open; contact stiffness raises "
+                f"it), so dt_crit = {crit:.3g} s and dt = {dt:g} s is "
+                + (f"{dt / crit:.3g} x that: the run will diverge" if dt > crit else "below it")
+            )
+        text += "; beta >= gamma/2 (the default 1/4, 1/2) is unconditionally stable"
+        warnings.warn(text, NewmarkStabilityWarning, stacklevel=3)
+
     def _iterate_default(self, method: str) -> bool:
         """Implicit contact where a clearance joint sits on a rotating link or body (the lagged
         couplings pump energy into every impact there), lagged as in the paper otherwise."""
@@ -574,6 +828,7 @@ class Model:
         divergence_limit: Optional[float] = None,
         progress: Union[bool, Callable[[float], None], None] = None,
         raise_on_failure: bool = True,
+        memory_limit: Optional[float] = None,
     ) -> Result:
         """Runs the model from t = 0 to ``t_end`` with Newmark at fixed step ``dt``.
 
@@ -608,7 +863,10 @@ class Model:
             Gap element (``method="gap"``): stiffness (N/m; default 1000 x 12 E I / l^3 of the
             element at the joint) and radial damping (N s/m).
         beta, gamma : float
-            Newmark parameters; default average acceleration (1/4, 1/2).
+            Newmark parameters; default average acceleration (1/4, 1/2). Parameters with
+            ``2 beta < gamma`` are only conditionally stable: a
+            :class:`~flexclear.NewmarkStabilityWarning` states the step limit
+            ``dt_crit = 1/(omega_max sqrt(gamma/2 - beta))``.
         solver : {"woodbury", "refactor"}
             While every link translates: contact terms by a low-rank correction of the
             contact-free factorization (fast) or by numeric refactorization (reference). In
@@ -624,11 +882,21 @@ class Model:
         raise_on_failure : bool
             False returns the partial :class:`Result` of a run that diverged or did not converge
             (``complete=False``, ``error`` set) instead of raising.
+        memory_limit : float, optional
+            Largest memory the recorded histories may take, bytes (see :meth:`memory_estimate`;
+            ``inf``: no limit). Default: the ``FLEXCLEAR_MEMORY_LIMIT`` environment variable
+            (bytes, suffixes k, M, G, T allowed), else half the available memory
+            (``MemAvailable`` of ``/proc/meminfo``), else 8 GiB. The estimate is made before
+            anything is reserved; histories then grow in chunks as the run goes.
 
         Raises
         ------
         InvalidParameterError
             A parameter is out of range.
+        ResourceError
+            The histories asked for would exceed the memory limit (nothing ran); the message
+            gives the estimate and the ways out (``Record(every=k)``,
+            ``Record(histories=False)``, a shorter window, a start time, a higher limit).
         SimulationDivergedError, ConvergenceError
             The run blew up or a step did not converge; ``exc.result`` holds what was recorded.
         SimulationInterrupted
@@ -637,6 +905,7 @@ class Model:
         if method not in METHODS:
             raise _bad("method", method, f"one of {METHODS}")
         rec = record if isinstance(record, Record) else Record(**(record or {}))
+        check_window(rec.start, t_end, dt, "record.start")
         kind = self._kind
         if iterate is None:
             iterate = self._iterate_default(method)
@@ -649,12 +918,16 @@ class Model:
         if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 1):
             raise _bad("max_iter", max_iter, "an integer >= 1")
         joints = None if rec.joints is None else [self._joint_index(j) for j in rec.joints]
-        nodes = [(self._link_index(ln), int(n)) for ln, n in rec.nodes]
+        nodes = [
+            (self._link_index(ln), self._node(self._link_index(ln), n, "record.nodes")) for ln, n in rec.nodes
+        ]
         displacements = (kind == MOVING) if rec.displacements is None else bool(rec.displacements)
         if kind == MOVING and nodes:
             displacements = True  # node histories come from the link displacements
         if (rec.midspan or rec.axial_force) and not displacements:
             raise _bad("record.displacements", rec.displacements, "True (midspan and axial_force need them)")
+        self._check_memory(float(t_end), float(dt), rec, memory_limit)
+        self._check_newmark(beta, gamma, float(dt))
         cb, bar = _progress_callback(progress)
         chosen = dict(
             engine=kind,
@@ -757,6 +1030,7 @@ class Model:
             wall_time=wall,
             stats=stats,
             error=error,
+            record=rec,
         )
 
     def __repr__(self) -> str:

@@ -12,7 +12,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .errors import FlexclearError, InvalidParameterError, ModelError
+from .errors import FlexclearError, InvalidParameterError, ModelError, RecordingError
 
 
 @dataclasses.dataclass
@@ -97,7 +97,20 @@ class ImpactLog:
         return len(self.time)
 
 
-@dataclasses.dataclass
+class _NotRecorded:
+    """Stands for a channel the run's :class:`Record` did not keep; reading it raises
+    :class:`~flexclear.RecordingError` saying so (an empty array would pass for data)."""
+
+    __slots__ = ("message",)
+
+    def __init__(self, message: str) -> None:
+        self.message = message
+
+    def __repr__(self) -> str:
+        return "<not recorded>"
+
+
+@dataclasses.dataclass(repr=False)
 class JointResult:
     """Histories and extremes of one clearance joint (the same fields for every model).
 
@@ -110,7 +123,12 @@ class JointResult:
     force : ndarray
         Magnitude of the contact force, N.
     qx, qy : ndarray
-        Journal centre relative to the bearing centre, m (empty unless ``Record(position=True)``).
+        Journal centre relative to the bearing centre, m (``Record(position=True)``).
+
+    A history the run did not keep (``Record(histories=False)``, a joint left out of
+    ``Record.joints``, ``qx``/``qy`` without ``Record(position=True)``) raises
+    :class:`~flexclear.RecordingError` (an ``AttributeError``) naming the recording choice;
+    :meth:`recorded` tells beforehand.
     max_penetration : float
         Largest penetration since ``Record.start``, m.
     time_of_max_penetration : float
@@ -147,6 +165,22 @@ class JointResult:
     rms_penetration: float
     rms_force: float
     impact_log: Optional[ImpactLog] = None
+
+    def __getattribute__(self, name: str) -> Any:
+        value = object.__getattribute__(self, name)
+        if type(value) is _NotRecorded:
+            raise RecordingError(value.message)
+        return value
+
+    def __repr__(self) -> str:
+        fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
+        return f"JointResult({', '.join(fields)})"
+
+    def recorded(self, channel: str) -> bool:
+        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) was
+        kept by the run's :class:`Record` (reading one that was not raises
+        :class:`~flexclear.RecordingError`)."""
+        return type(object.__getattribute__(self, channel)) is not _NotRecorded
 
 
 @dataclasses.dataclass
@@ -266,6 +300,7 @@ class Result:
         wall_time: float,
         stats: dict,
         error: Optional[FlexclearError] = None,
+        record: Optional[Record] = None,
     ) -> None:
         self.time: np.ndarray = raw["time"]
         self.stats: dict = stats
@@ -283,6 +318,8 @@ class Result:
         self.link_names = [name for name, *_ in links]
         self._links_info = links
         self._raw = raw
+        #: What the run was asked to keep.
+        self.record = record
 
     # -- pickling: the error may hold this result; keep its message and class only ---------------
     def __getstate__(self) -> dict:
@@ -306,12 +343,28 @@ class Result:
         ext = raw["extremes"][idx]
         hist = next((h for h in raw["joints"] if h["joint"] == idx), None)
         log = next((lg for lg in raw.get("impact_log", ()) if lg["joint"] == idx), None)
+        rec = self.record
+        if hist is None:
+            if rec is not None and not rec.histories:
+                why = "Record(histories=False) keeps only the joints' extremes"
+            else:
+                why = f"the joint is not in Record(joints={rec.joints if rec else None!r})"
+            gone = _NotRecorded(
+                f"the histories of joint {name!r} were not recorded: {why}; run with "
+                "Record(histories=True) (every=k to thin them) to read penetration, force, qx, qy"
+            )
+            channels = dict(penetration=gone, force=gone, qx=gone, qy=gone)
+        else:
+            channels = {k: hist[k] for k in ("penetration", "force", "qx", "qy")}
+            if rec is not None and not rec.position:
+                for k in ("qx", "qy"):
+                    channels[k] = _NotRecorded(
+                        f"the journal position {k} of joint {name!r} was not recorded: run with "
+                        "Record(position=True)"
+                    )
         return JointResult(
             name=name,
-            penetration=hist["penetration"] if hist else _EMPTY,
-            force=hist["force"] if hist else _EMPTY,
-            qx=hist["qx"] if hist else _EMPTY,
-            qy=hist["qy"] if hist else _EMPTY,
+            **channels,
             max_penetration=ext["max_penetration"],
             time_of_max_penetration=ext["time_of_max_penetration"],
             max_force=ext["max_force"],
@@ -377,6 +430,8 @@ class Result:
         for name in self.joint_names:
             j = self.joint(name)
             for ch in ("penetration", "force", "qx", "qy"):
+                if not j.recorded(ch):
+                    continue
                 a = getattr(j, ch)
                 if a.size == n and n:
                     cols[f"{name}.{ch}"] = a

@@ -27,6 +27,7 @@ normal-family distributions); ``pip install flexclear[study]``.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import importlib
@@ -43,7 +44,15 @@ from typing import Any, Callable, Optional, Union
 import numpy as np
 
 from . import _core, scenes
-from .errors import ConvergenceError, FlexclearError, InvalidParameterError, SimulationInterrupted
+from .errors import (
+    ConvergenceError,
+    FlexclearError,
+    InvalidParameterError,
+    ResourceError,
+    SimulationInterrupted,
+    StoreError,
+    StoreLockedError,
+)
 
 # --------------------------------------------------------------------------------------------
 # Distributions
@@ -226,6 +235,24 @@ def _dist_to_dict(d: Distribution) -> dict:
 
 #: Parameters that belong to the run rather than to the scene.
 RUN_PARAMETERS = ("dt", "t_end")
+
+#: Keywords of :meth:`flexclear.Model.simulate` a study's ``run_options`` may set.
+RUN_OPTIONS = (
+    "iterate",
+    "iter_tol",
+    "max_iter",
+    "events",
+    "gap_stiffness",
+    "gap_damping",
+    "beta",
+    "gamma",
+    "solver",
+    "step_halving",
+    "divergence_limit",
+    "memory_limit",
+)
+#: Older spellings accepted in ``run_options`` (the batch engine's names).
+_RUN_OPTION_ALIASES = {"tol": "iter_tol"}
 
 #: Per-sample outputs, all from running reductions (no history needed), with units.
 OUTPUTS = {
@@ -411,6 +438,11 @@ class Study:
             if k in RUN_PARAMETERS:
                 raise InvalidParameterError(f"fixed: {k!r} is a run parameter; pass {k}= to Study instead")
         self.vary: dict[str, Distribution] = {k: _as_distribution(k, v) for k, v in vary.items()}
+        for k, v in fixed.items():
+            if self._is_integer(k) and isinstance(v, (float, np.floating)):
+                if not float(v).is_integer():
+                    raise InvalidParameterError(f"fixed.{k} = {v!r} is not allowed; allowed: an integer")
+                fixed[k] = int(v)  # 8.0 from a TOML file or a computation: the integer 8
         self.fixed = fixed
         if design not in DESIGNS:
             raise InvalidParameterError(
@@ -436,8 +468,13 @@ class Study:
                 f"outputs = {bad or outputs} is not allowed; allowed: a non-empty subset of {list(OUTPUTS)}"
             )
         self.outputs = outputs
-        if not (math.isfinite(start) and start >= 0):
+        numeric = isinstance(start, (int, float, np.integer, np.floating))
+        if not (numeric and math.isfinite(start) and start >= 0):
             raise InvalidParameterError(f"start = {start!r} is not allowed; allowed: finite and >= 0 s")
+        if "t_end" not in (vary or {}) and "dt" not in (vary or {}):
+            from .model import check_window
+
+            check_window(start, self.t_end, self.dt, "start")
         self.start = float(start)
         if history_every is not None and (
             not isinstance(history_every, (int, np.integer)) or history_every < 1
@@ -456,6 +493,12 @@ class Study:
         clash = sorted(set(self.run_options) & reserved)
         if clash:
             raise InvalidParameterError(f"run_options may not set {clash}; they are Study arguments")
+        unknown = sorted(set(self.run_options) - set(RUN_OPTIONS) - set(_RUN_OPTION_ALIASES))
+        if unknown:
+            raise InvalidParameterError(
+                f"run_options: unknown {unknown}; allowed: {sorted(RUN_OPTIONS)} "
+                "(keywords of flexclear.Model.simulate)"
+            )
         # Check the base model builds and the joints exist, so a typo fails now, not per sample.
         try:
             probe = self._scene_fn(**self._scene_kwargs({}))
@@ -634,9 +677,13 @@ class Study:
         ----------
         store : path, optional
             A folder for the results: the definition (``study.json``), the inputs, and the
-            results written in Parquet parts as samples finish. Running again with the same
+            results written in Parquet parts (named by their samples) as samples finish, at
+            least every :data:`FLUSH_SECONDS` (5 s) of a long chunk. Running again with the same
             store resumes: finished samples are read back, not recomputed. A store holding a
-            different study is refused.
+            different study is refused, naming the fields that differ. One process writes to a
+            store at a time: it holds ``writer.lock`` (pid, host) while it runs; a second writer
+            is refused, and the lock of a writer that died on this host is taken over. The
+            folder's writability is checked before any sample runs.
         threads : int
             Worker threads of the local Rust pool (0 = one per core). On Dask, threads per task.
         chunk_size : int, optional
@@ -662,41 +709,82 @@ class Study:
         SimulationInterrupted
             On Ctrl-C. The samples finished so far are in the store (when given) and in
             ``exc.partial`` (a :class:`StudyResult`).
+        StoreLockedError
+            Another live process writes to ``store`` (nothing ran).
+        StoreError
+            The store is not writable (nothing ran), a write failed (every sample computed,
+            written or not, is in ``exc.partial``; rerun to resume), or two parts hold different
+            results for one sample.
         """
         inputs = self.inputs()
         total = len(inputs)
-        store_ = _Store(Path(store), self) if store is not None else None
-        parts = store_.read() if store_ else []
-        done_ids = set()
-        for p in parts:
-            done_ids.update(int(i) for i in p.index)
-        todo = [i for i in range(total) if i not in done_ids]
-        if chunk_size is None:
-            chunk_size = self._default_chunk(total, client)
-        if not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
+        if chunk_size is not None and not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
             raise InvalidParameterError(
                 f"chunk_size = {chunk_size!r} is not allowed; allowed: an integer >= 1"
             )
-        chunks = [todo[i : i + chunk_size] for i in range(0, len(todo), chunk_size)]
-        bar = _Progress(progress, total, initial=total - len(todo))
-        frames = list(parts)
+        if client is not None and self.build.startswith("__main__:"):
+            raise InvalidParameterError(
+                f"build = {self.build!r} is defined in the main script, which Dask workers cannot "
+                "import; allowed with a client: a function in an importable module"
+            )
+        self._check_memory(inputs)
+        # The lock is taken and the folder's writability checked before any sample runs.
+        store_ = _Store(Path(store), self) if store is not None else None
+        bar = None
+        frames: list = []
         t0 = time.perf_counter()
         try:
+            parts = store_.read() if store_ else []
+            done_ids = set()
+            for p in parts:
+                done_ids.update(int(i) for i in p.index)
+            todo = [i for i in range(total) if i not in done_ids]
+            if chunk_size is None:
+                chunk_size = self._default_chunk(total, client)
+            chunks = [todo[i : i + chunk_size] for i in range(0, len(todo), chunk_size)]
+            bar = _Progress(progress, total, initial=total - len(todo))
+            frames.extend(parts)
             if client is not None:
-                if self.build.startswith("__main__:"):
-                    raise InvalidParameterError(
-                        f"build = {self.build!r} is defined in the main script, which Dask workers cannot "
-                        "import; allowed with a client: a function in an importable module"
-                    )
                 self._run_dask(client, inputs, chunks, (threads, lanes), store_, frames, bar)
             else:
                 self._run_local(inputs, chunks, (threads, lanes), store_, frames, bar)
-        except SimulationInterrupted as exc:
+        except (SimulationInterrupted, StoreError) as exc:
             exc.partial = StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
             raise
         finally:
-            bar.close()
+            if bar is not None:
+                bar.close()
+            if store_ is not None:
+                store_.close()
         return StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
+
+    def memory_estimate(self) -> int:
+        """Bytes the histories of every sample would take in the result (``history_every``: two
+        channels per reported joint; 0 without histories), 8 bytes per value."""
+        if self.history_every is None:
+            return 0
+        inputs = self.inputs()
+        t_end = inputs["t_end"].to_numpy(float) if "t_end" in inputs else np.full(len(inputs), self.t_end)
+        dt = inputs["dt"].to_numpy(float) if "dt" in inputs else np.full(len(inputs), self.dt)
+        steps = np.maximum(np.round(t_end / dt), 1)
+        return int(np.sum(steps // self.history_every + 2) * 2 * len(self.joints) * 8)
+
+    def _check_memory(self, inputs) -> None:
+        from .model import MEMORY_LIMIT_ENV, _fmt_bytes, _memory_limit
+
+        estimate = self.memory_estimate()
+        limit, source = _memory_limit(self.run_options.get("memory_limit"))
+        if estimate <= limit:
+            return
+        e = ResourceError(
+            f"the study's histories would take about {_fmt_bytes(estimate)} ({len(inputs)} samples, "
+            f"history_every = {self.history_every}, {len(self.joints)} joints), above the memory limit "
+            f"of {_fmt_bytes(limit)} ({source}); nothing ran. Ways out: a larger history_every, "
+            "history_every=None (the outputs need no history), fewer samples, a shorter t_end, or a "
+            f"higher limit: run_options={{'memory_limit': bytes}} or {MEMORY_LIMIT_ENV}"
+        )
+        e.estimate, e.limit = estimate, int(min(limit, 2**63 - 1))
+        raise e
 
     def _default_chunk(self, total: int, client: Any) -> int:
         steps = self.t_end / self.dt
@@ -716,20 +804,35 @@ class Study:
                 + (f" and saved in {store_.path}" if store_ else "")
             )
 
+        writer = _PartWriter(store_, frames)
+        workers = pool[0] if pool[0] > 0 else (os.cpu_count() or 1)
+        # Samples per call of the engine: sized so a call lasts about FLUSH_SECONDS (first guess
+        # 1 us per step, then measured), so finished samples reach the store that often whatever
+        # the chunk size. Results do not depend on it.
+        rate = workers / max(self.t_end / self.dt * 1e-6, 1e-6)  # samples/s
         try:
             for ids in chunks:
-                rows = inputs.loc[ids].to_dict("records")
-                base = bar.n
-                frame, pending = _run_rows(self, ids, rows, pool, lambda d, b=base: bar.update_to(b + d))
-                if len(frame):
-                    frames.append(frame)
-                    if store_:
-                        store_.write(frame)
-                bar.update_to(base + len(frame))
-                if pending is not None:
-                    if isinstance(pending, KeyboardInterrupt):
-                        raise interrupted()
-                    raise pending
+                k = 0
+                while k < len(ids):
+                    size = int(min(len(ids) - k, max(workers, FLUSH_SECONDS * rate)))
+                    sub = ids[k : k + size]
+                    k += size
+                    rows = inputs.loc[sub].to_dict("records")
+                    base = bar.n
+                    t_sub = time.perf_counter()
+                    frame, pending = _run_rows(self, sub, rows, pool, lambda d, b=base: bar.update_to(b + d))
+                    elapsed = time.perf_counter() - t_sub
+                    if pending is None and elapsed > 0:
+                        rate = len(sub) / elapsed
+                    writer.add(frame)
+                    bar.update_to(base + len(frame))
+                    if pending is not None:
+                        writer.flush()
+                        if isinstance(pending, KeyboardInterrupt):
+                            raise interrupted()
+                        raise pending
+                    writer.flush_if_due()
+                writer.flush()
         except KeyboardInterrupt:
             # Ctrl-C outside a batch (between chunks, in Python code): the same as within one.
             # A part being written is either complete or absent (written whole, then renamed).
@@ -739,6 +842,7 @@ class Study:
         from dask.distributed import as_completed
 
         definition = self.to_dict()
+        writer = _PartWriter(store_, frames)
         futures = [
             client.submit(
                 _run_rows_task,
@@ -753,15 +857,58 @@ class Study:
         try:
             for fut in as_completed(futures):
                 frame = fut.result()
-                frames.append(frame)
-                if store_:
-                    store_.write(frame)
+                writer.add(frame)
+                writer.flush()
                 bar.update_to(bar.n + len(frame))
         except KeyboardInterrupt:
             client.cancel(futures)
             raise SimulationInterrupted(
                 f"study interrupted: {sum(len(f) for f in frames)} of {len(inputs)} samples finished"
             ) from None
+        except StoreError:
+            client.cancel(futures)
+            raise
+
+
+class _PartWriter:
+    """Collects finished rows (into ``frames``, which the caller's result is made of) and writes
+    them to the store as one part when asked, or when :data:`FLUSH_SECONDS` have passed since the
+    last write. A failed write raises :class:`StoreError`; its rows stay in ``frames``."""
+
+    def __init__(self, store_: Optional[_Store], frames: list) -> None:
+        self.store = store_
+        self.frames = frames
+        self.pending: list = []
+        self.last = time.monotonic()
+
+    def add(self, frame) -> None:
+        if len(frame):
+            self.frames.append(frame)
+            if self.store is not None:
+                self.pending.append(frame)
+
+    def flush_if_due(self) -> None:
+        if time.monotonic() - self.last >= FLUSH_SECONDS:
+            self.flush()
+
+    def flush(self) -> None:
+        self.last = time.monotonic()
+        if not self.pending:
+            return
+        import pandas as pd
+
+        frame = pd.concat(self.pending) if len(self.pending) > 1 else self.pending[0]
+        try:
+            self.store.write(frame)  # type: ignore[union-attr]
+        except OSError as e:
+            path = self.store.path  # type: ignore[union-attr]
+            raise _store_error(
+                path,
+                f"writing {len(frame)} finished samples failed ({type(e).__name__}: {e}); every sample "
+                "computed by this run is in exc.partial, and those written before are safe in the store: "
+                "fix the cause (space, permissions) and run again to resume",
+            ) from e
+        self.pending = []
 
 
 # --------------------------------------------------------------------------------------------
@@ -776,6 +923,8 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     threads, lanes = pool
     import pandas as pd
 
+    from .model import check_window
+
     records: list[dict] = []
     batch: list[tuple[int, Any, float, float]] = []
     moving: list[tuple[int, Any, float, float]] = []
@@ -789,6 +938,12 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             records.append(rec)
             continue
         job = (len(records), model, float(row.get("t_end", study.t_end)), float(row.get("dt", study.dt)))
+        try:  # a varied t_end or dt may leave no step after `start`
+            check_window(study.start, job[2], job[3], "start")
+        except FlexclearError as e:
+            rec.update(status="invalid", message=str(e), dt_used=job[3], retries=0, wall_time=0.0)
+            records.append(rec)
+            continue
         (batch if model.engine == "translating" else moving).append(job)
         records.append(rec)
     hist = study.history_every is not None
@@ -800,6 +955,20 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
         if progress is not None:
             progress(done[0] + done[1])
 
+    simulate_options = {_RUN_OPTION_ALIASES.get(k, k): v for k, v in study.run_options.items()}
+    simulate_options.pop("memory_limit", None)  # checked once for the whole study
+    batch_options = {k: v for k, v in simulate_options.items() if v is not None}
+    if "iter_tol" in batch_options:
+        batch_options["tol"] = batch_options.pop("iter_tol")
+    halving = batch_options.pop("step_halving", 0)
+    if batch and halving:
+        from .model import _bad
+
+        message = str(_bad("step_halving", halving, "0 while every link translates (no Newton to halve)"))
+        for k, *_ in batch:
+            records[k].update(status="invalid", message=message, dt_used=float("nan"), retries=0)
+            records[k]["wall_time"] = 0.0
+        batch = []
     if batch:
 
         def batch_progress(n: int) -> None:
@@ -820,7 +989,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             histories=hist,
             start=study.start,
             progress=batch_progress if progress is not None else None,
-            **study.run_options,
+            **batch_options,
         )
         for (k, *_), out in zip(batch, outs):
             outcomes[k] = out
@@ -830,7 +999,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             done[1] += 1
             report()
 
-        more, pending = _run_moving(study, moving, threads, one_done)
+        more, pending = _run_moving(study, moving, threads, one_done, simulate_options)
         outcomes.update(more)
     for k, out in outcomes.items():
         rec = records[k]
@@ -863,7 +1032,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     return frame, pending
 
 
-def _run_one_moving(study: Study, model, t_end: float, dt: float) -> dict:
+def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict) -> dict:
     """One moving-frame sample, with retries at a smaller step after a divergence or a step that
     does not converge; the outcome in the layout of the Rust batch."""
     from .result import Record
@@ -880,7 +1049,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float) -> dict:
     t0 = time.perf_counter()
     while True:
         try:
-            res = model.simulate(t_end, dt, study.method, record=record, progress=False, **study.run_options)
+            res = model.simulate(t_end, dt, study.method, record=record, progress=False, **options)
         except FlexclearError as e:
             from .errors import SimulationDivergedError, SingularMatrixError
 
@@ -925,7 +1094,7 @@ def _outcome(status: str, message: str, dt: float, retries: int, wall: float) ->
     }
 
 
-def _run_moving(study: Study, jobs: list, threads: int, one_done):
+def _run_moving(study: Study, jobs: list, threads: int, one_done, options: dict):
     """Moving-frame samples on ``threads`` worker threads (0 = one per core); each run releases
     the GIL. Returns ``({record index: outcome}, pending exception)``; on Ctrl-C the samples not
     started are dropped and the finished ones kept."""
@@ -934,7 +1103,7 @@ def _run_moving(study: Study, jobs: list, threads: int, one_done):
     workers = threads if threads > 0 else (os.cpu_count() or 1)
     out: dict[int, dict] = {}
     with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
-        futures = {ex.submit(_run_one_moving, study, m, t, d): k for k, m, t, d in jobs}
+        futures = {ex.submit(_run_one_moving, study, m, t, d, options): k for k, m, t, d in jobs}
         try:
             for fut in as_completed(futures):
                 out[futures[fut]] = fut.result()
@@ -980,50 +1149,391 @@ def _concat(frames: list, study: Study):
 
 
 class _Store:
-    def __init__(self, path: Path, study: Study) -> None:
+    """A study's folder: the definition (``study.json``), the inputs, and Parquet parts of results.
+
+    A writer holds ``writer.lock`` (its pid, host and start time) for as long as it runs; a second
+    writer is refused with :class:`StoreLockedError`, and a lock whose owner is dead (on this
+    host) is taken over. Parts are named by the samples they hold, written to a temporary file
+    named after the writer and renamed whole; a reader de-duplicates samples and refuses two
+    different results for one sample. ``write=False`` opens a store for reading only (no lock).
+    """
+
+    def __init__(self, path: Path, study: Study, *, write: bool = True) -> None:
         self.path = path
         self.study = study
-        path.mkdir(parents=True, exist_ok=True)
+        self._lock: Optional[_Lock] = None
         meta = path / "study.json"
-        fp = study.fingerprint()
-        if meta.exists():
-            stored = json.loads(meta.read_text())
-            if stored.get("fingerprint") != fp:
-                raise InvalidParameterError(
-                    f"store {str(path)!r} holds a different study (fingerprint {stored.get('fingerprint')}, "
-                    f"this one {fp}); use another folder or delete it"
+        if not write:
+            if not meta.exists():
+                raise InvalidParameterError(f"{str(path)!r} is not a study store (no study.json)")
+            self._check_definition(meta)
+            return
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise _store_error(path, f"the store folder cannot be created: {e}") from None
+        self._lock = _Lock(path)
+        self._lock.acquire()  # also checks that the folder is writable
+        try:
+            if meta.exists():
+                self._check_definition(meta)
+            else:
+                _write_parquet(study.inputs(), path / "inputs.parquet")
+                _write_text(
+                    meta,
+                    json.dumps(
+                        {
+                            "fingerprint": study.fingerprint(),
+                            "study": study.to_dict(),
+                            "report_thresholds": study.report_thresholds,
+                        },
+                        indent=2,
+                        default=float,
+                    ),
                 )
-        else:
-            tmp = meta.with_suffix(".json.tmp")
-            meta_data = {
-                "fingerprint": fp,
-                "study": study.to_dict(),
-                "report_thresholds": study.report_thresholds,
-            }
-            tmp.write_text(json.dumps(meta_data, indent=2, default=float))
-            os.replace(tmp, meta)
-            inputs = study.inputs()
-            _write_parquet(inputs, path / "inputs.parquet")
-        for stale in path.glob("*.tmp"):
-            stale.unlink()
-        existing = sorted(path.glob("part-*.parquet"))
-        self._next_part = int(existing[-1].stem.split("-")[1]) + 1 if existing else 0
+            self._remove_dead_temporaries()
+            _probe_write(path)
+        except OSError as e:
+            self.close()
+            if isinstance(e, StoreError):
+                raise
+            raise _store_error(path, f"the store is not writable: {e}") from None
+        except BaseException:
+            self.close()
+            raise
+
+    def _check_definition(self, meta: Path) -> None:
+        study = self.study
+        fp = study.fingerprint()
+        stored = json.loads(meta.read_text())
+        if stored.get("fingerprint") == fp:
+            return
+        old = json.loads(json.dumps(stored.get("study", {}), sort_keys=True, default=float))
+        new = json.loads(json.dumps(study.to_dict(), sort_keys=True, default=float))
+        changed = [
+            f"{k} (stored {old.get(k, '<absent>')!r}, now {new.get(k, '<absent>')!r})"
+            for k in sorted(set(old) | set(new))
+            if old.get(k, "<absent>") != new.get(k, "<absent>")
+        ]
+        raise InvalidParameterError(
+            f"store {str(self.path)!r} holds a different study (fingerprint {stored.get('fingerprint')}, "
+            f"this one {fp}); changed: {'; '.join(changed) or 'the definition format'}; "
+            "use another folder or delete it"
+        )
+
+    def _remove_dead_temporaries(self) -> None:
+        """Temporary files of writers that died mid-write (never those of a live process)."""
+        host = _host()
+        for tmp in self.path.glob("*.tmp"):
+            owner = _tmp_owner(tmp.name)
+            if owner is None:
+                # no owner in the name (an older flexclear): only when clearly abandoned
+                try:
+                    stale = time.time() - tmp.stat().st_mtime > 600.0
+                except OSError:
+                    continue
+            else:
+                pid, h = owner
+                stale = h == host and (pid == os.getpid() or not _pid_alive(pid))
+            if stale:
+                tmp.unlink(missing_ok=True)
+
+    def close(self) -> None:
+        """Releases the writer's lock (a store opened for reading holds none)."""
+        if self._lock is not None:
+            self._lock.release()
+            self._lock = None
 
     def read(self) -> list:
+        """The stored rows as a list of at most one DataFrame, each sample once. Raises
+        :class:`StoreError` when two parts hold different results for one sample, or a part
+        cannot be read."""
         import pandas as pd
 
-        parts = []
+        parts, names = [], []
         for p in sorted(self.path.glob("part-*.parquet")):
-            parts.append(pd.read_parquet(p))
-        return parts
+            try:
+                parts.append(pd.read_parquet(p))
+            except FileNotFoundError:
+                continue
+            except Exception as e:  # a damaged file: say which
+                raise _store_error(
+                    self.path,
+                    f"part {p.name!r} cannot be read ({type(e).__name__}: {e}); move it out of the store "
+                    "and run again to recompute its samples",
+                ) from None
+            names.append(p.name)
+        if not parts:
+            return []
+        source = np.concatenate([np.full(len(f), k) for k, f in enumerate(parts)])
+        frame = pd.concat(parts)
+        dup = frame.index.duplicated(keep=False)
+        if dup.any():
+            first = ~frame.index.duplicated(keep="first")
+            rows = np.flatnonzero(dup)
+            firsts = {}
+            for r in rows:
+                i = frame.index[r]
+                if i not in firsts:
+                    firsts[i] = r
+                    continue
+                column = _first_difference(frame.iloc[firsts[i]], frame.iloc[r])
+                if column is not None:
+                    a, b = frame.iloc[firsts[i]][column], frame.iloc[r][column]
+                    raise _store_error(
+                        self.path,
+                        f"sample {i} has two different results: {column} = {a!r} in "
+                        f"{names[source[firsts[i]]]!r} and {b!r} in {names[source[r]]!r} (the store was "
+                        "written by different flexclear versions or corrupted); move one part out of the "
+                        "store",
+                    )
+            frame = frame[first]
+        return [frame]
 
     def write(self, frame) -> None:
-        _write_parquet(frame, self.path / f"part-{self._next_part:06d}.parquet")
-        self._next_part += 1
+        """Writes ``frame`` (rows indexed by sample) as one part named by its samples."""
+        if not len(frame):
+            return
+        _write_parquet(frame, self.path / _part_name([int(i) for i in frame.index]))
+
+
+#: Name of the writer's lock file in a store.
+LOCK_FILE = "writer.lock"
+#: Finished samples are written to the store at least this often while a chunk runs, s.
+FLUSH_SECONDS = 5.0
+
+
+def _store_error(path: Path, message: str, cls: Optional[type] = None) -> Any:
+    e = (cls or StoreError)(f"store {str(path)!r}: {message}")
+    e.path = str(path)
+    return e
+
+
+def _host() -> str:
+    import socket
+
+    return socket.gethostname()
+
+
+def _proc_stat(pid: int) -> Optional[tuple[str, str]]:
+    """``(state, start time in clock ticks since boot)`` of process ``pid`` from
+    ``/proc/<pid>/stat``; None where there is no such file."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    fields = text[text.rfind(")") + 2 :].split()
+    return (fields[0], fields[19]) if len(fields) > 19 else None
+
+
+def _pid_alive(pid: int, started: Optional[str] = None) -> bool:
+    """Whether process ``pid`` of this host is alive (and, with ``started``, is the same process:
+    a reused pid is not). Where that cannot be told (Windows), True."""
+    if not isinstance(pid, int) or pid <= 0:
+        return False
+    if os.name == "nt":  # os.kill would terminate it
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass  # alive, another user's
+    stat = _proc_stat(pid)
+    if stat is not None:
+        state, start = stat
+        if state in ("Z", "X"):  # a zombie: dead, not yet reaped
+            return False
+        if started is not None and start != str(started):
+            return False
+    return True
+
+
+def _me() -> dict:
+    stat = _proc_stat(os.getpid())
+    return {
+        "pid": os.getpid(),
+        "host": _host(),
+        "started": stat[1] if stat else None,
+        "since": time.strftime("%Y-%m-%d %H:%M:%S"),
+    }
+
+
+def _tmp_suffix() -> str:
+    return f".{os.getpid()}@{_host()}.tmp"
+
+
+def _tmp_owner(name: str) -> Optional[tuple[int, str]]:
+    """``(pid, host)`` of a temporary file named by :func:`_tmp_suffix`, else None."""
+    left, at, host = name[: -len(".tmp")].rpartition("@")
+    pid = left.rsplit(".", 1)[-1]
+    if not at or not pid.isdigit():
+        return None
+    return int(pid), host
+
+
+def _part_name(ids: list[int]) -> str:
+    """A part's file name from its samples: first and last, and a digest of all (so that the
+    same samples always give the same name, and a rerun overwrites rather than duplicates)."""
+    digest = hashlib.sha256(",".join(map(str, sorted(ids))).encode()).hexdigest()[:12]
+    return f"part-{min(ids):09d}-{max(ids):09d}-{digest}.parquet"
+
+
+def _first_difference(a, b) -> Optional[str]:
+    """The first column (but the wall-clock time) where two stored rows of one sample differ."""
+    for c in a.index:
+        if c == "wall_time":
+            continue
+        x, y = a[c], b[c]
+        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            if not np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True):
+                return c
+        elif x != y and not (_isnan(x) and _isnan(y)):
+            return c
+    return None
+
+
+def _isnan(x) -> bool:
+    return isinstance(x, (float, np.floating)) and math.isnan(x)
+
+
+class _Guard:
+    """An exclusive ``flock`` on ``.writer.lock.guard`` while the lock file is examined, so that two
+    processes of one host taking over a stale lock cannot both win (no-op without fcntl)."""
+
+    def __init__(self, path: Path) -> None:
+        self.file = path / ".writer.lock.guard"
+        self.fd: Optional[int] = None
+
+    def __enter__(self) -> _Guard:
+        try:
+            import fcntl
+        except ImportError:  # Windows
+            return self
+        try:
+            self.fd = os.open(self.file, os.O_CREAT | os.O_RDWR, 0o644)
+        except OSError as e:
+            raise _store_error(self.file.parent, f"the store is not writable: {e}") from None
+        fcntl.flock(self.fd, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.fd is not None:
+            os.close(self.fd)  # releases the flock
+            self.fd = None
+
+
+class _Lock:
+    """The writer's lock file: created whole (written to a private file, then hard-linked to its
+    name, which fails when it exists), holding the owner's pid, host and start time."""
+
+    def __init__(self, path: Path) -> None:
+        self.dir = path
+        self.file = path / LOCK_FILE
+        self.me = _me()
+        self.held = False
+
+    def owner(self) -> Optional[dict]:
+        try:
+            data = json.loads(self.file.read_text())
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError):
+            return {}
+        return data if isinstance(data, dict) else {}
+
+    def _stale(self, owner: dict) -> bool:
+        if not owner:  # unreadable: a writer killed mid-creation (O_EXCL fallback), if old
+            try:
+                return time.time() - self.file.stat().st_mtime > 60.0
+            except OSError:
+                return True
+        return owner.get("host") == self.me["host"] and not _pid_alive(owner.get("pid"), owner.get("started"))
+
+    def acquire(self) -> None:
+        body = json.dumps(self.me).encode()
+        with _Guard(self.dir):
+            for _ in range(3):
+                tmp = self.dir / (LOCK_FILE + _tmp_suffix())
+                try:
+                    with open(tmp, "wb") as f:
+                        f.write(body)
+                        f.flush()
+                        os.fsync(f.fileno())
+                except OSError as e:
+                    tmp.unlink(missing_ok=True)
+                    raise _store_error(self.dir, f"the store is not writable: {e}") from None
+                try:
+                    try:
+                        os.link(tmp, self.file)
+                    except FileExistsError:
+                        raise
+                    except OSError:  # no hard links here: exclusive creation instead
+                        fd = os.open(self.file, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+                        with os.fdopen(fd, "wb") as f:
+                            f.write(body)
+                    self.held = True
+                    return
+                except FileExistsError:
+                    owner = self.owner()
+                    if owner is None:
+                        continue  # released meanwhile
+                    if self._stale(owner):
+                        self.file.unlink(missing_ok=True)
+                        continue
+                    raise self._locked(owner) from None
+                finally:
+                    tmp.unlink(missing_ok=True)
+        raise self._locked(self.owner() or {})
+
+    def _locked(self, owner: dict) -> StoreLockedError:
+        who = f"process {owner.get('pid', '?')} on host {owner.get('host', '?')!r}"
+        since = f" since {owner['since']}" if owner.get("since") else ""
+        e = _store_error(
+            self.dir,
+            f"another writer holds it: {who}{since} (one writer per store; wait for it to finish, "
+            f"or read it with flexclear.study.open_store). If that process is gone (on another host, or "
+            f"the lock is left over), delete {str(self.file)!r}",
+            StoreLockedError,
+        )
+        e.owner = dict(owner)
+        return e
+
+    def release(self) -> None:
+        if not self.held:
+            return
+        self.held = False
+        with contextlib.suppress(OSError):
+            owner = self.owner()
+            if owner and owner.get("pid") == self.me["pid"] and owner.get("started") == self.me["started"]:
+                self.file.unlink()
+
+
+def _write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + _tmp_suffix())
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _probe_write(path: Path) -> None:
+    """Writes (and removes) a small file: a store on a full disk or a read-only mount fails here,
+    before any sample runs."""
+    probe = path / (".probe" + _tmp_suffix())
+    try:
+        with open(probe, "wb") as f:
+            f.write(b"\0" * 65536)
+            f.flush()
+            os.fsync(f.fileno())
+    finally:
+        probe.unlink(missing_ok=True)
 
 
 def _write_parquet(frame, path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = path.with_name(path.name + _tmp_suffix())
     try:
         frame.to_parquet(tmp)
         os.replace(tmp, path)
@@ -1128,6 +1638,11 @@ class StudyResult:
         if not 0 < confidence < 1:
             raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: 0 < c < 1")
         x = self.ok[output].to_numpy(dtype=float)
+        if x.size == 0:
+            raise InvalidParameterError(
+                f"exceedance of {output!r}: no completed sample to estimate it from "
+                f"({len(self.frame)} samples, none 'ok'); allowed: a result with a completed sample"
+            )
         n, k = x.size, int(np.sum(x > threshold))
         a = 1 - confidence
         low = stats.beta.ppf(a / 2, k, n - k + 1) if k > 0 else 0.0
@@ -1325,7 +1840,7 @@ def write_report(
 def open_store(path: Union[str, os.PathLike]) -> StudyResult:
     """The results stored in ``path`` so far (finished or not), without running anything."""
     study = load(path)
-    store = _Store(Path(path), study)
+    store = _Store(Path(path), study, write=False)
     return StudyResult(study, _concat(store.read(), study), 0.0)
 
 

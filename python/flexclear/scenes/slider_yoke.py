@@ -8,6 +8,7 @@ from typing import Optional
 
 from .. import _core
 from ..model import Model
+from ._checks import _elements
 
 
 def slider_yoke(
@@ -97,7 +98,7 @@ def slider_yoke(
         youngs_modulus=youngs_modulus,
         first_frequency=first_frequency,
         damping_ratio=damping_ratio,
-        elements=elements,
+        elements=_elements("elements", elements),
         bearing_stiffness=bearing_stiffness,
         stiffness_ratio=stiffness_ratio,
         bearing_damping=bearing_damping,
