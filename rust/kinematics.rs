@@ -432,6 +432,13 @@ pub trait FrameKinematics: std::fmt::Debug + Send + Sync {
     fn translates(&self) -> bool {
         true
     }
+
+    /// The frame as a translation at a fixed angle: the origin's prescribed motion and the angle
+    /// (rad), when the frame is exactly that (a translating frame of the constant stepper);
+    /// `None` otherwise (the default).
+    fn fixed_angle_translation(&self) -> Option<(&Motion, f64)> {
+        None
+    }
 }
 
 /// A frame whose origin translates by `origin` and which rotates by `rotation`, independently: for
@@ -495,6 +502,14 @@ impl FrameKinematics for RotatingFrame {
     /// False when the origin is fixed ([`Motion::is_fixed`]).
     fn translates(&self) -> bool {
         !self.origin.is_fixed()
+    }
+
+    /// The origin's motion and the angle when the rotation is [`Rotation::Fixed`].
+    fn fixed_angle_translation(&self) -> Option<(&Motion, f64)> {
+        match self.rotation {
+            Rotation::Fixed { angle } => Some((&self.origin, angle)),
+            _ => None,
+        }
     }
 }
 

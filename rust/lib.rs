@@ -26,6 +26,7 @@ pub mod kinematics;
 pub mod linsolve;
 pub mod model;
 pub mod modes;
+pub mod plan;
 pub mod recorder;
 pub mod scenes;
 pub mod simulation;

@@ -44,6 +44,9 @@ pub struct Settings {
     pub events: bool,
     /// Step iterations of the moving-frame (Newton) stepper.
     pub newton: NewtonSettings,
+    /// The stepper to use for a [`crate::model::mechanism::Mechanism`]; `None` = chosen from
+    /// the model ([`crate::plan::Plan::compile`]).
+    pub stepper: Option<crate::plan::StepperKind>,
 }
 
 /// Iterations of a step of the moving-frame (Newton) stepper.
@@ -96,6 +99,7 @@ impl Settings {
             record: RecordSpec::default(),
             events: false,
             newton: NewtonSettings::default(),
+            stepper: None,
         }
     }
 

@@ -277,6 +277,7 @@ class Mechanism:
         histories: bool = ...,
         start: float = ...,
         impact_log: bool = ...,
+        stepper: Optional[str] = ...,
     ) -> dict[str, Any]: ...
 
 def slider_yoke(

@@ -829,6 +829,7 @@ class Model:
         progress: Union[bool, Callable[[float], None], None] = None,
         raise_on_failure: bool = True,
         memory_limit: Optional[float] = None,
+        stepper: Optional[str] = None,
     ) -> Result:
         """Runs the model from t = 0 to ``t_end`` with Newmark at fixed step ``dt``.
 
@@ -882,6 +883,14 @@ class Model:
         raise_on_failure : bool
             False returns the partial :class:`Result` of a run that diverged or did not converge
             (``complete=False``, ``error`` set) instead of raising.
+        stepper : {None, "constant", "newton"}
+            Which stepper runs the model. None (default): chosen from the model: ``"constant"``
+            (the contact-free matrix factorized once, contact by Woodbury) where every link and
+            bearing body translates at a fixed angle with only clearance joints and no energy
+            recorded, ``"newton"`` (Newton on the moving-frame equations) otherwise.
+            ``"newton"`` runs any model on the Newton stepper (e.g. to compare the two);
+            ``"constant"`` raises :class:`InvalidParameterError`, saying why, where the model
+            needs Newton. ``stats["stepper"]`` says which ran.
         memory_limit : float, optional
             Largest memory the recorded histories may take, bytes (see :meth:`memory_estimate`;
             ``inf``: no limit). Default: the ``FLEXCLEAR_MEMORY_LIMIT`` environment variable
@@ -904,6 +913,31 @@ class Model:
         """
         if method not in METHODS:
             raise _bad("method", method, f"one of {METHODS}")
+        if stepper not in (None, "constant", "newton"):
+            raise _bad("stepper", stepper, 'one of None, "constant", "newton"')
+        if stepper == "newton" and self._kind == TRANSLATING:
+            # the same model in moving frames (identical dynamics), on the Newton stepper
+            return Model._wrap(self._core.to_mechanism()).simulate(
+                t_end,
+                dt,
+                method,
+                iterate=iterate,
+                iter_tol=iter_tol,
+                max_iter=max_iter,
+                events=events,
+                record=record,
+                gap_stiffness=gap_stiffness,
+                gap_damping=gap_damping,
+                beta=beta,
+                gamma=gamma,
+                solver=solver,
+                step_halving=step_halving,
+                divergence_limit=divergence_limit,
+                progress=progress,
+                raise_on_failure=raise_on_failure,
+                memory_limit=memory_limit,
+                stepper="newton",
+            )
         rec = record if isinstance(record, Record) else Record(**(record or {}))
         check_window(rec.start, t_end, dt, "record.start")
         kind = self._kind
@@ -994,6 +1028,7 @@ class Model:
                     energy=bool(rec.energy),
                     progress=cb,
                     events=bool(events),
+                    stepper=stepper,
                     **_joint_record_kwargs(rec, joints),
                 )
         except FlexclearError as exc:

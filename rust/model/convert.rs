@@ -105,3 +105,113 @@ impl Mechanism {
         Ok(mech)
     }
 }
+
+impl Mechanism {
+    /// The translating-frame [`Model`] that moves exactly as this mechanism, when there is one:
+    /// every link's frame a translation at a fixed angle ([`FrameKinematics::fixed_angle_translation`])
+    /// whose terms resolve to the constant stepper's (no Coriolis, inertia coupling or
+    /// geometric terms; the inertia load of the frame's motion on), every clearance joint from
+    /// a node to a node or to a body point on such a frame, and nothing else (no pin, slider,
+    /// support, point mass, load or gravity). Bodies are collected by name in the order the
+    /// joints meet them; a body frame at a fixed angle `a` turns the joint's point (body frame)
+    /// into global axes.
+    ///
+    /// The inverse of [`Mechanism::from_translating`]: `from_translating(m).to_translating()`
+    /// gives back `m`'s links and joints with the same numbers (bodies that no joint uses are
+    /// dropped: they carry nothing). Fails with the first reason, in words, that the constant
+    /// stepper cannot take the mechanism.
+    pub fn to_translating(&self) -> std::result::Result<Model, String> {
+        let parts = [
+            (self.pins.len(), "a pin"),
+            (self.sliders.len(), "a slider"),
+            (self.supports.len(), "a support"),
+            (self.masses.len(), "a point mass"),
+            (self.loads.len(), "a nodal load"),
+        ];
+        if let Some((_, what)) = parts.iter().find(|(n, _)| *n > 0) {
+            return Err(format!("the mechanism has {what}"));
+        }
+        if self.gravity != [0.0, 0.0] {
+            return Err("the mechanism has gravity".into());
+        }
+        let mut model = Model::default();
+        for l in &self.links {
+            let Some((motion, angle)) = l.frame.fixed_angle_translation() else {
+                return Err(format!("the frame of link {:?} rotates", l.name));
+            };
+            let t = l.terms;
+            let moves = l.frame.translates();
+            if t.coriolis == Some(true) || t.inertia_coupling == Some(true) || t.geometric == Some(true) {
+                return Err(format!(
+                    "link {:?} asks for Coriolis, inertia-coupling or geometric terms",
+                    l.name
+                ));
+            }
+            if t.inertia_load == Some(false) && moves {
+                return Err(format!(
+                    "link {:?} leaves out the inertia load of its frame's motion",
+                    l.name
+                ));
+            }
+            model.links.push(FlexibleLink {
+                name: l.name.clone(),
+                length: l.length,
+                elements: l.elements,
+                youngs_modulus: l.youngs_modulus,
+                density: l.density,
+                damping: l.damping,
+                area: l.area,
+                inertia: l.inertia,
+                rotary_inertia: false,
+                angle,
+                motion: motion.clone(),
+                initial_displacement: l.initial_displacement.clone(),
+                initial_velocity: l.initial_velocity.clone(),
+            });
+        }
+        for j in &self.joints {
+            let Endpoint::Node { link, node } = j.journal else {
+                return Err(format!("the journal of joint {:?} is not a link node", j.name));
+            };
+            let target = match &j.bearing {
+                Endpoint::Node { link, node } => JointTarget::Node {
+                    link: *link,
+                    node: *node,
+                },
+                Endpoint::Body { frame, point, name } => {
+                    let Some((motion, angle)) = frame.fixed_angle_translation() else {
+                        return Err(format!("the bearing body {name:?} of joint {:?} rotates", j.name));
+                    };
+                    let body = match model.bodies.iter().position(|b| &b.name == name) {
+                        Some(b) if &model.bodies[b].motion == motion => b,
+                        Some(_) => return Err(format!("two bodies named {name:?} move differently")),
+                        None => {
+                            model.bodies.push(RigidBody {
+                                name: name.clone(),
+                                motion: motion.clone(),
+                            });
+                            model.bodies.len() - 1
+                        }
+                    };
+                    let point = if angle == 0.0 {
+                        *point
+                    } else {
+                        let (s, c) = angle.sin_cos();
+                        [c * point[0] - s * point[1], s * point[0] + c * point[1]]
+                    };
+                    JointTarget::Body { body, point }
+                }
+                Endpoint::Slider(_) => return Err(format!("joint {:?} has a slider as bearing", j.name)),
+            };
+            model.joints.push(super::ClearanceJoint {
+                name: j.name.clone(),
+                link,
+                node,
+                target,
+                clearance: j.clearance,
+                law: j.law.clone(),
+            });
+        }
+        Ok(model)
+    }
+}

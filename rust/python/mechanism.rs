@@ -12,13 +12,14 @@ use super::output::{mat, output_dict};
 use super::{err, parse_damping_law, PyMotion};
 use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
-use crate::integrator::ked::{simulate_mechanism, KedRun};
+use crate::integrator::ked::KedRun;
 use crate::integrator::Newmark;
 use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankLink};
 use crate::model::mechanism::{
     Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
 };
 use crate::model::{check_elements, Motion};
+use crate::plan::StepperKind;
 use crate::recorder::{LinkChannels, RecordSpec};
 use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use crate::simulation::{NewtonSettings, Settings};
@@ -611,7 +612,7 @@ impl PyMechanism {
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
-                        impact_log=false))]
+                        impact_log=false, stepper=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -638,7 +639,23 @@ impl PyMechanism {
         histories: bool,
         start: f64,
         impact_log: bool,
+        stepper: Option<&str>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let stepper = match stepper {
+            None => None,
+            Some("constant") => Some(StepperKind::Constant),
+            Some("newton") => Some(StepperKind::Newton),
+            Some(other) => {
+                return Err(err(
+                    py,
+                    Error::param(
+                        "stepper",
+                        format!("{other:?}"),
+                        "one of \"constant\", \"newton\" or None",
+                    ),
+                ))
+            }
+        };
         let max_iter =
             usize::try_from(max_iter).map_err(|_| err(py, Error::param("max_iter", max_iter, "an integer >= 1")))?;
         let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
@@ -683,11 +700,12 @@ impl PyMechanism {
                 impacts: impact_log,
                 nodes: Vec::new(),
             },
+            stepper,
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
         let link_elements: Vec<usize> = mech.links.iter().map(|l| l.elements).collect();
-        let (res, pending) = run_detached(py, progress, |control| simulate_mechanism(mech, &settings, control));
+        let (res, pending) = run_detached(py, progress, |control| crate::plan::simulate(mech, &settings, control));
         match res {
             Ok(out) => output_dict(py, out, &link_elements),
             Err(fail) => {

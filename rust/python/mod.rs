@@ -493,6 +493,7 @@ fn build_settings(
         record,
         events: false,
         newton: Default::default(),
+        stepper: None,
     };
     Ok(settings)
 }

@@ -1,0 +1,191 @@
+//! Which stepper runs a model, chosen from the model ([`Plan::compile`]), and the one entry point
+//! [`simulate`] for a [`Mechanism`] of any kind.
+//!
+//! | the model | stepper |
+//! |---|---|
+//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::newmark`]) |
+//! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::ked`]) |
+//!
+//! The constant stepper runs the mechanism's translating-frame form
+//! ([`Mechanism::to_translating`]) and records the link channels (frame, nodal displacements,
+//! axial force, midspan deflection) from its node histories, in the layout of the Newton
+//! stepper. Energy channels need the velocities: a run that records them takes the Newton stepper.
+
+use crate::error::Error;
+use crate::model::mechanism::Mechanism;
+use crate::model::Model;
+use crate::recorder::LinkHistory;
+use crate::simulation::{simulate as simulate_translating, RunFailure, RunOutput, Settings};
+
+/// The kinds of stepper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepperKind {
+    /// Constant effective matrix: factorized once, contact by Woodbury.
+    Constant,
+    /// Newton on the moving-frame equations, the Jacobian refactorized when it changes.
+    Newton,
+}
+
+impl StepperKind {
+    /// The name in `RunStats::stepper`.
+    pub fn name(self) -> &'static str {
+        match self {
+            StepperKind::Constant => "constant",
+            StepperKind::Newton => "newton",
+        }
+    }
+}
+
+/// The stepper chosen for a model and settings, and why.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The stepper that runs.
+    pub kind: StepperKind,
+    /// Why the constant stepper cannot run it (empty for [`StepperKind::Constant`]).
+    pub reason: String,
+    translating: Option<Model>,
+}
+
+impl Plan {
+    /// Chooses the stepper for `mech` run with `settings` (the rules of the module table), or
+    /// takes the one `settings.stepper` asks for. Fails with [`Error::InvalidParameter`] when
+    /// the constant stepper is asked for a model it cannot run (the message says why).
+    pub fn compile(mech: &Mechanism, settings: &Settings) -> crate::error::Result<Plan> {
+        let plan = Self::choose(mech, settings);
+        match settings.stepper {
+            Some(StepperKind::Newton) => Ok(Plan {
+                kind: StepperKind::Newton,
+                reason: "asked for".into(),
+                translating: None,
+            }),
+            Some(StepperKind::Constant) if plan.kind == StepperKind::Newton => Err(Error::param(
+                "stepper",
+                "\"constant\"",
+                format!("\"newton\" or None for this model ({})", plan.reason),
+            )),
+            _ => Ok(plan),
+        }
+    }
+
+    fn choose(mech: &Mechanism, settings: &Settings) -> Plan {
+        let newton = |reason: String| Plan {
+            kind: StepperKind::Newton,
+            reason,
+            translating: None,
+        };
+        if settings.record.links.energy {
+            return newton("the run records link energies".into());
+        }
+        match mech.to_translating() {
+            Ok(model) => Plan {
+                kind: StepperKind::Constant,
+                reason: String::new(),
+                translating: Some(model),
+            },
+            Err(reason) => newton(reason),
+        }
+    }
+}
+
+/// Validates `mech` ([`Mechanism::validate`]: one validation whatever the stepper) and runs it
+/// with `settings` on the stepper [`Plan::compile`] chooses; `control` as in
+/// [`crate::simulation::simulate`]. The output has the Newton stepper's layout either way (link
+/// histories in `record.links`), and `stats.stepper` says which ran.
+pub fn simulate(
+    mech: &Mechanism,
+    settings: &Settings,
+    control: &mut dyn FnMut(f64) -> bool,
+) -> std::result::Result<RunOutput, Box<RunFailure>> {
+    let plan = mech
+        .validate(settings.t_end)
+        .and_then(|_| Plan::compile(mech, settings))
+        .map_err(|error| {
+            Box::new(RunFailure {
+                error,
+                output: RunOutput::default(),
+            })
+        })?;
+    let Some(model) = plan.translating else {
+        return crate::integrator::ked::simulate_mechanism(mech, settings, control);
+    };
+    let ch = settings.record.links;
+    let link_channels = ch.displacements || ch.axial_force || ch.midspan;
+    let mut s = settings.clone();
+    s.record.nodes = if link_channels && settings.record.histories {
+        model
+            .links
+            .iter()
+            .enumerate()
+            .flat_map(|(l, link)| (0..=link.elements).map(move |n| (l, n)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let with_links = |mut out: RunOutput| {
+        out.record.links = link_histories(&model, &out, settings);
+        out.record.nodes.clear();
+        out
+    };
+    match simulate_translating(&model, &s, control) {
+        Ok(out) => Ok(with_links(out)),
+        Err(mut fail) => {
+            if !matches!(fail.error, Error::InvalidParameter { .. } | Error::InvalidModel { .. }) {
+                fail.output = with_links(std::mem::take(&mut fail.output));
+            }
+            Err(fail)
+        }
+    }
+}
+
+/// The link histories of a constant-stepper run in the Newton stepper's layout: the frame (origin
+/// x, y in m, fixed angle in rad, rate 0) at every recorded time, and from the node histories
+/// (one per node, link by link, as [`simulate`] asks for them) the nodal displacements, axial
+/// forces `E A (u_{k+1} - u_k) / l` (N) and the midspan deflection relative to the chord (m),
+/// as far as `settings.record.links` asks for them.
+fn link_histories(model: &Model, out: &RunOutput, settings: &Settings) -> Vec<LinkHistory> {
+    let ch = settings.record.links;
+    let rec = &out.record;
+    let mut first = 0;
+    model
+        .links
+        .iter()
+        .map(|l| {
+            let nn = l.elements + 1;
+            let mut h = LinkHistory::default();
+            for &t in &rec.time {
+                let o = l.motion.at(t).pos;
+                h.frame.push([o[0], o[1], l.angle, 0.0]);
+            }
+            let nodes = rec.nodes.get(first..first + nn).unwrap_or(&[]);
+            first += nn;
+            if nodes.len() < nn {
+                return h;
+            }
+            let rows = nodes[0].u.len();
+            let e = l.section().element(false);
+            let ea_l = l.youngs_modulus * l.area / l.element_length();
+            for r in 0..rows {
+                if ch.displacements {
+                    for n in nodes {
+                        h.displacements.extend_from_slice(&[n.u[r], n.v[r], n.theta[r]]);
+                    }
+                }
+                if ch.axial_force {
+                    for k in 0..l.elements {
+                        h.axial_force.push(ea_l * (nodes[k + 1].u[r] - nodes[k].u[r]));
+                    }
+                }
+                if ch.midspan {
+                    let xm = 0.5 * l.elements as f64;
+                    let k = (xm.floor() as usize).min(l.elements - 1);
+                    let xi = xm - k as f64;
+                    let (a, b) = (&nodes[k], &nodes[k + 1]);
+                    let q = crate::element::Vec6::new(a.u[r], a.v[r], a.theta[r], b.u[r], b.v[r], b.theta[r]);
+                    let vm = e.transverse_at(xi, &q);
+                    h.midspan.push(vm - 0.5 * (nodes[0].v[r] + nodes[nn - 1].v[r]));
+                }
+            }
+            h
+        })
+        .collect()
+}
