@@ -38,6 +38,7 @@ fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
             inertia: 8.2189e-9,
             frame,
             terms,
+            rotary_inertia: false,
             initial_displacement: None,
             initial_velocity: None,
         }],

@@ -58,6 +58,7 @@ fn link(
         inertia,
         frame,
         terms: Terms::default(),
+        rotary_inertia: false,
         initial_displacement: None,
         initial_velocity: None,
     }

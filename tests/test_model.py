@@ -320,3 +320,26 @@ def test_one_output_layout_for_both_steppers():
         assert rb.state[0][i] == last[comp][node]
     # the two steppers agree on the end state (same equations, other round-off)
     assert np.allclose(rb.state[0], ra.state[0][[3 * n + "uvt".index(c[0]) for _, n, c in dofs]], atol=1e-12)
+
+
+def test_rotary_inertia_runs_on_the_constant_stepper_in_either_form():
+    def build(rotary_inertia: bool = True) -> Model:
+        m = Model()
+        m.add_body("ground", motion=motion.harmonic((0.0, 1e-3), 10.0))
+        m.add_link("beam", length=0.5, elements=4, rotary_inertia=rotary_inertia, **STEEL)
+        m.add_joint(
+            "pin", "beam", 4, body="ground", point=(0.5, 0.0), clearance=1e-4, stiffness=1e6, damping=50.0
+        )
+        return m
+
+    a, b = build(), build()
+    b.add_gravity(0.0, 0.0)  # the moving-frame form of the same model
+    ra, rb = a.simulate(0.005, 1e-5), b.simulate(0.005, 1e-5)
+    assert (ra.stats["stepper"], rb.stats["stepper"]) == ("constant", "constant")
+    assert np.array_equal(ra.joint("pin").penetration, rb.joint("pin").penetration)
+    # rotary inertia changes the dynamics (the check above is not vacuous)
+    rc = build(rotary_inertia=False).simulate(0.005, 1e-5)
+    assert not np.array_equal(ra.joint("pin").penetration, rc.joint("pin").penetration)
+    b.add_gravity(0.0, -9.81)  # now only the Newton stepper can run it, which has no rotary inertia
+    with pytest.raises(fc.ModelError, match='link "beam" has rotary inertia.*constant stepper'):
+        b.simulate(0.005, 1e-5)

@@ -190,6 +190,7 @@ class Mechanism:
         inertia_load: Optional[bool] = ...,
         initial_displacement: Optional[npt.NDArray[np.float64]] = ...,
         initial_velocity: Optional[npt.NDArray[np.float64]] = ...,
+        rotary_inertia: bool = ...,
     ) -> int: ...
     def add_slider(self, name: str, mass: float, angle: float, path: Frame) -> int: ...
     def add_pin(

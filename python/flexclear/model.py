@@ -346,7 +346,9 @@ class Model:
             A moving frame instead of ``angle``/``motion``: ``Frame.rotating(...)``,
             ``Frame.slider_crank(...)``, ``Frame.four_bar(...)``.
         rotary_inertia : bool
-            Include rotary inertia in the mass matrix (models whose links all translate only).
+            Include rotary inertia in the mass matrix. Only the constant stepper has it (see
+            ``stepper`` in :meth:`simulate`): a model that needs the Newton stepper (a rotating
+            frame, a pin, gravity, ...) is refused at :meth:`simulate` with a :class:`ModelError`.
         coriolis, inertia_coupling, geometric, inertia_load : bool or None
             Force a term of the moving-frame equation on or off (None: chosen from the frame's
             motion: Coriolis and inertia coupling when it rotates, the geometric terms K2, K3,
@@ -387,11 +389,6 @@ class Model:
                 _array(initial_velocity),
             )
         else:
-            if rotary_inertia:
-                raise ModelError(
-                    f"link {name!r}: rotary_inertia=True is available only while every link translates "
-                    "(the moving-frame formulation has no rotary inertia)"
-                )
             if frame is None:
                 frame = Frame.rotating(Rotation.fixed(float(angle)), origin=motion)
             self._core.add_link(
@@ -402,6 +399,7 @@ class Model:
                 *terms,
                 _array(initial_displacement),
                 _array(initial_velocity),
+                bool(rotary_inertia),
             )
         self._link_ids[name] = len(self._link_ids)
         return self

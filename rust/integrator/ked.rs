@@ -304,6 +304,16 @@ impl<'a> KedRun<'a> {
     /// ([`Mechanism::validate`]), an over-constrained node.
     pub fn new(mech: &'a Mechanism, settings: &'a Settings) -> Result<Self> {
         validate_settings(settings)?;
+        if let Some(l) = mech.links.iter().find(|l| l.rotary_inertia) {
+            return Err(Error::InvalidModel {
+                message: format!(
+                    "link {:?} has rotary inertia, which only the constant stepper has (every link and \
+                     bearing body translating at a fixed angle, only clearance joints, no gravity, no energy \
+                     recorded); leave it out to run this model",
+                    l.name
+                ),
+            });
+        }
         let link_nodes: Vec<usize> = mech.links.iter().map(|l| l.nodes()).collect();
         settings.record.validate(mech.joints.len(), &link_nodes)?;
         mech.validate(settings.t_end)?;

@@ -43,20 +43,11 @@ impl Mechanism {
     /// body's reference point, is the same vector in the body frame), the clearance joints
     /// unchanged.
     ///
-    /// Fails with [`Error::InvalidModel`] when a link asks for rotary inertia, which the
-    /// moving-frame engine does not have.
+    /// Rotary inertia is kept: only the constant stepper has it ([`crate::plan`] runs such a
+    /// mechanism there; the Newton stepper refuses it).
     pub fn from_translating(model: &Model) -> Result<Mechanism> {
         let mut mech = Mechanism::default();
         for l in &model.links {
-            if l.rotary_inertia {
-                return Err(Error::InvalidModel {
-                    message: format!(
-                        "link {:?} has rotary_inertia=True, which only models whose links all translate \
-                         (no rotating frame, pin, slider, support, mass, load or gravity) support",
-                        l.name
-                    ),
-                });
-            }
             mech.links.push(Link {
                 name: l.name.clone(),
                 length: l.length,
@@ -68,6 +59,7 @@ impl Mechanism {
                 inertia: l.inertia,
                 frame: Arc::new(l.frame()),
                 terms: Terms::default(),
+                rotary_inertia: l.rotary_inertia,
                 initial_displacement: l.initial_displacement.clone(),
                 initial_velocity: l.initial_velocity.clone(),
             });
@@ -162,7 +154,7 @@ impl Mechanism {
                 damping: l.damping,
                 area: l.area,
                 inertia: l.inertia,
-                rotary_inertia: false,
+                rotary_inertia: l.rotary_inertia,
                 angle,
                 motion: motion.clone(),
                 initial_displacement: l.initial_displacement.clone(),

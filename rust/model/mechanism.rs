@@ -54,6 +54,9 @@ pub struct Link {
     pub frame: Arc<dyn FrameKinematics>,
     /// Term selection (automatic by default).
     pub terms: Terms,
+    /// Include rotary inertia in the mass matrix (the constant stepper only: the Newton stepper
+    /// refuses it).
+    pub rotary_inertia: bool,
     /// Initial elastic displacement, `3 (N + 1)` values `[u, v, th]` per node, link frame.
     pub initial_displacement: Option<Vec<f64>>,
     /// Initial elastic velocity relative to the frame, `3 (N + 1)` values (m/s, rad/s).

@@ -315,7 +315,7 @@ impl PyMechanism {
     /// Adds a flexible link; returns its index. Term switches `None` = automatic.
     #[pyo3(signature = (name, length, elements, youngs_modulus, density, area, inertia, frame, damping=0.0,
                         coriolis=None, inertia_coupling=None, geometric=None, inertia_load=None,
-                        initial_displacement=None, initial_velocity=None))]
+                        initial_displacement=None, initial_velocity=None, rotary_inertia=false))]
     #[allow(clippy::too_many_arguments)]
     fn add_link(
         &mut self,
@@ -335,6 +335,7 @@ impl PyMechanism {
         inertia_load: Option<bool>,
         initial_displacement: Option<PyReadonlyArray1<'_, f64>>,
         initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
+        rotary_inertia: bool,
     ) -> PyResult<usize> {
         let i = self.inner.links.len();
         let elements = check_elements(&format!("links[{i}].elements"), elements).map_err(|e| err(py, e))?;
@@ -362,6 +363,7 @@ impl PyMechanism {
                 geometric,
                 inertia_load,
             },
+            rotary_inertia,
             initial_displacement: vec_opt(initial_displacement)?,
             initial_velocity: vec_opt(initial_velocity)?,
         };

@@ -320,6 +320,7 @@ impl FlexibleSliderCrank {
                     geometric: self.geometric,
                     ..Terms::default()
                 },
+                rotary_inertia: false,
                 initial_displacement: None,
                 initial_velocity: None,
             }],
