@@ -22,7 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from fuzz.harness import FAILURES, OUTCOMES, Pool, generate  # noqa: E402
+from fuzz.harness import FAILURES, KNOWN, OUTCOMES, Pool, generate  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -59,6 +59,8 @@ def main(argv=None) -> int:
     try:
         for case, outcome in it:
             counts[outcome["outcome"]] += 1
+            if outcome.get("known"):
+                counts["known:" + outcome["known"]] += 1
             kinds[(case["kind"], outcome["outcome"])] += 1
             row = json.dumps({"id": case["id"], **outcome, "case": case})
             if log:
@@ -71,7 +73,7 @@ def main(argv=None) -> int:
                     f"{str(outcome.get('detail', ''))[:200]}",
                     flush=True,
                 )
-            done = sum(counts.values())
+            done = sum(counts[k] for k in OUTCOMES)
             if done % 500 == 0:
                 print(f"[{done}/{len(cases)} in {time.monotonic() - t0:.0f} s] {dict(counts)}", flush=True)
             if deadline is not None and time.monotonic() > deadline:
@@ -87,13 +89,18 @@ def main(argv=None) -> int:
             for w in pool.workers:
                 w.stop()
     wall = time.monotonic() - t0
-    total = sum(counts.values())
+    total = sum(counts[k] for k in OUTCOMES)
     print(f"\n{total} cases (seed {args.seed}) in {wall:.0f} s{' (stopped early)' if stopped else ''}")
     for k in OUTCOMES:
         print(f"  {k:18s} {counts.get(k, 0)}")
+    for key in KNOWN:
+        if counts.get("known:" + key):
+            print(f"  of which known ({key}): {counts['known:' + key]}")
     print("by kind: " + ", ".join(f"{k}/{o}={n}" for (k, o), n in sorted(kinds.items())))
     bad = sum(counts.get(k, 0) for k in FAILURES)
-    print(f"failing cases: {bad} (written to {args.out})")
+    known = sum(counts.get("known:" + k, 0) for k in KNOWN)
+    print(f"failing cases: {bad}, {known} of them known (written to {args.out})")
+    bad -= known
     return 1 if bad else 0
 
 

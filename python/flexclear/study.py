@@ -341,6 +341,58 @@ def _resolve_build(build: Union[str, Callable]) -> tuple[str, Callable]:
     return text, obj
 
 
+def _check_run_options(options: Mapping[str, Any]) -> None:
+    """The values of a study's ``run_options``, checked at ``Study(...)`` (types and simple
+    ranges; what depends on the model is checked per sample): a bad value fails now, naming
+    ``run_options.<key>``, not as a foreign exception in the middle of the run."""
+
+    def real(v: Any) -> bool:
+        return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+    def integer(v: Any) -> bool:
+        return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+    rules: dict[str, tuple[Callable[[Any], bool], str]] = {
+        "iterate": (lambda v: v is None or isinstance(v, (bool, np.bool_)), "None, True or False"),
+        "events": (lambda v: isinstance(v, (bool, np.bool_)), "True or False"),
+        "iter_tol": (
+            lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
+            "None or a finite tolerance > 0",
+        ),
+        "tol": (
+            lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
+            "None or a finite tolerance > 0",
+        ),
+        "max_iter": (lambda v: v is None or (integer(v) and 1 <= v <= 2**62), "None or an integer >= 1"),
+        "gap_stiffness": (
+            lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
+            "None or a finite N/m > 0",
+        ),
+        "gap_damping": (lambda v: real(v) and math.isfinite(v) and v >= 0, "a finite N s/m >= 0"),
+        "beta": (lambda v: real(v) and 0 < v <= 0.5, "0 < beta <= 0.5"),
+        "gamma": (lambda v: real(v) and 0.5 <= v <= 1, "0.5 <= gamma <= 1"),
+        "solver": (
+            lambda v: v in ("woodbury", "refactor") if isinstance(v, str) else False,
+            '"woodbury" or "refactor"',
+        ),
+        "step_halving": (lambda v: integer(v) and 0 <= v <= 20, "an integer in 0 ..= 20"),
+        "divergence_limit": (
+            lambda v: v is None or (real(v) and v > 0 and not math.isnan(v)),
+            "None or a length > 0, m",
+        ),
+        "memory_limit": (
+            lambda v: v is None or (real(v) and v > 0 and not math.isnan(v)),
+            "None or bytes > 0",
+        ),
+    }
+    for key, value in options.items():
+        check, allowed = rules.get(key, (lambda v: True, ""))
+        if not check(value):
+            e = InvalidParameterError(f"invalid parameter `run_options.{key}` = {value!r}: allowed {allowed}")
+            e.parameter, e.value, e.allowed = f"run_options.{key}", repr(value), allowed
+            raise e
+
+
 class Study:
     """A Monte Carlo (or grid) study of any model.
 
@@ -485,7 +537,8 @@ class Study:
         self.history_every = None if history_every is None else int(history_every)
         if not isinstance(retries, (int, np.integer)) or retries < 0:
             raise InvalidParameterError(f"retries = {retries!r} is not allowed; allowed: an integer >= 0")
-        if not (0 < retry_factor < 1):
+        numeric_factor = isinstance(retry_factor, (int, float, np.integer, np.floating))
+        if not (numeric_factor and 0 < retry_factor < 1):
             raise InvalidParameterError(f"retry_factor = {retry_factor!r} is not allowed; allowed: 0 < f < 1")
         self.retries, self.retry_factor = int(retries), float(retry_factor)
         self.run_options = dict(run_options or {})
@@ -499,6 +552,7 @@ class Study:
                 f"run_options: unknown {unknown}; allowed: {sorted(RUN_OPTIONS)} "
                 "(keywords of flexclear.Model.simulate)"
             )
+        _check_run_options(self.run_options)
         # Check the base model builds and the joints exist, so a typo fails now, not per sample.
         try:
             probe = self._scene_fn(**self._scene_kwargs({}))

@@ -9,7 +9,7 @@ from typing import Any, Optional
 from ..errors import ModelError
 from ..frames import Frame, Rotation
 from ..model import Model
-from ._checks import _bad, _elements, _finite, _positive
+from ._checks import _bad, _elements, _finite, _positive, _types
 
 
 def _hertz_stiffness(*, youngs_modulus, poisson_ratio, pin_radius, clearance, reference_penetration) -> float:
@@ -118,6 +118,18 @@ def four_bar(
         ``"rocker_pin"``; ``parameters`` holds the inputs and ``area``, ``inertia`` (and the
         derived bearing data with a clearance joint).
     """
+    _types(
+        numbers=dict(
+            clearance=clearance,
+            pin_radius=pin_radius,
+            poisson_ratio=poisson_ratio,
+            reference_penetration=reference_penetration,
+            bearing_damping_ratio=bearing_damping_ratio,
+        ),
+        optional_numbers=dict(bearing_stiffness=bearing_stiffness, bearing_damping=bearing_damping),
+        strings=dict(damping_law=damping_law),
+        flags=dict(flexible_rocker=flexible_rocker),
+    )
     _positive(
         ground_length=ground_length,
         crank_length=crank_length,
