@@ -245,3 +245,63 @@ def test_fuzz_known_rms_overflows_for_a_huge_clearance(scene) -> None:
     j = res.joint("bearing")
     assert math.isfinite(j.max_penetration)  # -1e300: finite
     assert math.isfinite(j.rms_penetration)
+
+
+def test_fuzz_run_with_infinitely_many_steps_refused() -> None:
+    """``simulate(t_end, 5e-324)``: ``round(t_end / dt)`` of an infinite ratio raised
+    OverflowError in the window check."""
+    with pytest.raises(fc.InvalidParameterError, match="dt"):
+        fc.scenes.slider_yoke(elements=2).simulate(4.6e-4, 5e-324)
+
+
+def test_fuzz_four_bar_section_that_overflows() -> None:
+    """``four_bar(depth=1e300)``: ``depth**3`` raised OverflowError; now the section is refused
+    naming ``depth``."""
+    with pytest.raises(fc.InvalidParameterError, match="depth"):
+        fc.scenes.four_bar(depth=1e300)
+
+
+def test_fuzz_memory_estimate_checks_record_nodes() -> None:
+    """``memory_estimate(..., Record(nodes=[("slider", None)]))`` raised TypeError from ``int()``."""
+    with pytest.raises(fc.InvalidParameterError, match="record.nodes"):
+        fc.scenes.slider_yoke(elements=2).memory_estimate(1e-3, 1e-5, fc.Record(nodes=[("slider", None)]))
+
+
+def test_fuzz_natural_frequencies_count_too_large() -> None:
+    """``natural_frequencies(2**64)`` raised OverflowError converting to the core's integer."""
+    with pytest.raises(fc.InvalidParameterError, match="count"):
+        fc.scenes.slider_yoke(elements=2).natural_frequencies(2**64)
+
+
+@pytest.mark.parametrize("kw", [{"lanes": float("inf")}, {"lanes": "8"}, {"threads": -1}, {"threads": 1.5}])
+def test_fuzz_study_run_threads_and_lanes_checked(kw) -> None:
+    """``Study.run(lanes=inf)`` raised TypeError from the batch engine after the samples were
+    drawn."""
+    s = Study("slider_yoke", vary={"clearance": Uniform(0.0, 1e-3)}, samples=2, t_end=1e-4, dt=1e-5)
+    with pytest.raises(fc.InvalidParameterError, match=next(iter(kw))):
+        s.run(progress=False, **kw)
+
+
+def test_fuzz_study_too_many_samples_refused() -> None:
+    """``samples=2**64`` or a grid of ``levels=10**7`` over two parameters failed in numpy
+    (ValueError 'Maximum allowed size exceeded', MemoryError) when the inputs were drawn."""
+    with pytest.raises(fc.InvalidParameterError, match="samples"):
+        Study("slider_yoke", vary={"clearance": Uniform(0.0, 1e-3)}, samples=2**64)
+    vary = {"clearance": Uniform(0.0, 1e-3), "amplitude": Uniform(0.005, 0.01)}
+    with pytest.raises(fc.InvalidParameterError, match="grid"):
+        Study("slider_yoke", vary=vary, design="grid", levels=10**7)
+
+
+def test_fuzz_exceedance_threshold_of_the_wrong_type() -> None:
+    """``exceedance("max_force", "50")`` raised numpy's UFuncTypeError."""
+    s = Study("slider_yoke", vary={"clearance": Uniform(0.0, 1e-3)}, samples=2, t_end=1e-4, dt=1e-5)
+    res = s.run(progress=False, threads=1)
+    with pytest.raises(fc.InvalidParameterError, match="threshold"):
+        res.exceedance("max_force", "50")
+
+
+def test_fuzz_four_bar_mass_that_underflows() -> None:
+    """``four_bar(density=5e-324, clearance_at="rocker_pin", flexible_rocker=True)``: the masses
+    underflow to 0 and the effective mass raised ZeroDivisionError."""
+    with pytest.raises(fc.InvalidParameterError, match="density"):
+        fc.scenes.four_bar(density=5e-324, clearance_at="rocker_pin", flexible_rocker=True)

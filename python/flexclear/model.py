@@ -136,6 +136,8 @@ def check_window(start: Any, t_end: Any, dt: Any, parameter: str = "record.start
             raise _bad(name, v, "finite and > 0 s")
     if not (_is_number(start) and math.isfinite(start) and start >= 0):
         raise _bad(parameter, start, f"finite, 0 <= start < t_end = {float(t_end):g} s")
+    if not math.isfinite(float(t_end) / float(dt)):
+        raise _bad("dt", dt, f"a step that divides t_end = {float(t_end):g} s into a finite number of steps")
     last = max(round(float(t_end) / float(dt)), 1) * float(dt)  # the last step's time
     if start >= t_end or start > last:
         raise _bad(
@@ -741,8 +743,10 @@ class Model:
         frequencies with centrifugal stiffening (K2, K3) and softening (M_IC); ``coriolis=False``
         drops the gyroscopic coupling (the inextensible-beam idealization of the classic
         tables). Undamped."""
-        if not (isinstance(count, (int, np.integer)) and count >= 1):
-            raise _bad("count", count, "an integer >= 1")
+        if not (
+            isinstance(count, (int, np.integer)) and not isinstance(count, bool) and 1 <= count <= _MAX_COUNT
+        ):
+            raise _bad("count", count, f"an integer in 1 ..= {_MAX_COUNT}")
         if self._kind == TRANSLATING:
             return self._core.natural_frequencies(int(count))
         t = _num("t", t, "a finite time >= 0, s")
@@ -821,7 +825,7 @@ class Model:
             records = (steps - first) // every + 2
             ch["time"] = 1
             ch["joint histories"] = n_joints * per_joint
-            nodes = {(ln, int(k)) for ln, k in rec.nodes}
+            nodes = {(ln, self._node(self._link_index(ln), k, "record.nodes")) for ln, k in rec.nodes}
             if disp:  # every node, and the links' arrays made from them
                 nodes |= {(ln, k) for ln, n in zip(self.link_names, elements) for k in range(n + 1)}
                 ch["link displacements"] = link_channels + 4 * len(elements)

@@ -297,6 +297,8 @@ def _label(name: str) -> str:
 
 
 DESIGNS = ("random", "lhs", "sobol", "grid")
+#: Most samples a study may have (its inputs alone are samples x parameters x 8 bytes).
+MAX_SAMPLES = 10**8
 _STATUS = ("ok", "diverged", "unconverged", "invalid", "singular", "interrupted", "not_run")
 
 
@@ -501,13 +503,24 @@ class Study:
                 f"design = {design!r} is not allowed; allowed: one of {list(DESIGNS)}"
             )
         self.design = design
-        if not isinstance(samples, (int, np.integer)) or samples < 1:
-            raise InvalidParameterError(f"samples = {samples!r} is not allowed; allowed: an integer >= 1")
+        if not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
+            raise InvalidParameterError(
+                f"samples = {samples!r} is not allowed; allowed: an integer in 1 ..= {MAX_SAMPLES:,}"
+            )
         if not isinstance(levels, (int, np.integer)) or levels < 1:
             raise InvalidParameterError(f"levels = {levels!r} is not allowed; allowed: an integer >= 1")
         if not isinstance(seed, (int, np.integer)) or seed < 0:
             raise InvalidParameterError(f"seed = {seed!r} is not allowed; allowed: an integer >= 0")
         self.samples, self.levels, self.seed = int(samples), int(levels), int(seed)
+        if design == "grid":
+            size = 1
+            for d in self.vary.values():
+                size *= len(d.values) if isinstance(d, Values) else self.levels
+            if size > MAX_SAMPLES:
+                raise InvalidParameterError(
+                    f"the grid of levels = {self.levels} over {list(self.vary)} has {size:.3g} samples; "
+                    f"allowed: at most {MAX_SAMPLES:,} (fewer levels or values)"
+                )
         for name, v in (("t_end", t_end), ("dt", dt)):
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
@@ -770,6 +783,11 @@ class Study:
             written or not, is in ``exc.partial``; rerun to resume), or two parts hold different
             results for one sample.
         """
+        for name, value, top in (("threads", threads, 2**16), ("lanes", lanes, 2**16)):
+            if not (
+                isinstance(value, (int, np.integer)) and not isinstance(value, bool) and 0 <= value <= top
+            ):
+                raise InvalidParameterError(f"{name} = {value!r} is not allowed; allowed: an integer >= 0")
         inputs = self.inputs()
         total = len(inputs)
         if chunk_size is not None and not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
@@ -1689,7 +1707,12 @@ class StudyResult:
         from scipy import stats
 
         output = self.study.column(output)
-        if not 0 < confidence < 1:
+        real = isinstance(threshold, (int, float, np.integer, np.floating)) and not isinstance(
+            threshold, bool
+        )
+        if not (real and not math.isnan(threshold)):
+            raise InvalidParameterError(f"threshold = {threshold!r} is not allowed; allowed: a number")
+        if not (isinstance(confidence, (int, float)) and 0 < confidence < 1):
             raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: 0 < c < 1")
         x = self.ok[output].to_numpy(dtype=float)
         if x.size == 0:
