@@ -305,3 +305,16 @@ def test_fuzz_four_bar_mass_that_underflows() -> None:
     underflow to 0 and the effective mass raised ZeroDivisionError."""
     with pytest.raises(fc.InvalidParameterError, match="density"):
         fc.scenes.four_bar(density=5e-324, clearance_at="rocker_pin", flexible_rocker=True)
+
+
+def test_fuzz_harmonic_motion_whose_acceleration_overflows() -> None:
+    """``motion.harmonic((0.01, 0.01), 1e300)``: the acceleration amplitude (2 pi f)^2 a is inf and
+    a run with it completed with ``max_velocity = inf``; now refused naming ``frequency``."""
+    with pytest.raises(fc.InvalidParameterError, match="frequency"):
+        motion.harmonic((0.01, 0.01), 1e300)
+
+
+def test_fuzz_study_retries_too_large() -> None:
+    """``Study(retries=2**64)`` raised OverflowError in the batch engine."""
+    with pytest.raises(fc.InvalidParameterError, match="retries"):
+        Study("slider_yoke", samples=2, retries=2**64)

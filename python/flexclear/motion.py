@@ -60,11 +60,16 @@ def harmonic(
     phase : float
         Phase, rad.
     """
+    amp = _pair("amplitude", amplitude, "m")
+    f = _scalar("frequency", frequency, "a finite number >= 0, Hz")
+    w = 2.0 * np.pi * f
+    if np.isfinite(f) and not all(np.isfinite(a * w * w) for a in amp if np.isfinite(a)):
+        # the acceleration amplitude * (2 pi f)^2 overflows: every run would be inf
+        raise _bad(
+            "frequency", frequency, f"a frequency whose acceleration amplitude (2 pi f)^2 {amp} is finite, Hz"
+        )
     return _core.Motion.harmonic(
-        _pair("amplitude", amplitude, "m"),
-        _scalar("frequency", frequency, "a finite number >= 0, Hz"),
-        _pair("offset", offset, "m"),
-        _scalar("phase", phase, "a finite angle, rad"),
+        amp, f, _pair("offset", offset, "m"), _scalar("phase", phase, "a finite angle, rad")
     )
 
 

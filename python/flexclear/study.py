@@ -548,8 +548,10 @@ class Study:
                 f"history_every = {history_every!r} is not allowed; allowed: None or an integer >= 1"
             )
         self.history_every = None if history_every is None else int(history_every)
-        if not isinstance(retries, (int, np.integer)) or retries < 0:
-            raise InvalidParameterError(f"retries = {retries!r} is not allowed; allowed: an integer >= 0")
+        if not isinstance(retries, (int, np.integer)) or not 0 <= retries < 2**31:
+            raise InvalidParameterError(
+                f"retries = {retries!r} is not allowed; allowed: an integer in 0 ..= {2**31 - 1}"
+            )
         numeric_factor = isinstance(retry_factor, (int, float, np.integer, np.floating))
         if not (numeric_factor and 0 < retry_factor < 1):
             raise InvalidParameterError(f"retry_factor = {retry_factor!r} is not allowed; allowed: 0 < f < 1")

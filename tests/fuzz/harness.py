@@ -566,7 +566,7 @@ def _study_case(g: _Gen) -> dict:
         "samples": g.r.randint(1, 6) if not g.hostile() else g.r.choice([0, -1, 2.5, "8", None, True, NAN]),
         "design": g.choice(["random", "lhs", "sobol", "grid"]),
         "seed": g.integer(0, 1000),
-        "levels": g.integer(1, 3),
+        "levels": g.r.randint(1, 3) if not g.hostile() else g.r.choice([0, -1, 2.5, "3", None, 2**64]),
         "t_end": t_end if not g.hostile() else g.bad_value(),
         "dt": dt,
     }
@@ -918,7 +918,8 @@ def execute(case: dict, workdir: Optional[str] = None) -> dict:
             else:
                 tb = traceback.format_exc(limit=-6)
                 out = {"outcome": "foreign_exception", "type": name, "detail": str(e)[:600], "traceback": tb}
-    if out.get("outcome") == "nan" and all("rms_" in b for b in out["detail"].split("; ")):
+    parts = out.get("detail", "").split("; ")
+    if out.get("outcome") == "nan" and all("rms_" in b or b.startswith("summary()") for b in parts):
         out["known"] = "rms-overflow"
     out["warnings"] = sorted({f"{w.category.__name__}: {str(w.message)[:200]}" for w in caught})
     out["seconds"] = round(time.perf_counter() - t0, 3)
