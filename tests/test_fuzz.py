@@ -318,3 +318,10 @@ def test_fuzz_study_retries_too_large() -> None:
     """``Study(retries=2**64)`` raised OverflowError in the batch engine."""
     with pytest.raises(fc.InvalidParameterError, match="retries"):
         Study("slider_yoke", samples=2, retries=2**64)
+
+
+@pytest.mark.parametrize("method", [3, None, "bogus"])
+def test_fuzz_study_method_checked_at_study(method) -> None:
+    """``Study(method=3)`` passed and raised TypeError from the batch engine in ``run()``."""
+    with pytest.raises(fc.InvalidParameterError, match="method"):
+        Study("slider_yoke", samples=2, method=method)

@@ -525,6 +525,10 @@ class Study:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
         self.t_end, self.dt = float(t_end), float(dt)
+        if not isinstance(method, str) or method not in ("modified", "force", "gap"):
+            raise InvalidParameterError(
+                f"method = {method!r} is not allowed; allowed: one of ['modified', 'force', 'gap']"
+            )
         self.method = method
         outputs = list(OUTPUTS) if outputs is None else list(outputs)
         bad = [o for o in outputs if o not in OUTPUTS]
