@@ -14,6 +14,7 @@ Jacobian changes). ``Result.stats["engine"]`` says which ran.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import sys
@@ -73,6 +74,60 @@ def _is_number(x: Any) -> bool:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
 
 
+#: Largest integer a count of the core (``every``, ``max_iter``) may be: a signed 64-bit value.
+_MAX_COUNT = 2**62
+
+
+def _num(parameter: str, value: Any, allowed: str = "a finite number") -> float:
+    """``value`` as a float, or :class:`InvalidParameterError` naming ``parameter`` when it is not
+    a real number (a string, None, a list, a bool); ranges are checked where the value is used."""
+    if not _is_number(value):
+        raise _bad(parameter, value, allowed)
+    return float(value)
+
+
+def _switch(parameter: str, value: Any) -> Optional[bool]:
+    """A term switch: ``None`` (automatic) or a bool."""
+    if value is None or isinstance(value, (bool, np.bool_)):
+        return None if value is None else bool(value)
+    raise _bad(parameter, value, "True, False or None (chosen from the frame's motion)")
+
+
+def _pair(parameter: str, value: Any, unit: str) -> tuple[float, float]:
+    """Two real numbers ``(x, y)``."""
+    ok = isinstance(value, (tuple, list, np.ndarray)) and len(value) == 2
+    if not (ok and all(_is_number(x) for x in value)):
+        raise _bad(parameter, value, f"a pair of numbers (x, y), {unit}")
+    return float(value[0]), float(value[1])
+
+
+def _as_record(record: Any) -> Record:
+    """``record`` of :meth:`Model.simulate` as a checked :class:`Record` (a Record, a dict of its
+    fields, or None)."""
+    if record is None or isinstance(record, Record):
+        rec = record if record is not None else Record()
+    elif isinstance(record, dict):
+        fields = [f.name for f in dataclasses.fields(Record)]
+        unknown = sorted(str(k) for k in record if k not in fields)
+        if unknown:
+            raise _bad(
+                "record", record, f"a flexclear.Record or a dict of its fields {fields} (unknown: {unknown})"
+            )
+        rec = Record(**record)
+    else:
+        raise _bad("record", record, "a flexclear.Record, a dict of its fields, or None")
+    if rec.joints is not None and not (
+        isinstance(rec.joints, (list, tuple)) and all(isinstance(j, str) for j in rec.joints)
+    ):
+        raise _bad("record.joints", rec.joints, "None (every clearance joint) or a list of joint names")
+    nodes_ok = isinstance(rec.nodes, (list, tuple)) and all(
+        isinstance(x, (list, tuple)) and len(x) == 2 for x in rec.nodes
+    )
+    if not nodes_ok:
+        raise _bad("record.nodes", rec.nodes, "a list of (link name, node index) pairs")
+    return rec
+
+
 def check_window(start: Any, t_end: Any, dt: Any, parameter: str = "record.start") -> None:
     """Refuses a reduction window ``[start, t_end]`` (s) that holds no step of ``dt``: the
     extremes would be -inf and the RMS values NaN."""
@@ -81,6 +136,8 @@ def check_window(start: Any, t_end: Any, dt: Any, parameter: str = "record.start
             raise _bad(name, v, "finite and > 0 s")
     if not (_is_number(start) and math.isfinite(start) and start >= 0):
         raise _bad(parameter, start, f"finite, 0 <= start < t_end = {float(t_end):g} s")
+    if not math.isfinite(float(t_end) / float(dt)):
+        raise _bad("dt", dt, f"a step that divides t_end = {float(t_end):g} s into a finite number of steps")
     last = max(round(float(t_end) / float(dt)), 1) * float(dt)  # the last step's time
     if start >= t_end or start > last:
         raise _bad(
@@ -363,20 +420,45 @@ class Model:
                 raise _bad("frame", frame, "a flexclear.Frame")
             if motion is not None or angle != 0.0:
                 raise _bad("frame", frame, "either `frame` or `angle`/`motion`, not both")
-        terms = (coriolis, inertia_coupling, geometric, inertia_load)
+        terms = tuple(
+            _switch(k, v)
+            for k, v in (
+                ("coriolis", coriolis),
+                ("inertia_coupling", inertia_coupling),
+                ("geometric", geometric),
+                ("inertia_load", inertia_load),
+            )
+        )
+        if motion is not None and not isinstance(motion, _core.Motion):
+            raise _bad(
+                "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
+            )
         if frame is not None or any(t is not None for t in terms):
             self._to_moving(f"link {name!r} (a moving frame or a term switch)")
         integral = _is_number(elements) and float(elements).is_integer()
-        if isinstance(elements, (bool, np.bool_)) or not integral:
+        if isinstance(elements, (bool, np.bool_)) or not integral or abs(elements) > _MAX_COUNT:
             raise _bad("elements", elements, "an integer in 1 ..= 1000000")
         args = (
-            float(length),
+            _num("length", length, "a finite number > 0, m"),
             int(elements),
-            float(youngs_modulus),
-            float(density),
-            float(area),
-            float(inertia),
+            _num("youngs_modulus", youngs_modulus, "a finite number > 0, Pa"),
+            _num("density", density, "a finite number > 0, kg/m^3"),
+            _num("area", area, "a finite number > 0, m^2"),
+            _num("inertia", inertia, "a finite number > 0, m^4"),
         )
+        damping = _num("damping", damping, "a finite number >= 0, Pa s")
+        angle = _num("angle", angle, "a finite angle, rad")
+        initial = {}
+        for key, value in (
+            ("initial_displacement", initial_displacement),
+            ("initial_velocity", initial_velocity),
+        ):
+            try:
+                initial[key] = _array(value)
+            except (TypeError, ValueError):
+                raise _bad(
+                    key, value, f"an array of 3 (elements + 1) = {3 * (int(elements) + 1)} numbers"
+                ) from None
         if self._kind == TRANSLATING:
             self._core.add_link(
                 name,
@@ -385,8 +467,8 @@ class Model:
                 float(angle),
                 motion,
                 bool(rotary_inertia),
-                _array(initial_displacement),
-                _array(initial_velocity),
+                initial["initial_displacement"],
+                initial["initial_velocity"],
             )
         else:
             if frame is None:
@@ -397,8 +479,8 @@ class Model:
                 frame,
                 float(damping),
                 *terms,
-                _array(initial_displacement),
-                _array(initial_velocity),
+                initial["initial_displacement"],
+                initial["initial_velocity"],
                 bool(rotary_inertia),
             )
         self._link_ids[name] = len(self._link_ids)
@@ -410,6 +492,10 @@ class Model:
         Points of the body (``point=`` of :meth:`add_joint` and :meth:`add_pin`) are given in
         its frame (for a translating body: global axes from the reference point), m."""
         self._unique("body", name, self.body_names)
+        if motion is not None and not isinstance(motion, _core.Motion):
+            raise _bad(
+                "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
+            )
         if frame is not None:
             if not isinstance(frame, Frame):
                 raise _bad("frame", frame, "a flexclear.Frame")
@@ -431,8 +517,10 @@ class Model:
         self._unique("slider", name, self._slider_ids)
         if not isinstance(path, Frame):
             raise _bad("path", path, "a flexclear.Frame")
+        mass = _num("mass", mass, "a finite number > 0, kg")
+        angle = _num("angle", angle, "a finite angle, rad")
         self._to_moving(f"slider {name!r}")
-        self._core.add_slider(name, float(mass), float(angle), path)
+        self._core.add_slider(name, mass, angle, path)
         self._slider_ids[name] = len(self._slider_ids)
         return self
 
@@ -453,12 +541,13 @@ class Model:
         if target is not None:
             if not (isinstance(target, (tuple, list)) and len(target) == 2):
                 raise _bad("target", target, "a (link name, node index) pair")
-            return {
-                "target": "node",
+            side = {
                 "target_link": self._link_index(target[0]),
                 "target_node": self._node(self._link_index(target[0]), target[1], "target[1]"),
             }
-        pt = (float(point[0]), float(point[1]))
+            # the translating core knows a node target by its link and node alone
+            return side if self._kind == TRANSLATING else {"target": "node", **side}
+        pt = _pair("point", point, "m")
         if self._kind == TRANSLATING:
             if body not in self._body_ids:
                 raise ModelError(f"unknown body {body!r}; the model has {self.body_names}")
@@ -504,10 +593,12 @@ class Model:
         link_i = self._link_index(link)
         node = self._node(link_i, node)
         side = self._other_side(body, point, target, slider)
+        if not isinstance(damping_law, str):
+            raise _bad("damping_law", damping_law, 'one of "viscous", "radial", "literal"')
         law = dict(
-            clearance=float(clearance),
-            stiffness=float(stiffness),
-            damping=float(damping),
+            clearance=_num("clearance", clearance, "a finite number >= 0, m"),
+            stiffness=_num("stiffness", stiffness, "a finite number >= 0, N/m"),
+            damping=_num("damping", damping, "a finite number >= 0, N s/m"),
             damping_law=damping_law,
             no_tension=bool(no_tension),
         )
@@ -559,9 +650,10 @@ class Model:
 
     def add_mass(self, link: str, node: int, mass: float) -> Model:
         """A point mass (kg, >= 0) at a node."""
+        mass = _num("mass", mass, "a finite number >= 0, kg")
         self._to_moving("a point mass")
         li = self._link_index(link)
-        self._core.add_mass(li, self._node(li, node), float(mass))
+        self._core.add_mass(li, self._node(li, node), mass)
         return self
 
     def add_load(
@@ -569,15 +661,17 @@ class Model:
     ) -> Model:
         """A constant nodal load in the link frame: axial ``fu`` and transverse ``fv`` (N),
         ``moment`` (N m)."""
+        fu, fv = _num("fu", fu, "a finite force, N"), _num("fv", fv, "a finite force, N")
+        moment = _num("moment", moment, "a finite moment, N m")
         self._to_moving("a load")
         li = self._link_index(link)
-        self._core.add_load(li, self._node(li, node), float(fu), float(fv), float(moment))
+        self._core.add_load(li, self._node(li, node), fu, fv, moment)
         return self
 
     def add_gravity(self, gx: float, gy: float) -> Model:
         """Sets gravity, global axes, m/s^2 (none by default; a second call replaces it)."""
         for k, v in (("gx", gx), ("gy", gy)):
-            if not np.isfinite(v):
+            if not (_is_number(v) and np.isfinite(v)):
                 raise _bad(k, v, "a finite acceleration, m/s^2")
         self._to_moving("gravity")
         self._core.set_gravity(float(gx), float(gy))
@@ -589,7 +683,7 @@ class Model:
         :class:`InvalidParameterError`. (Parameters are checked when added; ``simulate`` runs
         this check itself.)"""
         if self._kind == MOVING:
-            self._core.validate(float(t_end))
+            self._core.validate(_num("t_end", t_end, "a finite time > 0, s"))
         elif not self._link_ids:
             raise ModelError("the model has no flexible link")
 
@@ -614,6 +708,11 @@ class Model:
         below 1e-6 of the largest carrying no static load (they have no equilibrium).
         ``contacts=False`` leaves every clearance joint open. Raises :class:`ConvergenceError` if
         neither converges."""
+        t = _num("t", t, "a finite time >= 0, s")
+        tol = _num("tol", tol, "a finite relative tolerance > 0")
+        if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool) and max_iter >= 1):
+            raise _bad("max_iter", max_iter, "an integer >= 1")
+        contacts = bool(contacts)
         core = self._moving_core()
         n = len(core.dof_map())
         for rcond in (None, 1e-6):
@@ -642,10 +741,13 @@ class Model:
         frequencies with centrifugal stiffening (K2, K3) and softening (M_IC); ``coriolis=False``
         drops the gyroscopic coupling (the inextensible-beam idealization of the classic
         tables). Undamped."""
-        if not (isinstance(count, (int, np.integer)) and count >= 1):
-            raise _bad("count", count, "an integer >= 1")
+        if not (
+            isinstance(count, (int, np.integer)) and not isinstance(count, bool) and 1 <= count <= _MAX_COUNT
+        ):
+            raise _bad("count", count, f"an integer in 1 ..= {_MAX_COUNT}")
         if self._kind == TRANSLATING:
             return self._core.natural_frequencies(int(count))
+        t = _num("t", t, "a finite time >= 0, s")
         core = self._core
         y = self.static_state(t, contacts=False)
         m, c, k, _ = core.linearize(float(t), y, contacts=False)
@@ -681,15 +783,17 @@ class Model:
         """Bytes the histories of ``simulate(t_end, dt, record=record)`` would take (8 bytes per
         recorded value: channels x recorded steps), without running anything. ``simulate``
         refuses a run above its memory limit with :class:`~flexclear.ResourceError`."""
-        rec = record if isinstance(record, Record) else Record(**(record or {}))
+        rec = _as_record(record)
         check_window(rec.start, t_end, dt, "record.start")
         return self._history_plan(float(t_end), float(dt), rec)[0]
 
     def _history_plan(self, t_end: float, dt: float, rec: Record) -> tuple[int, int, int, dict]:
         """``(bytes, records, channels, channels by kind)`` of the histories of a run."""
         every = rec.every
-        if not (isinstance(every, (int, np.integer)) and not isinstance(every, bool) and every >= 1):
-            raise _bad("record.every", every, "an integer >= 1")
+        if not (
+            isinstance(every, (int, np.integer)) and not isinstance(every, bool) and 1 <= every <= _MAX_COUNT
+        ):
+            raise _bad("record.every", every, f"an integer in 1 ..= {_MAX_COUNT}")
         steps = max(round(t_end / dt), 1)
         elements = list(self._core.link_elements)
         n_joints = len(self.joint_names) if rec.joints is None else len(rec.joints)
@@ -719,7 +823,7 @@ class Model:
             records = (steps - first) // every + 2
             ch["time"] = 1
             ch["joint histories"] = n_joints * per_joint
-            nodes = {(ln, int(k)) for ln, k in rec.nodes}
+            nodes = {(ln, self._node(self._link_index(ln), k, "record.nodes")) for ln, k in rec.nodes}
             if disp:  # every node, and the links' arrays made from them
                 nodes |= {(ln, k) for ln, n in zip(self.link_names, elements) for k in range(n + 1)}
                 ch["link displacements"] = link_channels + 4 * len(elements)
@@ -936,8 +1040,20 @@ class Model:
                 memory_limit=memory_limit,
                 stepper="newton",
             )
-        rec = record if isinstance(record, Record) else Record(**(record or {}))
+        rec = _as_record(record)
         check_window(rec.start, t_end, dt, "record.start")
+        if solver not in ("woodbury", "refactor"):
+            raise _bad("solver", solver, 'one of "woodbury", "refactor"')
+        beta, gamma = _num("beta", beta, "0 < beta <= 0.5"), _num("gamma", gamma, "0.5 <= gamma <= 1")
+        gap_damping = _num("gap_damping", gap_damping, "a finite number >= 0, N s/m")
+        if gap_stiffness is not None:
+            gap_stiffness = _num("gap_stiffness", gap_stiffness, "None or a finite number > 0, N/m")
+        if divergence_limit is not None:
+            divergence_limit = _num("divergence_limit", divergence_limit, "None or a finite number > 0, m")
+        if not (isinstance(step_halving, (int, np.integer)) and not isinstance(step_halving, bool)) or not (
+            0 <= step_halving <= 20
+        ):
+            raise _bad("step_halving", step_halving, "an integer in 0 ..= 20")
         kind = self._kind
         if iterate is None:
             iterate = self._iterate_default(method)
@@ -947,8 +1063,10 @@ class Model:
         elif not (isinstance(iter_tol, (int, float, np.floating)) and np.isfinite(iter_tol) and iter_tol > 0):
             raise _bad("iter_tol", iter_tol, "a finite relative tolerance > 0")
         max_iter = iter_default if max_iter is None else max_iter
-        if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 1):
-            raise _bad("max_iter", max_iter, "an integer >= 1")
+        if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool)) or not (
+            1 <= max_iter <= _MAX_COUNT
+        ):
+            raise _bad("max_iter", max_iter, f"an integer in 1 ..= {_MAX_COUNT}")
         joints = None if rec.joints is None else [self._joint_index(j) for j in rec.joints]
         nodes = [
             (self._link_index(ln), self._node(self._link_index(ln), n, "record.nodes")) for ln, n in rec.nodes

@@ -3,17 +3,42 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from . import _core
+from .errors import InvalidParameterError
 
 Motion = _core.Motion
 
 
+def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
+    e = InvalidParameterError(f"invalid parameter `{parameter}` = {value!r}: allowed {allowed}")
+    e.parameter, e.value, e.allowed = parameter, repr(value), allowed
+    return e
+
+
+def _real(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+
+
+def _pair(parameter: str, value: Any, unit: str) -> tuple[float, float]:
+    ok = isinstance(value, (tuple, list, np.ndarray)) and len(value) == 2 and all(_real(x) for x in value)
+    if not ok:
+        raise _bad(parameter, value, f"a pair of numbers (x, y), {unit}")
+    return float(value[0]), float(value[1])
+
+
+def _scalar(parameter: str, value: Any, allowed: str) -> float:
+    if not _real(value):
+        raise _bad(parameter, value, allowed)
+    return float(value)
+
+
 def fixed(position: Sequence[float] = (0.0, 0.0)) -> Motion:
     """At rest at ``position`` (m)."""
-    return _core.Motion.fixed(tuple(float(x) for x in position))
+    return _core.Motion.fixed(_pair("position", position, "m"))
 
 
 def harmonic(
@@ -35,8 +60,16 @@ def harmonic(
     phase : float
         Phase, rad.
     """
+    amp = _pair("amplitude", amplitude, "m")
+    f = _scalar("frequency", frequency, "a finite number >= 0, Hz")
+    w = 2.0 * np.pi * f
+    if np.isfinite(f) and not all(np.isfinite(a * w * w) for a in amp if np.isfinite(a)):
+        # the acceleration amplitude * (2 pi f)^2 overflows: every run would be inf
+        raise _bad(
+            "frequency", frequency, f"a frequency whose acceleration amplitude (2 pi f)^2 {amp} is finite, Hz"
+        )
     return _core.Motion.harmonic(
-        tuple(float(x) for x in amplitude), float(frequency), tuple(float(x) for x in offset), float(phase)
+        amp, f, _pair("offset", offset, "m"), _scalar("phase", phase, "a finite angle, rad")
     )
 
 
@@ -53,21 +86,29 @@ def tabulated(time, position, velocity=None, acceleration=None) -> Motion:
         m/s and m/s^2; derived by central differences when omitted.
     """
 
-    def pairs(a):
+    def floats(name: str, a: Any, shape: str) -> np.ndarray:
+        try:
+            out = np.asarray(a, dtype=float)
+        except (TypeError, ValueError):
+            raise _bad(name, a, f"an array of numbers of shape {shape}") from None
+        return out
+
+    def pairs(name: str, a):
         if a is None:
             return None
-        a = np.asarray(a, dtype=float)
-        if a.ndim != 2 or a.shape[1] != 2:
-            from .errors import InvalidParameterError
+        arr = floats(name, a, "(n, 2)")
+        if arr.ndim != 2 or arr.shape[1] != 2:
+            raise _bad(name, a, f"an array of shape (n, 2), m (here {arr.shape})")
+        return [tuple(r) for r in arr]
 
-            raise InvalidParameterError(f"motion arrays must have shape (n, 2), got {a.shape}")
-        return [tuple(r) for r in a]
-
+    t = floats("time", time, "(n,)")
+    if t.ndim != 1:
+        raise _bad("time", time, f"a 1-D array of times, s (here shape {t.shape})")
     return _core.Motion.tabulated(
-        [float(t) for t in np.asarray(time, dtype=float)],
-        pairs(position),
-        pairs(velocity),
-        pairs(acceleration),
+        [float(x) for x in t],
+        pairs("position", position),
+        pairs("velocity", velocity),
+        pairs("acceleration", acceleration),
     )
 
 

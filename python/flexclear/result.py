@@ -407,6 +407,16 @@ class Result:
         if link not in self.link_names:
             raise _unknown("link", link, self.link_names)
         li = self.link_names.index(link)
+        integral = isinstance(node, (int, float, np.integer, np.floating)) and not isinstance(
+            node, (bool, np.bool_)
+        )
+        if not (integral and float(node).is_integer()):
+            e = InvalidParameterError(
+                f"invalid parameter `node` = {node!r}: allowed a node index, an integer >= 0"
+            )
+            e.parameter, e.value, e.allowed = "node", repr(node), "a node index, an integer >= 0"
+            raise e
+        node = int(node)  # an integral float, as Record.nodes accepts it
         for h in self._raw.get("nodes", ()):
             if h["link"] == li and h["node"] == node:
                 return NodeResult(link, node, h["u"], h["v"], h["theta"])

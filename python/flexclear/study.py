@@ -297,6 +297,8 @@ def _label(name: str) -> str:
 
 
 DESIGNS = ("random", "lhs", "sobol", "grid")
+#: Most samples a study may have (its inputs alone are samples x parameters x 8 bytes).
+MAX_SAMPLES = 10**8
 _STATUS = ("ok", "diverged", "unconverged", "invalid", "singular", "interrupted", "not_run")
 
 
@@ -339,6 +341,58 @@ def _resolve_build(build: Union[str, Callable]) -> tuple[str, Callable]:
     if not callable(obj):
         raise InvalidParameterError(f"build = {text!r} is not callable")
     return text, obj
+
+
+def _check_run_options(options: Mapping[str, Any]) -> None:
+    """The values of a study's ``run_options``, checked at ``Study(...)`` (types and simple
+    ranges; what depends on the model is checked per sample): a bad value fails now, naming
+    ``run_options.<key>``, not as a foreign exception in the middle of the run."""
+
+    def real(v: Any) -> bool:
+        return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+    def integer(v: Any) -> bool:
+        return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+    rules: dict[str, tuple[Callable[[Any], bool], str]] = {
+        "iterate": (lambda v: v is None or isinstance(v, (bool, np.bool_)), "None, True or False"),
+        "events": (lambda v: isinstance(v, (bool, np.bool_)), "True or False"),
+        "iter_tol": (
+            lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
+            "None or a finite tolerance > 0",
+        ),
+        "tol": (
+            lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
+            "None or a finite tolerance > 0",
+        ),
+        "max_iter": (lambda v: v is None or (integer(v) and 1 <= v <= 2**62), "None or an integer >= 1"),
+        "gap_stiffness": (
+            lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
+            "None or a finite N/m > 0",
+        ),
+        "gap_damping": (lambda v: real(v) and math.isfinite(v) and v >= 0, "a finite N s/m >= 0"),
+        "beta": (lambda v: real(v) and 0 < v <= 0.5, "0 < beta <= 0.5"),
+        "gamma": (lambda v: real(v) and 0.5 <= v <= 1, "0.5 <= gamma <= 1"),
+        "solver": (
+            lambda v: v in ("woodbury", "refactor") if isinstance(v, str) else False,
+            '"woodbury" or "refactor"',
+        ),
+        "step_halving": (lambda v: integer(v) and 0 <= v <= 20, "an integer in 0 ..= 20"),
+        "divergence_limit": (
+            lambda v: v is None or (real(v) and v > 0 and not math.isnan(v)),
+            "None or a length > 0, m",
+        ),
+        "memory_limit": (
+            lambda v: v is None or (real(v) and v > 0 and not math.isnan(v)),
+            "None or bytes > 0",
+        ),
+    }
+    for key, value in options.items():
+        check, allowed = rules.get(key, (lambda v: True, ""))
+        if not check(value):
+            e = InvalidParameterError(f"invalid parameter `run_options.{key}` = {value!r}: allowed {allowed}")
+            e.parameter, e.value, e.allowed = f"run_options.{key}", repr(value), allowed
+            raise e
 
 
 class Study:
@@ -449,17 +503,32 @@ class Study:
                 f"design = {design!r} is not allowed; allowed: one of {list(DESIGNS)}"
             )
         self.design = design
-        if not isinstance(samples, (int, np.integer)) or samples < 1:
-            raise InvalidParameterError(f"samples = {samples!r} is not allowed; allowed: an integer >= 1")
+        if not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
+            raise InvalidParameterError(
+                f"samples = {samples!r} is not allowed; allowed: an integer in 1 ..= {MAX_SAMPLES:,}"
+            )
         if not isinstance(levels, (int, np.integer)) or levels < 1:
             raise InvalidParameterError(f"levels = {levels!r} is not allowed; allowed: an integer >= 1")
         if not isinstance(seed, (int, np.integer)) or seed < 0:
             raise InvalidParameterError(f"seed = {seed!r} is not allowed; allowed: an integer >= 0")
         self.samples, self.levels, self.seed = int(samples), int(levels), int(seed)
+        if design == "grid":
+            size = 1
+            for d in self.vary.values():
+                size *= len(d.values) if isinstance(d, Values) else self.levels
+            if size > MAX_SAMPLES:
+                raise InvalidParameterError(
+                    f"the grid of levels = {self.levels} over {list(self.vary)} has {size:.3g} samples; "
+                    f"allowed: at most {MAX_SAMPLES:,} (fewer levels or values)"
+                )
         for name, v in (("t_end", t_end), ("dt", dt)):
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
         self.t_end, self.dt = float(t_end), float(dt)
+        if not isinstance(method, str) or method not in ("modified", "force", "gap"):
+            raise InvalidParameterError(
+                f"method = {method!r} is not allowed; allowed: one of ['modified', 'force', 'gap']"
+            )
         self.method = method
         outputs = list(OUTPUTS) if outputs is None else list(outputs)
         bad = [o for o in outputs if o not in OUTPUTS]
@@ -483,9 +552,12 @@ class Study:
                 f"history_every = {history_every!r} is not allowed; allowed: None or an integer >= 1"
             )
         self.history_every = None if history_every is None else int(history_every)
-        if not isinstance(retries, (int, np.integer)) or retries < 0:
-            raise InvalidParameterError(f"retries = {retries!r} is not allowed; allowed: an integer >= 0")
-        if not (0 < retry_factor < 1):
+        if not isinstance(retries, (int, np.integer)) or not 0 <= retries < 2**31:
+            raise InvalidParameterError(
+                f"retries = {retries!r} is not allowed; allowed: an integer in 0 ..= {2**31 - 1}"
+            )
+        numeric_factor = isinstance(retry_factor, (int, float, np.integer, np.floating))
+        if not (numeric_factor and 0 < retry_factor < 1):
             raise InvalidParameterError(f"retry_factor = {retry_factor!r} is not allowed; allowed: 0 < f < 1")
         self.retries, self.retry_factor = int(retries), float(retry_factor)
         self.run_options = dict(run_options or {})
@@ -499,6 +571,7 @@ class Study:
                 f"run_options: unknown {unknown}; allowed: {sorted(RUN_OPTIONS)} "
                 "(keywords of flexclear.Model.simulate)"
             )
+        _check_run_options(self.run_options)
         # Check the base model builds and the joints exist, so a typo fails now, not per sample.
         try:
             probe = self._scene_fn(**self._scene_kwargs({}))
@@ -716,6 +789,11 @@ class Study:
             written or not, is in ``exc.partial``; rerun to resume), or two parts hold different
             results for one sample.
         """
+        for name, value, top in (("threads", threads, 2**16), ("lanes", lanes, 2**16)):
+            if not (
+                isinstance(value, (int, np.integer)) and not isinstance(value, bool) and 0 <= value <= top
+            ):
+                raise InvalidParameterError(f"{name} = {value!r} is not allowed; allowed: an integer >= 0")
         inputs = self.inputs()
         total = len(inputs)
         if chunk_size is not None and not (isinstance(chunk_size, (int, np.integer)) and chunk_size >= 1):
@@ -1635,7 +1713,12 @@ class StudyResult:
         from scipy import stats
 
         output = self.study.column(output)
-        if not 0 < confidence < 1:
+        real = isinstance(threshold, (int, float, np.integer, np.floating)) and not isinstance(
+            threshold, bool
+        )
+        if not (real and not math.isnan(threshold)):
+            raise InvalidParameterError(f"threshold = {threshold!r} is not allowed; allowed: a number")
+        if not (isinstance(confidence, (int, float)) and 0 < confidence < 1):
             raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: 0 < c < 1")
         x = self.ok[output].to_numpy(dtype=float)
         if x.size == 0:

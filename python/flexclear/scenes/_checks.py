@@ -4,7 +4,9 @@ keyword and its allowed range."""
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Optional
+
+import numpy as np
 
 from ..errors import InvalidParameterError
 
@@ -26,6 +28,40 @@ def _finite(**kw: Any) -> None:
     for name, v in kw.items():
         if not (isinstance(v, (int, float)) and math.isfinite(v)):
             raise _bad(name, v, "a finite number")
+
+
+def _real(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def _types(
+    numbers: Optional[dict] = None,
+    optional_numbers: Optional[dict] = None,
+    strings: Optional[dict] = None,
+    optional_strings: Optional[dict] = None,
+    flags: Optional[dict] = None,
+    optional_flags: Optional[dict] = None,
+) -> None:
+    """Refuses a keyword of the wrong type (a string for a number, a number for a switch, ...)
+    before it reaches the core, whose own checks give the ranges."""
+    for name, v in (numbers or {}).items():
+        if not _real(v):
+            raise _bad(name, repr(v), "a number")
+    for name, v in (optional_numbers or {}).items():
+        if v is not None and not _real(v):
+            raise _bad(name, repr(v), "None (derived) or a number")
+    for name, v in (strings or {}).items():
+        if not isinstance(v, str):
+            raise _bad(name, repr(v), "a string")
+    for name, v in (optional_strings or {}).items():
+        if v is not None and not isinstance(v, str):
+            raise _bad(name, repr(v), "None or a string")
+    for name, v in (flags or {}).items():
+        if not isinstance(v, (bool, np.bool_)):
+            raise _bad(name, repr(v), "True or False")
+    for name, v in (optional_flags or {}).items():
+        if v is not None and not isinstance(v, (bool, np.bool_)):
+            raise _bad(name, repr(v), "None (automatic), True or False")
 
 
 def _elements(name: str, n: Any) -> int:

@@ -9,7 +9,7 @@ from typing import Any, Optional
 from ..errors import ModelError
 from ..frames import Frame, Rotation
 from ..model import Model
-from ._checks import _bad, _elements, _finite, _positive
+from ._checks import _bad, _elements, _finite, _positive, _types
 
 
 def _hertz_stiffness(*, youngs_modulus, poisson_ratio, pin_radius, clearance, reference_penetration) -> float:
@@ -118,6 +118,18 @@ def four_bar(
         ``"rocker_pin"``; ``parameters`` holds the inputs and ``area``, ``inertia`` (and the
         derived bearing data with a clearance joint).
     """
+    _types(
+        numbers=dict(
+            clearance=clearance,
+            pin_radius=pin_radius,
+            poisson_ratio=poisson_ratio,
+            reference_penetration=reference_penetration,
+            bearing_damping_ratio=bearing_damping_ratio,
+        ),
+        optional_numbers=dict(bearing_stiffness=bearing_stiffness, bearing_damping=bearing_damping),
+        strings=dict(damping_law=damping_law),
+        flags=dict(flexible_rocker=flexible_rocker),
+    )
     _positive(
         ground_length=ground_length,
         crank_length=crank_length,
@@ -152,7 +164,14 @@ def four_bar(
             f"coupler_length={coupler_length}, rocker_length={rocker_length}): the loop does not close "
             f"over a crank turn: {e}"
         ) from None
-    area, inertia = width * depth, width * depth**3 / 12.0
+    area, inertia = width * depth, width * depth * depth * depth / 12.0
+    if not (math.isfinite(area) and math.isfinite(inertia) and area > 0 and inertia > 0):
+        raise _bad(
+            "depth",
+            depth,
+            f"a section whose area width depth and inertia width depth^3 / 12 are finite and > 0 (here "
+            f"width = {width:g} m: {area:g} m^2, {inertia:g} m^4)",
+        )
     section = dict(
         youngs_modulus=youngs_modulus, density=density, area=area, inertia=inertia, damping=damping
     )
@@ -182,6 +201,13 @@ def four_bar(
         if not 0.0 <= poisson_ratio < 0.5:
             raise _bad("poisson_ratio", poisson_ratio, "0 <= nu < 0.5")
         coupler_mass = density * area * coupler_length
+        if not (math.isfinite(coupler_mass) and coupler_mass > 0):
+            raise _bad(
+                "density",
+                density,
+                f"a density whose coupler mass rho A L is finite and > 0 (here {coupler_mass:g} kg with "
+                f"A = {area:g} m^2, L = {coupler_length:g} m)",
+            )
         m_eff = 0.5 * coupler_mass
         if clearance_at == "rocker_pin" and flexible_rocker:
             m_rocker = 0.5 * density * area * rocker_length

@@ -6,6 +6,7 @@ from typing import Any, Optional
 
 from .. import _core
 from ..model import Model
+from ._checks import _types
 
 
 def slider_crank(
@@ -120,6 +121,12 @@ def slider_crank(
     joint, 5e-5 s resolves the rod's first bending mode (about 1.3e3 rad/s) with 90 steps per
     period.
     """
+    _types(
+        optional_numbers=dict(bearing_stiffness=bearing_stiffness, bearing_damping=bearing_damping),
+        strings=dict(damping_law=damping_law),
+        optional_strings=dict(clearance_at=clearance_at),
+        optional_flags=dict(geometric=geometric),
+    )
     inputs: dict[str, Any] = dict(
         crank_length=crank_length,
         rod_length=rod_length,

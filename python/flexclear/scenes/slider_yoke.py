@@ -8,7 +8,7 @@ from typing import Optional
 
 from .. import _core
 from ..model import Model
-from ._checks import _elements
+from ._checks import _elements, _types
 
 
 def slider_yoke(
@@ -88,6 +88,27 @@ def slider_yoke(
     ``Y 2 pi f (1 - 1.5 x / L)``, rotation rate ``-1.5 Y 2 pi f / L``, no deformation). The slider
     frame translates with the yoke, whose motion enters as the inertia load ``-M_R a_R``.
     """
+    _types(
+        numbers=dict(
+            clearance=clearance,
+            amplitude=amplitude,
+            frequency=frequency,
+            length=length,
+            side=side,
+            density=density,
+            first_frequency=first_frequency,
+            damping_ratio=damping_ratio,
+            stiffness_ratio=stiffness_ratio,
+            bearing_damping_ratio=bearing_damping_ratio,
+        ),
+        optional_numbers=dict(
+            youngs_modulus=youngs_modulus,
+            bearing_stiffness=bearing_stiffness,
+            bearing_damping=bearing_damping,
+        ),
+        strings=dict(damping_law=damping_law, geometry=geometry),
+        flags=dict(no_tension=no_tension, rotary_inertia=rotary_inertia),
+    )
     inputs = dict(
         clearance=clearance,
         amplitude=amplitude,

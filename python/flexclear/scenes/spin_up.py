@@ -105,7 +105,7 @@ def spin_up(
     Model
         One link ``"beam"``; ``parameters`` holds the data used.
     """
-    if data not in SPIN_UP_DATA:
+    if not isinstance(data, str) or data not in SPIN_UP_DATA:
         raise _bad("data", repr(data), 'one of "kane", "simo"')
     given = dict(
         length=length,
