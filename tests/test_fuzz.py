@@ -325,3 +325,13 @@ def test_fuzz_study_method_checked_at_study(method) -> None:
     """``Study(method=3)`` passed and raised TypeError from the batch engine in ``run()``."""
     with pytest.raises(fc.InvalidParameterError, match="method"):
         Study("slider_yoke", samples=2, method=method)
+
+
+def test_fuzz_a_runaway_joint_of_prescribed_sides_stops_in_both_steppers() -> None:
+    """Fuzz case 1:98795: the bearing body followed a tabulated motion starting at -1e300 m while
+    every unknown stayed bounded; the Newton stepper (a rotating link in the model) reported the
+    run complete with an infinite penetration. Both steppers now check each joint's penetration at
+    every step (integrator/divergence.rs)."""
+    outcome = harness.execute(harness.generate(1, 98795))
+    assert outcome["outcome"] == "flexclear_error", outcome
+    assert "SimulationDivergedError" in outcome.get("type", "") + outcome.get("message", ""), outcome

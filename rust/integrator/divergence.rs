@@ -6,8 +6,9 @@
 //! stay within the divergence limit (by default 10 x the longest link), and every elastic
 //! rotation within [`ROTATION_LIMIT`] (half a turn: far outside what a small-rotation beam
 //! element describes; a limit in metres says nothing about an angle). The constant stepper also
-//! compares each joint's penetration with the limit at every step (one comparison per joint,
-//! which is also its finite check), because its contact terms feed the next step directly.
+//! Both steppers also compare each clearance joint's penetration with the limit at every step (one
+//! comparison per joint, which is also its finite check; an open gap of any width passes): a joint
+//! whose sides follow prescribed motions can run away while every unknown stays bounded.
 
 /// Steps between two checks of the whole state.
 pub(crate) const CHECK_STRIDE: u64 = 16;
@@ -45,6 +46,23 @@ pub(crate) fn reason(x: f64, v: f64, translational: bool, limit: f64) -> String 
         )
     } else {
         format!("|rotation| = {:.3e} rad exceeds half a turn (pi rad)", x.abs())
+    }
+}
+
+/// The divergence error of clearance joint `name` whose penetration `pen` (m) is not finite or
+/// beyond `limit` (m), at `time` (s), step `step`.
+#[cold]
+pub(crate) fn joint_diverged(name: &str, pen: f64, limit: f64, time: f64, step: u64) -> crate::error::Error {
+    let reason = if pen.is_finite() {
+        format!("penetration = {pen:.3e} m exceeds the divergence limit {limit:.3e} m")
+    } else {
+        "non-finite joint position".to_string()
+    };
+    crate::error::Error::Diverged {
+        time,
+        step,
+        dof: format!("joint {name:?} position"),
+        reason,
     }
 }
 

@@ -1660,6 +1660,10 @@ impl<'a> KedRun<'a> {
             self.stats.steps = k;
             let t1 = k as f64 * h;
             self.track_joints(t1, Some((k, h)));
+            if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
+                let e = super::divergence::joint_diverged(&self.mech.joints[j].name, self.jpen[j], self.limit, t1, k);
+                return Err(self.fail(e, t1));
+            }
             if (k.is_multiple_of(super::divergence::CHECK_STRIDE) || k == steps)
                 && self.check_divergence(t1, k).is_err()
             {

@@ -1126,22 +1126,7 @@ impl<'m> Lane<'m> {
     /// The divergence error of joint `jj` whose penetration is not finite or beyond the limit.
     #[cold]
     fn joint_diverged(&self, jj: usize, time: f64, step: u64) -> Error {
-        let jname = &self.model.joints[jj].name;
-        let pen = self.pen[jj];
-        let reason = if pen.is_finite() {
-            format!(
-                "penetration = {:.3e} m exceeds the divergence limit {:.3e} m",
-                pen, self.limit
-            )
-        } else {
-            "non-finite joint position".to_string()
-        };
-        Error::Diverged {
-            time,
-            step,
-            dof: format!("joint {jname:?} position"),
-            reason,
-        }
+        divergence::joint_diverged(&self.model.joints[jj].name, self.pen[jj], self.limit, time, step)
     }
 
     /// Finite and within-limit check of this lane's state (`u`, `v` give the lane's entries).
