@@ -1,0 +1,7 @@
+"""Design methods around the simulator (issue 16): contact-loss prediction from a zero-clearance
+run, statistical tolerance allocation and optimization on the study runner. See docs/design.md.
+"""
+
+from .contact_loss import ContactLoss, contact_loss, continuous_contact, wall_departures
+
+__all__ = ["ContactLoss", "contact_loss", "continuous_contact", "wall_departures"]
