@@ -103,7 +103,9 @@ class ContactLoss:
         axp.legend(loc="best", fontsize=8)
         axt.plot(self.time, self.magnitude, color="0.4", lw=0.8, label="|F| [N]")
         axt.plot(self.time, self.normal_force, "b", lw=0.8, label="continuous-contact N [N]")
-        axt.plot(self.time, np.clip(self.margin, -self.magnitude.max(), None), "g", lw=0.6, label="margin [N]")
+        axt.plot(
+            self.time, np.clip(self.margin, -self.magnitude.max(), None), "g", lw=0.6, label="margin [N]"
+        )
         for a, b in self.intervals:
             axt.axvspan(a, b, color="r", alpha=0.2, lw=0)
         axt.axhline(0.0, color="k", lw=0.5)
@@ -169,7 +171,9 @@ def zero_clearance_force(
     if effective_mass is None:
         effective_mass = _effective_mass(params)
         if effective_mass is None:
-            raise bad("effective_mass", None, "the journal's effective mass, kg > 0 (the model does not say it)")
+            raise bad(
+                "effective_mass", None, "the journal's effective mass, kg > 0 (the model does not say it)"
+            )
     effective_mass = number("effective_mass", effective_mass, unit="kg")
     if damping is None:
         damping = 2.0 * math.sqrt(stiffness * effective_mass)  # critical for the journal's mass
@@ -468,9 +472,7 @@ def agreement(predicted: ContactLoss, departures: np.ndarray, window: float) -> 
         if off.min() <= window:
             matched += 1
             offsets.append(float(off.min()))
-    false = sum(
-        1 for s in starts_lossy if departures.size == 0 or np.min(np.abs(departures - s)) > window
-    )
+    false = sum(1 for s in starts_lossy if departures.size == 0 or np.min(np.abs(departures - s)) > window)
     return {
         "departures": int(departures.size),
         "matched": matched,
