@@ -3,5 +3,13 @@ run, statistical tolerance allocation and optimization on the study runner. See 
 """
 
 from .contact_loss import ContactLoss, contact_loss, continuous_contact, wall_departures
+from .tolerance import Allocation, allocate_tolerances
 
-__all__ = ["ContactLoss", "contact_loss", "continuous_contact", "wall_departures"]
+__all__ = [
+    "Allocation",
+    "ContactLoss",
+    "allocate_tolerances",
+    "contact_loss",
+    "continuous_contact",
+    "wall_departures",
+]
