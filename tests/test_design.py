@@ -230,3 +230,74 @@ def test_allocation_errors():
         design.allocate_tolerances(None, {"x1": (0.0, -1.0)}, 1e-3, 0.01, evaluate=_linear_error)
     with pytest.raises(fc.InvalidParameterError, match="output"):
         design.allocate_tolerances("slider_yoke", {"amplitude": (0.01, 1e-3)}, 1.0, 0.01)
+
+
+# --------------------------------------------------------------------------------------------
+# 4. Optimization
+# --------------------------------------------------------------------------------------------
+
+
+def test_optimizer_finds_known_optimum_one_batch_per_generation():
+    """f = (a - 0.3)^2 + 10 (b + 1.2)^2 + 1 has its minimum 1 at (0.3, -1.2). Differential
+    evolution evaluates its population (popsize 8 x 2 parameters = 16) as one batch initially and
+    once per generation; the local refinement then evaluates single points."""
+    calls = []
+
+    def f(inputs):
+        calls.append(len(inputs))
+        return (inputs["a"].to_numpy() - 0.3) ** 2 + 10 * (inputs["b"].to_numpy() + 1.2) ** 2 + 1.0
+
+    opt = design.optimize(None, None, {"a": (-2.0, 2.0), "b": (-3.0, 3.0)}, evaluate=f)
+    assert opt.x["a"] == pytest.approx(0.3, abs=2e-3)
+    assert opt.x["b"] == pytest.approx(-1.2, abs=1e-3)
+    assert opt.fun == pytest.approx(1.0, abs=1e-5)
+    g = opt.generations
+    assert calls == opt.batches
+    assert opt.batches[: g + 1] == [16] * (g + 1)  # initial population + one batch per generation
+    assert set(opt.batches[g + 1 :]) == {1}  # the local refinement
+    assert opt.refinement is not None and opt.fun <= opt.evolution.fun
+    # the global stage alone is within the DE tolerance of the optimum
+    calls.clear()
+    glob = design.optimize(None, None, {"a": (-2.0, 2.0), "b": (-3.0, 3.0)}, evaluate=f, local=None)
+    assert glob.fun == pytest.approx(1.0, abs=2e-3)
+    assert calls == glob.batches == [16] * (glob.generations + 1)
+
+
+def test_optimizer_on_the_slider_yoke():
+    """A real run: the bearing damping ratio that minimizes the peak bearing force of the Table 1
+    scene (clearance 0.1 mm, 0.1 s): too little damping lets the journal rebound and hit harder,
+    too much makes the dashpot jump at entry large; the optimum is interior (about 0.3)."""
+    opt = design.optimize(
+        "slider_yoke",
+        "bearing.max_force",
+        {"bearing_damping_ratio": (0.05, 2.0)},
+        fixed={"clearance": 1e-4},
+        t_end=0.1,
+        dt=1e-5,
+        outputs=["max_force"],
+        popsize=6,
+        maxiter=4,
+        local_maxfev=8,
+    )
+    assert 0.1 < opt.x["bearing_damping_ratio"] < 1.0
+    assert opt.batches[: opt.generations + 1] == [6] * (opt.generations + 1)
+    ends = design.optimize(
+        "slider_yoke",
+        "bearing.max_force",
+        {"bearing_damping_ratio": (1.9, 2.0)},
+        fixed={"clearance": 1e-4},
+        t_end=0.1,
+        dt=1e-5,
+        outputs=["max_force"],
+        popsize=4,
+        maxiter=1,
+        local=None,
+    )
+    assert opt.fun < ends.fun
+
+
+def test_optimizer_errors():
+    with pytest.raises(fc.InvalidParameterError, match="bounds"):
+        design.optimize(None, None, {"a": (1.0, 0.0)}, evaluate=lambda df: df["a"].to_numpy())
+    with pytest.raises(fc.InvalidParameterError, match="popsize"):
+        design.optimize(None, None, {"a": (0.0, 1.0)}, evaluate=lambda df: df["a"].to_numpy(), popsize=1)

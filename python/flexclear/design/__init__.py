@@ -3,13 +3,16 @@ run, statistical tolerance allocation and optimization on the study runner. See 
 """
 
 from .contact_loss import ContactLoss, contact_loss, continuous_contact, wall_departures
+from .optimize import Optimum, optimize
 from .tolerance import Allocation, allocate_tolerances
 
 __all__ = [
     "Allocation",
     "ContactLoss",
+    "Optimum",
     "allocate_tolerances",
     "contact_loss",
     "continuous_contact",
+    "optimize",
     "wall_departures",
 ]
