@@ -301,3 +301,17 @@ def test_optimizer_errors():
         design.optimize(None, None, {"a": (1.0, 0.0)}, evaluate=lambda df: df["a"].to_numpy())
     with pytest.raises(fc.InvalidParameterError, match="popsize"):
         design.optimize(None, None, {"a": (0.0, 1.0)}, evaluate=lambda df: df["a"].to_numpy(), popsize=1)
+
+
+# --------------------------------------------------------------------------------------------
+# 5. The report
+# --------------------------------------------------------------------------------------------
+
+
+def test_design_cli_report(tmp_path, capsys):
+    from flexclear.cli import main
+
+    assert main(["design", "--out", str(tmp_path), "--t-end", "0.1"]) == 0
+    text = (tmp_path / "design.md").read_text()
+    assert "| c [m] |" in text and "departures matched" in text
+    assert (tmp_path / "contact_loss_c100um.png").stat().st_size > 10_000
