@@ -18,7 +18,7 @@ Every mechanism is a :class:`Model` with one :meth:`Model.simulate` returning on
 Monte Carlo studies of any model are in :mod:`flexclear.study`.
 """
 
-from . import contact, motion, scenes, study
+from . import contact, design, motion, scenes, study
 from ._core import __version__
 from .errors import (
     ConvergenceError,
@@ -62,6 +62,7 @@ __all__ = [
     "StoreLockedError",
     "__version__",
     "contact",
+    "design",
     "motion",
     "scenes",
     "study",

@@ -124,6 +124,15 @@ def main(argv: Optional[list] = None) -> int:
         default="all",
         help="which scene (default: %(default)s)",
     )
+    de = sub.add_parser(
+        "design",
+        help="contact-loss prediction from a zero-clearance run vs the clearance simulation (slider-yoke)",
+        description="Writes design.md and PNGs into --out: the zero-clearance bearing force polar with the "
+        "predicted contact-loss intervals beside the clearance run's contact timeline, and how the "
+        "predictions meet the runs' departures from the wall over a sweep of clearance (about 3 s).",
+    )
+    de.add_argument("--out", default="flexclear-design", help="output folder (default: %(default)s)")
+    de.add_argument("--t-end", type=float, default=0.2, help="simulated time, s (default: %(default)s)")
     args = parser.parse_args(argv)
     from .errors import FlexclearError
 
@@ -144,6 +153,13 @@ def main(argv: Optional[list] = None) -> int:
 def _run(args) -> int:
     if args.command == "accuracy":
         return _accuracy(args)
+    if args.command == "design":
+        from .design.report import write_report as design_report
+
+        path = design_report(args.out, t_end=args.t_end, log=lambda s: print(s, file=sys.stderr))
+        print(path.read_text())
+        print(f"report written to {path}", file=sys.stderr)
+        return 0
     if args.command == "paper":
         from .reports.paper import write_report
 

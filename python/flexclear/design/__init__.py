@@ -1,0 +1,18 @@
+"""Design methods around the simulator (issue 16): contact-loss prediction from a zero-clearance
+run, statistical tolerance allocation and optimization on the study runner. See docs/design.md.
+"""
+
+from .contact_loss import ContactLoss, contact_loss, continuous_contact, wall_departures
+from .optimize import Optimum, optimize
+from .tolerance import Allocation, allocate_tolerances
+
+__all__ = [
+    "Allocation",
+    "ContactLoss",
+    "Optimum",
+    "allocate_tolerances",
+    "contact_loss",
+    "continuous_contact",
+    "optimize",
+    "wall_departures",
+]
