@@ -1371,20 +1371,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 // the last step is checked like every CHECK_STRIDE-th one (divergence rule)
                 let mut error = None;
                 if !self.step.is_multiple_of(CHECK_STRIDE) && self.step == steps {
-                    let lane = &self.lanes[l];
-                    let (step, t) = (self.step, self.t);
-                    error = if L == 1 {
-                        lane.check_state(
-                            self.u.as_flattened(),
-                            self.v.as_flattened(),
-                            &self.sh.translational,
-                            t,
-                            step,
-                        )
-                    } else {
-                        lane.check_state(LaneOf(&self.u, l), LaneOf(&self.v, l), &self.sh.translational, t, step)
-                    }
-                    .err();
+                    error = self.check_lane(l, self.t, self.step).err();
                 }
                 self.retire(l, error, self.step, self.t);
             }
@@ -1793,6 +1780,23 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         set_lane(&mut self.a, 0, &r);
     }
 
+    /// The divergence check of lane `l`'s state at `t` (s), step `step`.
+    #[inline(always)]
+    fn check_lane(&self, l: usize, t: f64, step: u64) -> Result<()> {
+        let lane = &self.lanes[l];
+        if L == 1 {
+            lane.check_state(
+                self.u.as_flattened(),
+                self.v.as_flattened(),
+                &self.sh.translational,
+                t,
+                step,
+            )
+        } else {
+            lane.check_state(LaneOf(&self.u, l), LaneOf(&self.v, l), &self.sh.translational, t, step)
+        }
+    }
+
     /// Ends the step at `t1`: advances the step counter, checks and records every active lane.
     #[inline(always)]
     fn finish(&mut self, t1: f64) {
@@ -1804,24 +1808,13 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             if !self.active[l] {
                 continue;
             }
-            let lane = &mut self.lanes[l];
             if check {
-                let r = if L == 1 {
-                    lane.check_state(
-                        self.u.as_flattened(),
-                        self.v.as_flattened(),
-                        &self.sh.translational,
-                        t,
-                        step,
-                    )
-                } else {
-                    lane.check_state(LaneOf(&self.u, l), LaneOf(&self.v, l), &self.sh.translational, t, step)
-                };
-                if let Err(e) = r {
+                if let Err(e) = self.check_lane(l, t, step) {
                     self.retire(l, Some(e), step, t);
                     continue;
                 }
             }
+            let lane = &mut self.lanes[l];
             let dt = lane.settings.dt;
             if L == 1 {
                 lane.rec.record(

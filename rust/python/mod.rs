@@ -24,7 +24,7 @@ use crate::simulation::{simulate, Settings, SolverMode};
 use crate::study::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 
 use errors::{run_detached, to_pyerr};
-use output::{extremes_list, output_dict};
+use output::{extremes_list, joint_histories, output_dict};
 
 pub(crate) fn err(py: Python<'_>, e: Error) -> PyErr {
     to_pyerr(py, &e, None)
@@ -609,15 +609,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     d.set_item("extremes", extremes_list(py, &out.record.extremes)?)?;
     let rec = out.record;
     d.set_item("time", PyArray1::from_vec(py, rec.time))?;
-    let joints = PyList::empty(py);
-    for h in rec.joints {
-        let j = PyDict::new(py);
-        j.set_item("joint", h.joint)?;
-        j.set_item("penetration", PyArray1::from_vec(py, h.penetration))?;
-        j.set_item("force", PyArray1::from_vec(py, h.force))?;
-        joints.append(j)?;
-    }
-    d.set_item("joints", joints)?;
+    d.set_item("joints", joint_histories(py, rec.joints)?)?;
     Ok(d)
 }
 

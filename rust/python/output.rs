@@ -6,7 +6,7 @@ use numpy::{PyArray1, PyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::recorder::{JointExtremes, LinkHistory};
+use crate::recorder::{JointExtremes, JointHistory, LinkHistory};
 use crate::simulation::RunOutput;
 
 /// The impact logs of a recorder as a list of dicts of arrays (`joint`, `time`, `speed`,
@@ -45,6 +45,22 @@ pub(super) fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) ->
         ext.append(x)?;
     }
     Ok(ext)
+}
+
+/// Joint histories as a list of dicts (`joint`, `penetration` m, `force` N, `qx`, `qy` m; the
+/// journal position empty unless recorded); also the per-sample histories of a study batch.
+pub(super) fn joint_histories(py: Python<'_>, joints: Vec<JointHistory>) -> PyResult<Bound<'_, PyList>> {
+    let list = PyList::empty(py);
+    for h in joints {
+        let j = PyDict::new(py);
+        j.set_item("joint", h.joint)?;
+        j.set_item("penetration", PyArray1::from_vec(py, h.penetration))?;
+        j.set_item("force", PyArray1::from_vec(py, h.force))?;
+        j.set_item("qx", PyArray1::from_vec(py, h.qx))?;
+        j.set_item("qy", PyArray1::from_vec(py, h.qy))?;
+        list.append(j)?;
+    }
+    Ok(list)
 }
 
 /// Link histories of a moving-frame run: per link a dict of the frame state (records x 4), the
@@ -89,17 +105,7 @@ pub(super) fn output_dict<'py>(
     let d = PyDict::new(py);
     let rec = out.record;
     d.set_item("time", PyArray1::from_vec(py, rec.time))?;
-    let joints = PyList::empty(py);
-    for h in rec.joints {
-        let j = PyDict::new(py);
-        j.set_item("joint", h.joint)?;
-        j.set_item("penetration", PyArray1::from_vec(py, h.penetration))?;
-        j.set_item("force", PyArray1::from_vec(py, h.force))?;
-        j.set_item("qx", PyArray1::from_vec(py, h.qx))?;
-        j.set_item("qy", PyArray1::from_vec(py, h.qy))?;
-        joints.append(j)?;
-    }
-    d.set_item("joints", joints)?;
+    d.set_item("joints", joint_histories(py, rec.joints)?)?;
     let nodes = PyList::empty(py);
     for h in rec.nodes {
         let n = PyDict::new(py);
