@@ -1017,8 +1017,10 @@ class Model:
             raise _bad("method", method, f"one of {METHODS}")
         if stepper not in (None, "constant", "newton"):
             raise _bad("stepper", stepper, 'one of None, "constant", "newton"')
-        if stepper == "newton" and self._kind == TRANSLATING:
-            # the same model in moving frames (identical dynamics), on the Newton stepper
+        wants_energy = record is not None and _as_record(record).energy
+        if self._kind == TRANSLATING and (stepper == "newton" or (stepper is None and wants_energy)):
+            # the same model in moving frames (identical dynamics), on the Newton stepper (the
+            # one that records energies)
             return Model._wrap(self._core.to_mechanism()).simulate(
                 t_end,
                 dt,
@@ -1094,7 +1096,9 @@ class Model:
                         "step_halving", step_halving, "0 while every link translates (no Newton to halve)"
                     )
                 if rec.energy:
-                    raise _bad("record.energy", True, "False while every link translates")
+                    raise _bad(
+                        "record.energy", True, 'False with stepper="constant" (the Newton stepper records it)'
+                    )
                 elements = list(self._core.link_elements)
                 if displacements:
                     nodes = nodes + [(li, k) for li, n in enumerate(elements) for k in range(n + 1)]

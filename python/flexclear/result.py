@@ -38,8 +38,9 @@ class Record:
         Link channels: transverse deflection at mid-length relative to the chord (m) and the
         element axial forces (N, tension positive). Need the displacements of the link.
     energy : bool
-        Kinetic and strain energy (J) and angular momentum (kg m^2/s) of each link (models
-        with a moving-frame link only).
+        Kinetic and strain energy (J) and angular momentum (kg m^2/s) of each link. Recorded by
+        the Newton stepper: a model that the constant stepper would run runs on the Newton one
+        when energies are asked for (``stats["stepper"]``).
     every : int
         Keep every k-th step (the initial state is always kept).
     histories : bool
