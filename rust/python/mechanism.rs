@@ -24,6 +24,47 @@ use crate::recorder::{LinkChannels, RecordSpec};
 use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use crate::simulation::{NewtonSettings, Settings};
 
+/// A real-number argument `name` (a Python int or float; bool refused), or an
+/// `InvalidParameterError` naming the parameter, the value and `allowed`.
+fn real(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<f64> {
+    if arg.is_instance_of::<PyBool>() || !(arg.is_instance_of::<PyFloat>() || arg.is_instance_of::<PyInt>()) {
+        return Err(bad_arg(arg, name, allowed));
+    }
+    arg.extract::<f64>().map_err(|_| bad_arg(arg, name, allowed))
+}
+
+/// The `InvalidParameterError` of argument `name` holding `arg`, which is not `allowed`.
+fn bad_arg(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyErr {
+    let shown = arg.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+    err(arg.py(), Error::param(name, shown, allowed))
+}
+
+/// A sequence of real numbers `name`, each as [`real`].
+fn reals(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<Vec<f64>> {
+    if arg.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad_arg(arg, name, allowed));
+    }
+    let items = arg.try_iter().map_err(|_| bad_arg(arg, name, allowed))?;
+    let mut out = Vec::new();
+    for (i, x) in items.enumerate() {
+        let x = x.map_err(|_| bad_arg(arg, name, allowed))?;
+        out.push(real(&x, &format!("{name}[{i}]"), allowed)?);
+    }
+    Ok(out)
+}
+
+/// A `flexclear.Rotation` argument `name`.
+fn rotation_arg<'py>(arg: &Bound<'py, PyAny>, name: &str) -> PyResult<Rotation> {
+    arg.extract::<PyRef<'py, PyRotation>>()
+        .map(|r| r.inner.clone())
+        .map_err(|_| bad_arg(arg, name, "a flexclear.Rotation"))
+}
+
+/// A string argument `name`.
+fn str_arg(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<String> {
+    arg.extract::<String>().map_err(|_| bad_arg(arg, name, allowed))
+}
+
 /// A prescribed angle `phi(t)` (see `flexclear.kinematics`).
 #[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
 #[derive(Clone)]
@@ -35,46 +76,65 @@ pub(super) struct PyRotation {
 impl PyRotation {
     /// A fixed angle, rad.
     #[staticmethod]
-    fn fixed(angle: f64) -> Self {
-        PyRotation {
+    fn fixed(angle: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let angle = real(angle, "angle", "a real number, rad")?;
+        Ok(PyRotation {
             inner: Rotation::Fixed { angle },
-        }
+        })
     }
 
     /// Constant rate `rate` (rad/s) from `angle0` (rad).
     #[staticmethod]
-    #[pyo3(signature = (rate, angle0=0.0))]
-    fn constant(rate: f64, angle0: f64) -> Self {
-        PyRotation {
+    #[pyo3(signature = (rate, angle0=None))]
+    fn constant(rate: &Bound<'_, PyAny>, angle0: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+        let rate = real(rate, "rate", "a real number, rad/s")?;
+        let angle0 = angle0.map_or(Ok(0.0), |a| real(a, "angle0", "a real number, rad"))?;
+        Ok(PyRotation {
             inner: Rotation::Constant { angle0, rate },
-        }
+        })
     }
 
     /// Kane's smooth spin-up to `final_rate` (rad/s) over `ramp_time` (s).
     #[staticmethod]
-    #[pyo3(signature = (final_rate, ramp_time, angle0=0.0))]
-    fn spin_up(final_rate: f64, ramp_time: f64, angle0: f64) -> Self {
-        PyRotation {
+    #[pyo3(signature = (final_rate, ramp_time, angle0=None))]
+    fn spin_up(
+        final_rate: &Bound<'_, PyAny>,
+        ramp_time: &Bound<'_, PyAny>,
+        angle0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let final_rate = real(final_rate, "final_rate", "a real number, rad/s")?;
+        let ramp_time = real(ramp_time, "ramp_time", "a real number > 0, s")?;
+        let angle0 = angle0.map_or(Ok(0.0), |a| real(a, "angle0", "a real number, rad"))?;
+        Ok(PyRotation {
             inner: Rotation::SpinUp {
                 angle0,
                 final_rate,
                 ramp_time,
             },
-        }
+        })
     }
 
     /// `mean + amplitude sin(2 pi frequency t + phase)` (rad, Hz).
     #[staticmethod]
-    #[pyo3(signature = (amplitude, frequency, mean=0.0, phase=0.0))]
-    fn harmonic(amplitude: f64, frequency: f64, mean: f64, phase: f64) -> Self {
-        PyRotation {
+    #[pyo3(signature = (amplitude, frequency, mean=None, phase=None))]
+    fn harmonic(
+        amplitude: &Bound<'_, PyAny>,
+        frequency: &Bound<'_, PyAny>,
+        mean: Option<&Bound<'_, PyAny>>,
+        phase: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let amplitude = real(amplitude, "amplitude", "a real number, rad")?;
+        let frequency = real(frequency, "frequency", "a real number >= 0, Hz")?;
+        let mean = mean.map_or(Ok(0.0), |a| real(a, "mean", "a real number, rad"))?;
+        let phase = phase.map_or(Ok(0.0), |a| real(a, "phase", "a real number, rad"))?;
+        Ok(PyRotation {
             inner: Rotation::Harmonic {
                 mean,
                 amplitude,
                 frequency,
                 phase,
             },
-        }
+        })
     }
 
     /// Tabulated angle (rad) at increasing times (s); rate and acceleration by central
@@ -83,11 +143,15 @@ impl PyRotation {
     #[pyo3(signature = (time, angle, rate=None, accel=None))]
     fn tabulated(
         py: Python<'_>,
-        time: Vec<f64>,
-        angle: Vec<f64>,
-        rate: Option<Vec<f64>>,
-        accel: Option<Vec<f64>>,
+        time: &Bound<'_, PyAny>,
+        angle: &Bound<'_, PyAny>,
+        rate: Option<&Bound<'_, PyAny>>,
+        accel: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let time = reals(time, "time", "a sequence of real numbers, s")?;
+        let angle = reals(angle, "angle", "a sequence of real numbers, rad")?;
+        let rate = rate.map(|r| reals(r, "rate", "a sequence of real numbers, rad/s")).transpose()?;
+        let accel = accel.map(|a| reals(a, "accel", "a sequence of real numbers, rad/s^2")).transpose()?;
         let inner = Rotation::tabulated(time, angle, rate, accel).map_err(|e| err(py, e))?;
         Ok(PyRotation { inner })
     }
@@ -117,34 +181,44 @@ impl PyFrame {
     #[pyo3(signature = (rotation, origin=None))]
     fn rotating(
         py: Python<'_>,
-        rotation: PyRef<'_, PyRotation>,
-        origin: Option<PyRef<'_, PyMotion>>,
+        rotation: &Bound<'_, PyAny>,
+        origin: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let origin = origin.map_or(Motion::Fixed { position: [0.0, 0.0] }, |m| m.inner.clone());
+        let rotation = rotation_arg(rotation, "rotation")?;
+        let origin = match origin {
+            None => Motion::Fixed { position: [0.0, 0.0] },
+            Some(m) => m
+                .extract::<PyRef<'_, PyMotion>>()
+                .map_err(|_| bad_arg(m, "origin", "None or a flexclear.motion.Motion"))?
+                .inner
+                .clone(),
+        };
         origin.validate("origin").map_err(|e| err(py, e))?;
-        rotation.inner.validate("rotation").map_err(|e| err(py, e))?;
+        rotation.validate("rotation").map_err(|e| err(py, e))?;
         Ok(PyFrame {
-            inner: Arc::new(RotatingFrame {
-                origin,
-                rotation: rotation.inner.clone(),
-            }),
+            inner: Arc::new(RotatingFrame { origin, rotation }),
         })
     }
 
     /// A link of a slider-crank (crank pivot at the origin, guide along x at height `offset`):
     /// `link` is "crank", "rod" or "slider".
     #[staticmethod]
-    #[pyo3(signature = (crank, rod, driver, link, offset=0.0))]
+    #[pyo3(signature = (crank, rod, driver, link, offset=None))]
     fn slider_crank(
         py: Python<'_>,
-        crank: f64,
-        rod: f64,
-        driver: PyRef<'_, PyRotation>,
-        link: &str,
-        offset: f64,
+        crank: &Bound<'_, PyAny>,
+        rod: &Bound<'_, PyAny>,
+        driver: &Bound<'_, PyAny>,
+        link: &Bound<'_, PyAny>,
+        offset: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let sc = Arc::new(SliderCrank::new(crank, rod, offset, driver.inner.clone()).map_err(|e| err(py, e))?);
-        let which = match link {
+        let crank = real(crank, "crank", "a length > 0, m")?;
+        let rod = real(rod, "rod", "a length > 0, m")?;
+        let driver = rotation_arg(driver, "driver")?;
+        let link = str_arg(link, "link", "one of \"crank\", \"rod\", \"slider\"")?;
+        let offset = offset.map_or(Ok(0.0), |o| real(o, "offset", "a real number, m"))?;
+        let sc = Arc::new(SliderCrank::new(crank, rod, offset, driver).map_err(|e| err(py, e))?);
+        let which = match link.as_str() {
             "crank" => SliderCrankLink::Crank,
             "rod" => SliderCrankLink::Rod,
             "slider" => SliderCrankLink::Slider,
@@ -166,22 +240,27 @@ impl PyFrame {
     /// A link of a four-bar (pivots at (0, 0) and (ground, 0)): `link` is "crank", "coupler" or
     /// "rocker"; `branch` +1 or -1 picks the assembly.
     #[staticmethod]
-    #[pyo3(signature = (ground, crank, coupler, rocker, driver, link, branch=1.0))]
+    #[pyo3(signature = (ground, crank, coupler, rocker, driver, link, branch=None))]
     #[allow(clippy::too_many_arguments)]
     fn four_bar(
         py: Python<'_>,
-        ground: f64,
-        crank: f64,
-        coupler: f64,
-        rocker: f64,
-        driver: PyRef<'_, PyRotation>,
-        link: &str,
-        branch: f64,
+        ground: &Bound<'_, PyAny>,
+        crank: &Bound<'_, PyAny>,
+        coupler: &Bound<'_, PyAny>,
+        rocker: &Bound<'_, PyAny>,
+        driver: &Bound<'_, PyAny>,
+        link: &Bound<'_, PyAny>,
+        branch: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let fb = Arc::new(
-            FourBar::new(ground, crank, coupler, rocker, branch, driver.inner.clone()).map_err(|e| err(py, e))?,
-        );
-        let which = match link {
+        let ground = real(ground, "ground", "a length > 0, m")?;
+        let crank = real(crank, "crank", "a length > 0, m")?;
+        let coupler = real(coupler, "coupler", "a length > 0, m")?;
+        let rocker = real(rocker, "rocker", "a length > 0, m")?;
+        let driver = rotation_arg(driver, "driver")?;
+        let link = str_arg(link, "link", "one of \"crank\", \"coupler\", \"rocker\"")?;
+        let branch = branch.map_or(Ok(1.0), |b| real(b, "branch", "+1 or -1"))?;
+        let fb = Arc::new(FourBar::new(ground, crank, coupler, rocker, branch, driver).map_err(|e| err(py, e))?);
+        let which = match link.as_str() {
             "crank" => FourBarLink::Crank,
             "coupler" => FourBarLink::Coupler,
             "rocker" => FourBarLink::Rocker,

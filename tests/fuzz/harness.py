@@ -652,19 +652,11 @@ KNOWN = {
         "about 1.3e154 (m or N) the square overflows and rms_penetration / rms_force are inf in a "
         "run reported complete, e.g. slider_yoke_stiff(clearance=1e300)"
     ),
-    "pyo3-frame-types": (
-        "flexclear.Frame and flexclear.Rotation are the Rust classes themselves (rust/python): an "
-        "argument of the wrong type (a string, None, a list for a number; a number for the link name) "
-        "raises pyo3's TypeError ('must be real number, not str'), which names no parameter"
-    ),
 }
 
 
 def _core_call(fn: Callable, kw: dict) -> Any:
-    try:
-        return fn(**kw)
-    except TypeError as e:
-        raise KnownIssue("pyo3-frame-types", e) from e
+    return fn(**kw)
 
 
 def _decode(v: Any) -> Any:
