@@ -150,8 +150,12 @@ impl PyRotation {
     ) -> PyResult<Self> {
         let time = reals(time, "time", "a sequence of real numbers, s")?;
         let angle = reals(angle, "angle", "a sequence of real numbers, rad")?;
-        let rate = rate.map(|r| reals(r, "rate", "a sequence of real numbers, rad/s")).transpose()?;
-        let accel = accel.map(|a| reals(a, "accel", "a sequence of real numbers, rad/s^2")).transpose()?;
+        let rate = rate
+            .map(|r| reals(r, "rate", "a sequence of real numbers, rad/s"))
+            .transpose()?;
+        let accel = accel
+            .map(|a| reals(a, "accel", "a sequence of real numbers, rad/s^2"))
+            .transpose()?;
         let inner = Rotation::tabulated(time, angle, rate, accel).map_err(|e| err(py, e))?;
         Ok(PyRotation { inner })
     }
@@ -179,11 +183,7 @@ impl PyFrame {
     /// `rotation`.
     #[staticmethod]
     #[pyo3(signature = (rotation, origin=None))]
-    fn rotating(
-        py: Python<'_>,
-        rotation: &Bound<'_, PyAny>,
-        origin: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
+    fn rotating(py: Python<'_>, rotation: &Bound<'_, PyAny>, origin: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
         let rotation = rotation_arg(rotation, "rotation")?;
         let origin = match origin {
             None => Motion::Fixed { position: [0.0, 0.0] },
