@@ -441,6 +441,19 @@ pub trait FrameKinematics: std::fmt::Debug + Send + Sync {
     }
 }
 
+/// Largest link length of the loop kinematics, m: their closed forms take products of up to four
+/// lengths, which stay finite below this (1e75 m, far beyond any mechanism).
+pub const MAX_LINK_LENGTH: f64 = 1e75;
+
+/// A link length of a mechanism's loop: > 0 and at most [`MAX_LINK_LENGTH`].
+fn check_link_length(name: &str, l: f64) -> Result<()> {
+    check_positive(name, l, "m")?;
+    if l > MAX_LINK_LENGTH {
+        return Err(Error::param(name, l, format!("a length in (0, {MAX_LINK_LENGTH:e}] m")));
+    }
+    Ok(())
+}
+
 /// A frame whose origin translates by `origin` and which rotates by `rotation`, independently: for
 /// example a beam clamped to a spinning hub (origin fixed at the hub centre, or on its rim).
 #[derive(Debug, Clone, PartialEq)]
@@ -548,9 +561,16 @@ impl SliderCrank {
     /// `offset` (not finite), `rod` again when `rod <= crank + |offset|` (the rod could not reach
     /// the guide at every crank angle), or `driver.*` (see [`Rotation::validate`]).
     pub fn new(crank: f64, rod: f64, offset: f64, driver: Rotation) -> Result<Self> {
-        check_positive("crank", crank, "m")?;
-        check_positive("rod", rod, "m")?;
+        check_link_length("crank", crank)?;
+        check_link_length("rod", rod)?;
         check_finite("offset", offset, "m")?;
+        if offset.abs() > MAX_LINK_LENGTH {
+            return Err(Error::param(
+                "offset",
+                offset,
+                format!("|offset| <= {MAX_LINK_LENGTH:e} m"),
+            ));
+        }
         let reach = crank + offset.abs();
         if rod <= reach {
             return Err(Error::param(
@@ -775,10 +795,14 @@ impl FourBar {
     /// [`Rotation::validate`]). Whether the loop closes along the driver's motion is checked by
     /// [`FourBar::check`].
     pub fn new(ground: f64, crank: f64, coupler: f64, rocker: f64, branch: f64, driver: Rotation) -> Result<Self> {
-        check_positive("ground", ground, "m")?;
-        check_positive("crank", crank, "m")?;
-        check_positive("coupler", coupler, "m")?;
-        check_positive("rocker", rocker, "m")?;
+        for (name, l) in [
+            ("ground", ground),
+            ("crank", crank),
+            ("coupler", coupler),
+            ("rocker", rocker),
+        ] {
+            check_link_length(name, l)?;
+        }
         if branch != 1.0 && branch != -1.0 {
             return Err(Error::param("branch", branch, "+1 (open) or -1 (crossed)"));
         }

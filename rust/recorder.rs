@@ -192,23 +192,65 @@ pub struct JointExtremes {
     pub max_velocity: f64,
     /// Largest normal approach speed `q' . q / |q|` at an impact (the step that closes), m/s.
     pub max_impact_velocity: f64,
-    /// Sum of squared penetrations over the recorded steps, m^2 (for the RMS).
+    /// Sum of squared penetrations over the recorded steps, m^2 (for the RMS); scaled by
+    /// `2^-1200` when `sums_scaled[0]` (see [`SQUARE_SCALE_FROM`]).
     pub sum_sq_penetration: f64,
-    /// Sum of squared force magnitudes over the recorded steps, N^2 (for the RMS).
+    /// Sum of squared force magnitudes over the recorded steps, N^2 (for the RMS); scaled as the
+    /// penetration's when `sums_scaled[1]`.
     pub sum_sq_force: f64,
+    /// Whether each sum (penetration, force) is kept scaled.
+    pub sums_scaled: [bool; 2],
     /// Steps that entered the sums (from `RecordSpec::start` on).
     pub samples: u64,
+}
+
+/// A value beyond this magnitude (2^500, about 3.3e150) would let a sum of squares overflow:
+/// from the first such value on, the sum is kept scaled by 2^-1200 (a power of two: exact, apart
+/// from parts below 1e-210 of the sum that drop out), so the RMS of a run with absurd values (a
+/// clearance of 1e300 m) stays finite instead of turning inf. Ordinary runs never reach it and
+/// keep the plain sum, bit for bit.
+pub const SQUARE_SCALE_FROM: f64 = 3.273_390_607_896_142e150;
+const DOWN: f64 = 2.409_919_865_102_884e-181; // 2^-600
+
+/// Adds `x^2` to `sum` (scaled per `scaled`, see [`SQUARE_SCALE_FROM`]).
+#[inline(always)]
+fn add_square(sum: &mut f64, scaled: &mut bool, x: f64) {
+    if *scaled || x.abs() > SQUARE_SCALE_FROM {
+        add_square_scaled(sum, scaled, x);
+    } else {
+        *sum += x * x;
+    }
+}
+
+#[cold]
+fn add_square_scaled(sum: &mut f64, scaled: &mut bool, x: f64) {
+    if !*scaled {
+        *sum *= DOWN * DOWN;
+        *scaled = true;
+    }
+    let y = x * DOWN;
+    *sum += y * y;
+}
+
+/// `sqrt(sum / n)` of a sum kept as [`add_square`] keeps it.
+fn root_mean(sum: f64, scaled: bool, n: u64) -> f64 {
+    let r = (sum / n as f64).sqrt();
+    if scaled {
+        r / DOWN
+    } else {
+        r
+    }
 }
 
 impl JointExtremes {
     /// Root mean square of the penetration over the recorded steps, m (NaN before any step).
     pub fn rms_penetration(&self) -> f64 {
-        (self.sum_sq_penetration / self.samples as f64).sqrt()
+        root_mean(self.sum_sq_penetration, self.sums_scaled[0], self.samples)
     }
 
     /// Root mean square of the contact force magnitude over the recorded steps, N.
     pub fn rms_force(&self) -> f64 {
-        (self.sum_sq_force / self.samples as f64).sqrt()
+        root_mean(self.sum_sq_force, self.sums_scaled[1], self.samples)
     }
 }
 
@@ -224,6 +266,7 @@ impl Default for JointExtremes {
             max_impact_velocity: 0.0,
             sum_sq_penetration: 0.0,
             sum_sq_force: 0.0,
+            sums_scaled: [false; 2],
             samples: 0,
         }
     }
@@ -383,8 +426,8 @@ impl Recorder {
             }
             let f = force[j];
             e.max_force = e.max_force.max(f);
-            e.sum_sq_penetration += p * p;
-            e.sum_sq_force += f * f;
+            add_square(&mut e.sum_sq_penetration, &mut e.sums_scaled[0], p);
+            add_square(&mut e.sum_sq_force, &mut e.sums_scaled[1], f);
             e.samples += 1;
             let [vx, vy] = qd[j];
             let v2 = vx * vx + vy * vy;
@@ -469,5 +512,31 @@ fn normal_speed(q: [f64; 2], qd: [f64; 2]) -> f64 {
         (qd[0] * q[0] + qd[1] * q[1]) / r
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sums_of_squares_of_huge_values_stay_finite_and_ordinary_ones_are_untouched() {
+        assert_eq!(SQUARE_SCALE_FROM, 2f64.powi(500));
+        assert_eq!(DOWN, 2f64.powi(-600));
+        // ordinary values: the plain sum, bit for bit
+        let (mut sum, mut scaled) = (0.0, false);
+        for x in [1e-6, -2.5e-5, 3.0] {
+            add_square(&mut sum, &mut scaled, x);
+        }
+        assert!(!scaled);
+        assert_eq!(sum, 1e-6 * 1e-6 + 2.5e-5 * 2.5e-5 + 3.0 * 3.0);
+        // a clearance of 1e300 m: the RMS of (-1e300, -1e300, 2) is 1e300 sqrt(2/3)
+        let (mut sum, mut scaled) = (0.0, false);
+        for x in [2.0, -1e300, -1e300] {
+            add_square(&mut sum, &mut scaled, x);
+        }
+        assert!(scaled);
+        let rms = root_mean(sum, scaled, 3);
+        assert!((rms / (1e300 * (2.0f64 / 3.0).sqrt()) - 1.0).abs() < 1e-15, "{rms}");
     }
 }

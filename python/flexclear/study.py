@@ -546,10 +546,12 @@ class Study:
             check_window(start, self.t_end, self.dt, "start")
         self.start = float(start)
         if history_every is not None and (
-            not isinstance(history_every, (int, np.integer)) or history_every < 1
+            not isinstance(history_every, (int, np.integer))
+            or isinstance(history_every, (bool, np.bool_))
+            or not 1 <= history_every < 2**63
         ):
             raise InvalidParameterError(
-                f"history_every = {history_every!r} is not allowed; allowed: None or an integer >= 1"
+                f"history_every = {history_every!r} is not allowed; allowed: None or an integer in 1 ..< 2^63"
             )
         self.history_every = None if history_every is None else int(history_every)
         if not isinstance(retries, (int, np.integer)) or not 0 <= retries < 2**31:

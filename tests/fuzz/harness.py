@@ -646,13 +646,7 @@ class KnownIssue(Exception):
 
 
 #: Known foreign exceptions (key -> reason); each has a strict xfail test in tests/test_fuzz.py.
-KNOWN = {
-    "rms-overflow": (
-        "the RMS reductions of the recorders (Rust) square the penetration and the force: above "
-        "about 1.3e154 (m or N) the square overflows and rms_penetration / rms_force are inf in a "
-        "run reported complete, e.g. slider_yoke_stiff(clearance=1e300)"
-    ),
-}
+KNOWN = {}
 
 
 def _core_call(fn: Callable, kw: dict) -> Any:
@@ -910,9 +904,6 @@ def execute(case: dict, workdir: Optional[str] = None) -> dict:
             else:
                 tb = traceback.format_exc(limit=-6)
                 out = {"outcome": "foreign_exception", "type": name, "detail": str(e)[:600], "traceback": tb}
-    parts = out.get("detail", "").split("; ")
-    if out.get("outcome") == "nan" and all("rms_" in b or b.startswith("summary()") for b in parts):
-        out["known"] = "rms-overflow"
     out["warnings"] = sorted({f"{w.category.__name__}: {str(w.message)[:200]}" for w in caught})
     out["seconds"] = round(time.perf_counter() - t0, 3)
     return out
