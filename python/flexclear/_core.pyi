@@ -283,6 +283,9 @@ class Mechanism:
         start: float = ...,
         impact_log: bool = ...,
         stepper: Optional[str] = ...,
+        solver: str = ...,
+        gap_stiffness: Optional[float] = ...,
+        gap_damping: float = ...,
     ) -> dict[str, Any]: ...
 
 def slider_yoke(

@@ -944,7 +944,7 @@ class Model:
         method : {"modified", "force", "gap"}
             How the clearance force enters the step: the paper's modified stiffness/damping
             matrix method, the force reaction method (explicit), or a gap element with status
-            iteration (models whose links all translate).
+            iteration (models the constant stepper runs, see ``stepper``).
         iterate : bool or None
             Treat the contact implicitly (kappa and the spring tangent iterated within the step).
             None (default): on where a clearance joint sits on a rotating link or body (there the
@@ -971,9 +971,9 @@ class Model:
             :class:`~flexclear.NewmarkStabilityWarning` states the step limit
             ``dt_crit = 1/(omega_max sqrt(gamma/2 - beta))``.
         solver : {"woodbury", "refactor"}
-            While every link translates: contact terms by a low-rank correction of the
-            contact-free factorization (fast) or by numeric refactorization (reference). In
-            moving frames the Jacobian is refactorized whenever it changes, whatever this says.
+            On the constant stepper: contact terms by a low-rank correction of the contact-free
+            factorization (fast) or by numeric refactorization (reference). The Newton stepper
+            refactorizes the Jacobian whenever it changes, whatever this says.
         step_halving : int
             In moving frames: how often a step whose Newton iterations do not converge may be
             halved (0: raise :class:`ConvergenceError`).
@@ -1126,8 +1126,6 @@ class Model:
                     impact_log=bool(rec.impact_log),
                 )
             else:
-                if method == "gap":
-                    raise _bad("method", method, '"modified" or "force" for a model in moving frames')
                 if solver not in ("woodbury", "refactor"):
                     raise _bad("solver", solver, 'one of "woodbury", "refactor"')
                 raw = self._core.simulate(
@@ -1149,6 +1147,9 @@ class Model:
                     progress=cb,
                     events=bool(events),
                     stepper=stepper,
+                    solver=solver,
+                    gap_stiffness=gap_stiffness,
+                    gap_damping=float(gap_damping),
                     **_joint_record_kwargs(rec, joints),
                 )
         except FlexclearError as exc:

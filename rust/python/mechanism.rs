@@ -22,7 +22,7 @@ use crate::model::{check_elements, Motion};
 use crate::plan::StepperKind;
 use crate::recorder::{LinkChannels, RecordSpec};
 use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
-use crate::simulation::{NewtonSettings, Settings};
+use crate::simulation::{NewtonSettings, Settings, SolverMode};
 
 /// A real-number argument `name` (a Python int or float; bool refused), or an
 /// `InvalidParameterError` naming the parameter, the value and `allowed`.
@@ -693,7 +693,7 @@ impl PyMechanism {
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
-                        impact_log=false, stepper=None))]
+                        impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -721,7 +721,20 @@ impl PyMechanism {
         start: f64,
         impact_log: bool,
         stepper: Option<&str>,
+        solver: &str,
+        gap_stiffness: Option<f64>,
+        gap_damping: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let solver = match solver {
+            "woodbury" => SolverMode::Woodbury,
+            "refactor" => SolverMode::Refactor,
+            other => {
+                return Err(err(
+                    py,
+                    Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
+                ))
+            }
+        };
         let stepper = match stepper {
             None => None,
             Some("constant") => Some(StepperKind::Constant),
@@ -749,16 +762,27 @@ impl PyMechanism {
                 tol: 1e-10,
                 max_iter: 50,
             },
+            // the gap element is the constant stepper's: a model planned for Newton refuses it
+            "gap" => Coupling::Gap {
+                stiffness: gap_stiffness,
+                damping: gap_damping,
+                max_iter: 50,
+            },
             other => {
                 return Err(err(
                     py,
-                    Error::param("method", format!("{other:?}"), "one of \"force\", \"modified\""),
+                    Error::param(
+                        "method",
+                        format!("{other:?}"),
+                        "one of \"force\", \"modified\", \"gap\"",
+                    ),
                 ))
             }
         };
         let settings = Settings {
             newmark: Newmark { beta, gamma },
             coupling,
+            solver,
             divergence_limit,
             events,
             newton: NewtonSettings {
