@@ -45,3 +45,11 @@ def four_bar_with_clearance(
     )
     m.add_pin("rocker_pin", "coupler", 6, body="rocker", point=(LENGTHS[3], 0.0))
     return m
+
+
+def slider_yoke_in_moving_frames(*, clearance: float = 1e-4) -> fc.Model:
+    """The paper's slider-yoke moved to the moving-frame formulation (zero gravity): the same
+    dynamics, a model the constant stepper still runs."""
+    m = fc.scenes.slider_yoke(clearance=clearance)
+    m.add_gravity(0.0, 0.0)
+    return m

@@ -525,3 +525,39 @@ def test_a_failed_moving_frame_sample_stays_its_own_row():
         progress=False
     )
     assert (ok.frame["status"] == "ok").all()
+
+
+def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkeypatch):
+    # the slider-yoke moved to moving frames (zero gravity) plans as constant: its samples run in
+    # the Rust batch (lanes, shared analysis), bitwise as the translating scene's
+    vary = {"clearance": Uniform(5e-5, 2e-4)}
+    kw = dict(samples=6, seed=3, t_end=0.02, dt=1e-5)
+    moved = Study("study_builders:slider_yoke_in_moving_frames", vary, **kw)
+    plain = Study("slider_yoke", vary, **kw)
+    model = moved._scene_fn(clearance=1e-4)
+    assert model.engine == "moving-frame" and model._core.stepper == "constant"
+    batched = []
+    run_batch = flexclear._core.run_batch
+
+    def spy(models, *args, **kwargs):
+        batched.extend(models)
+        return run_batch(models, *args, **kwargs)
+
+    monkeypatch.setattr(flexclear._core, "run_batch", spy)
+    a = moved.run(threads=2, progress=False)
+    assert len(batched) == 6 and all(isinstance(m, flexclear._core.Mechanism) for m in batched)
+    b = plain.run(threads=2, progress=False)
+    assert (a.frame["status"] == "ok").all()
+    for c in ("bearing.max_penetration", "bearing.max_force", "bearing.impacts"):
+        assert np.array_equal(a.frame[c].to_numpy(), b.frame[c].to_numpy()), c
+
+
+def test_the_batch_refuses_a_model_that_needs_the_newton_stepper_by_name():
+    crank = flexclear.scenes.slider_crank(clearance_at="crank_pin")
+    assert crank._core.stepper == "newton"
+    with pytest.raises(
+        flexclear.InvalidParameterError, match=r"models\[0\].*Newton stepper: the mechanism has a pin"
+    ):
+        flexclear._core.run_batch([crank._core], [0.01], [1e-5])
+    with pytest.raises(flexclear.InvalidParameterError, match=r"models\[0\].*a Model or a Mechanism"):
+        flexclear._core.run_batch(["yoke"], [0.01], [1e-5])

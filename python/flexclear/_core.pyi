@@ -1,6 +1,6 @@
 """Type stubs of the compiled core ``flexclear._core`` (hand-written; see rust/python/mod.rs)."""
 
-from typing import Any, Callable, Optional, final
+from typing import Any, Callable, Optional, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -258,6 +258,8 @@ class Mechanism:
         npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]
     ]:
         """`(M, C, K, r)` at time `t` (s) and state `y` (velocities `yd`, zero when None)."""
+    @property
+    def stepper(self) -> str: ...
     def simulate(
         self,
         t_end: float,
@@ -332,7 +334,7 @@ def slider_crank(
     geometric: Optional[bool],
 ) -> tuple[Mechanism, dict[str, float]]: ...
 def run_batch(
-    models: list[Model],
+    models: list[Union[Model, Mechanism]],
     t_end: list[float],
     dt: list[float],
     *,

@@ -1024,7 +1024,9 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             rec.update(status="invalid", message=str(e), dt_used=job[3], retries=0, wall_time=0.0)
             records.append(rec)
             continue
-        (batch if model.engine == "translating" else moving).append(job)
+        # samples the constant stepper runs go to the Rust batch (lanes, one analysis)
+        constant = model.engine == "translating" or model._core.stepper == "constant"
+        (batch if constant else moving).append(job)
         records.append(rec)
     hist = study.history_every is not None
     outcomes: dict[int, dict] = {}

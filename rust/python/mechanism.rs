@@ -628,6 +628,16 @@ impl PyMechanism {
             .collect()
     }
 
+    /// The stepper `simulate` chooses for this mechanism when no energy is recorded:
+    /// "constant" or "newton" (see `flexclear.Model.simulate`, `stepper`).
+    #[getter]
+    fn stepper(&self) -> &'static str {
+        match crate::plan::Plan::compile(&self.inner, &Settings::new(1.0, 1.0)) {
+            Ok(p) => p.kind.name(),
+            Err(_) => StepperKind::Newton.name(),
+        }
+    }
+
     #[getter]
     fn slider_names(&self) -> Vec<String> {
         self.inner.sliders.iter().map(|s| s.name.clone()).collect()

@@ -613,6 +613,31 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     Ok(d)
 }
 
+/// The constant-stepper model of batch sample `i`: a `Model`, or a `Mechanism` that
+/// `plan::Plan::compile` would run on the constant stepper (validated first); any other object,
+/// or a mechanism that needs the Newton stepper, is refused naming `models[i]` and the reason.
+fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>, t_end: f64) -> PyResult<Model> {
+    if let Ok(model) = m.extract::<PyRef<'_, PyModel>>() {
+        return Ok(model.inner.clone());
+    }
+    let name = format!("models[{i}]");
+    let Ok(mech) = m.extract::<PyRef<'_, mechanism::PyMechanism>>() else {
+        let shown = m.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+        return Err(err(py, Error::param(name, shown, "a Model or a Mechanism")));
+    };
+    mech.inner.validate(t_end).map_err(|e| err(py, e))?;
+    mech.inner.to_translating().map_err(|reason| {
+        err(
+            py,
+            Error::param(
+                name,
+                "a mechanism",
+                format!("a model the constant stepper runs (this one needs the Newton stepper: {reason})"),
+            ),
+        )
+    })
+}
+
 /// Runs many samples in parallel (see `flexclear.study`). `models[i]` runs to `t_end[i]` with
 /// step `dt[i]`; the other settings are shared. Returns `(outcomes, stats, pending)`: one dict
 /// per sample in input order, the batch counters, and the exception that stopped the batch
@@ -626,7 +651,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
 #[allow(clippy::too_many_arguments)]
 fn run_batch<'py>(
     py: Python<'py>,
-    models: Vec<PyRef<'py, PyModel>>,
+    models: Vec<Bound<'py, PyAny>>,
     t_end: Vec<f64>,
     dt: Vec<f64>,
     threads: i64,
@@ -686,6 +711,7 @@ fn run_batch<'py>(
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {
+        let model = batch_model(py, i, m, t_end[i])?;
         let mut settings = build_settings(
             py,
             t_end[i],
@@ -704,7 +730,7 @@ fn run_batch<'py>(
         )?;
         // event-aware runs step alone (never a lockstep lane: `shares_factor` is false for them)
         settings.events = events;
-        samples.push((m.inner.clone(), settings));
+        samples.push((model, settings));
     }
     drop(models);
     let options = BatchOptions {
