@@ -87,8 +87,8 @@ impl Plan {
     }
 }
 
-/// Validates `mech` ([`Mechanism::validate`]: one validation whatever the stepper) and runs it
-/// with `settings` on the stepper [`Plan::compile`] chooses; `control` as in
+/// Runs `mech` with `settings` on the stepper [`Plan::compile`] chooses, after the one
+/// validation of the mechanism ([`Mechanism::validate`], which the Newton stepper makes itself); `control` as in
 /// [`crate::simulation::simulate`]. The output has the Newton stepper's layout either way (link
 /// histories in `record.links`), and `stats.stepper` says which ran.
 pub fn simulate(
@@ -96,18 +96,17 @@ pub fn simulate(
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
-    let plan = mech
-        .validate(settings.t_end)
-        .and_then(|_| Plan::compile(mech, settings))
-        .map_err(|error| {
-            Box::new(RunFailure {
-                error,
-                output: RunOutput::default(),
-            })
-        })?;
+    let fail = |error| {
+        Box::new(RunFailure {
+            error,
+            output: RunOutput::default(),
+        })
+    };
+    let plan = Plan::compile(mech, settings).map_err(fail)?;
     let Some(model) = plan.translating else {
         return crate::integrator::ked::simulate_mechanism(mech, settings, control);
     };
+    mech.validate(settings.t_end).map_err(fail)?;
     let ch = settings.record.links;
     let link_channels = ch.displacements || ch.axial_force || ch.midspan;
     let mut s = settings.clone();

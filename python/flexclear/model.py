@@ -1017,8 +1017,8 @@ class Model:
             raise _bad("method", method, f"one of {METHODS}")
         if stepper not in (None, "constant", "newton"):
             raise _bad("stepper", stepper, 'one of None, "constant", "newton"')
-        wants_energy = record is not None and _as_record(record).energy
-        if self._kind == TRANSLATING and (stepper == "newton" or (stepper is None and wants_energy)):
+        rec = _as_record(record)
+        if self._kind == TRANSLATING and (stepper == "newton" or (stepper is None and rec.energy)):
             # the same model in moving frames (identical dynamics), on the Newton stepper (the
             # one that records energies)
             return Model._wrap(self._core.to_mechanism()).simulate(
@@ -1029,7 +1029,7 @@ class Model:
                 iter_tol=iter_tol,
                 max_iter=max_iter,
                 events=events,
-                record=record,
+                record=rec,
                 gap_stiffness=gap_stiffness,
                 gap_damping=gap_damping,
                 beta=beta,
@@ -1042,7 +1042,6 @@ class Model:
                 memory_limit=memory_limit,
                 stepper="newton",
             )
-        rec = _as_record(record)
         check_window(rec.start, t_end, dt, "record.start")
         if solver not in ("woodbury", "refactor"):
             raise _bad("solver", solver, 'one of "woodbury", "refactor"')

@@ -9,8 +9,8 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt};
 
 use super::errors::{run_detached, to_pyerr};
 use super::output::{mat, output_dict};
-use super::{err, parse_damping_law, PyMotion};
-use crate::contact::{Coupling, DampingLaw, SpringDamper};
+use super::{err, parse_coupling, parse_damping_law, parse_solver, PyMotion};
+use crate::contact::{DampingLaw, SpringDamper};
 use crate::error::Error;
 use crate::integrator::ked::KedRun;
 use crate::integrator::Newmark;
@@ -22,7 +22,7 @@ use crate::model::{check_elements, Motion};
 use crate::plan::StepperKind;
 use crate::recorder::{LinkChannels, RecordSpec};
 use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
-use crate::simulation::{NewtonSettings, Settings, SolverMode};
+use crate::simulation::{NewtonSettings, Settings};
 
 /// A real-number argument `name` (a Python int or float; bool refused), or an
 /// `InvalidParameterError` naming the parameter, the value and `allowed`.
@@ -735,16 +735,7 @@ impl PyMechanism {
         gap_stiffness: Option<f64>,
         gap_damping: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let solver = match solver {
-            "woodbury" => SolverMode::Woodbury,
-            "refactor" => SolverMode::Refactor,
-            other => {
-                return Err(err(
-                    py,
-                    Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
-                ))
-            }
-        };
+        let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
             None => None,
             Some("constant") => Some(StepperKind::Constant),
@@ -765,30 +756,9 @@ impl PyMechanism {
         let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
         let step_halving =
             u32::try_from(step_halving).map_err(|_| err(py, Error::param("step_halving", step_halving, "0 ..= 20")))?;
-        let coupling = match method {
-            "force" => Coupling::Force,
-            "modified" => Coupling::Modified {
-                iterate,
-                tol: 1e-10,
-                max_iter: 50,
-            },
-            // the gap element is the constant stepper's: a model planned for Newton refuses it
-            "gap" => Coupling::Gap {
-                stiffness: gap_stiffness,
-                damping: gap_damping,
-                max_iter: 50,
-            },
-            other => {
-                return Err(err(
-                    py,
-                    Error::param(
-                        "method",
-                        format!("{other:?}"),
-                        "one of \"force\", \"modified\", \"gap\"",
-                    ),
-                ))
-            }
-        };
+        // the coupling's own iteration at the constant stepper's defaults (1e-10, 50); the gap
+        // element is the constant stepper's: a model planned for Newton refuses it
+        let coupling = parse_coupling(py, method, iterate, 1e-10, 50, gap_stiffness, gap_damping)?;
         let settings = Settings {
             newmark: Newmark { beta, gamma },
             coupling,

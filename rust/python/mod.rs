@@ -435,6 +435,49 @@ fn count_at_least_1(py: Python<'_>, name: &str, v: i64) -> PyResult<usize> {
     usize::try_from(v).map_err(|_| err(py, Error::param(name, v, "an integer >= 1")))
 }
 
+/// The clearance coupling named `method` ("force", "modified", "gap") with its iteration
+/// tolerance and cap (the modified method's kappa iteration, the gap element's status
+/// iteration) and the gap element's stiffness (N/m, None = derived) and damping (N s/m).
+pub(super) fn parse_coupling(
+    py: Python<'_>,
+    method: &str,
+    iterate: bool,
+    tol: f64,
+    max_iter: usize,
+    gap_stiffness: Option<f64>,
+    gap_damping: f64,
+) -> PyResult<Coupling> {
+    match method {
+        "force" => Ok(Coupling::Force),
+        "modified" => Ok(Coupling::Modified { iterate, tol, max_iter }),
+        "gap" => Ok(Coupling::Gap {
+            stiffness: gap_stiffness,
+            damping: gap_damping,
+            max_iter,
+        }),
+        other => Err(err(
+            py,
+            Error::param(
+                "method",
+                format!("{other:?}"),
+                "one of \"force\", \"modified\", \"gap\"",
+            ),
+        )),
+    }
+}
+
+/// The solver named `solver` ("woodbury", "refactor").
+pub(super) fn parse_solver(py: Python<'_>, solver: &str) -> PyResult<SolverMode> {
+    match solver {
+        "woodbury" => Ok(SolverMode::Woodbury),
+        "refactor" => Ok(SolverMode::Refactor),
+        other => Err(err(
+            py,
+            Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
+        )),
+    }
+}
+
 /// Settings of a run from the keyword arguments shared by `Model.simulate` and `run_batch`.
 #[allow(clippy::too_many_arguments)]
 fn build_settings(
@@ -454,35 +497,8 @@ fn build_settings(
     record: RecordSpec,
 ) -> PyResult<Settings> {
     let max_iter = count_at_least_1(py, "max_iter", max_iter)?;
-    let coupling = match method {
-        "force" => Coupling::Force,
-        "modified" => Coupling::Modified { iterate, tol, max_iter },
-        "gap" => Coupling::Gap {
-            stiffness: gap_stiffness,
-            damping: gap_damping,
-            max_iter,
-        },
-        other => {
-            return Err(err(
-                py,
-                Error::param(
-                    "method",
-                    format!("{other:?}"),
-                    "one of \"force\", \"modified\", \"gap\"",
-                ),
-            ))
-        }
-    };
-    let solver = match solver {
-        "woodbury" => SolverMode::Woodbury,
-        "refactor" => SolverMode::Refactor,
-        other => {
-            return Err(err(
-                py,
-                Error::param("solver", format!("{other:?}"), "one of \"woodbury\", \"refactor\""),
-            ))
-        }
-    };
+    let coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
+    let solver = parse_solver(py, solver)?;
     let settings = Settings {
         t_end,
         dt,
