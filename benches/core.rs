@@ -4,10 +4,10 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use flexclear::assembly::System;
 use flexclear::contact::Coupling;
-use flexclear::integrator::newmark::Lockstep;
-use flexclear::linsolve::Cholesky;
+use flexclear::integrator::constant::Lockstep;
+use flexclear::linalg::Cholesky;
+use flexclear::plan::assembly::System;
 use flexclear::scenes::SliderYoke;
 use flexclear::{simulate, Settings};
 

@@ -4,9 +4,9 @@
 
 use nalgebra::DMatrix;
 
-use crate::assembly::System;
 use crate::error::{Error, Result};
 use crate::model::Model;
+use crate::plan::assembly::System;
 
 /// Eigenvalues `omega^2` below this fraction of the largest are rigid-body modes.
 pub const RIGID_TOLERANCE: f64 = 1e-9;

@@ -3,11 +3,11 @@
 
 use std::sync::Arc;
 
-use flexclear::assembly::System;
 use flexclear::contact::{Coupling, SpringDamper};
 use flexclear::element::BeamElement;
-use flexclear::linsolve::Cholesky;
+use flexclear::linalg::Cholesky;
 use flexclear::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody};
+use flexclear::plan::assembly::System;
 use flexclear::scenes::SliderYoke;
 use flexclear::{simulate, Error, Settings, SolverMode};
 use nalgebra::DMatrix;
@@ -198,7 +198,7 @@ fn banded_product_equals_sparse_product() {
         .build()
         .unwrap();
         let sys = System::assemble(&model);
-        let band = flexclear::assembly::Band::from_csc(&sys.pattern, &sys.stiffness).expect("a chain is banded");
+        let band = flexclear::plan::assembly::Band::from_csc(&sys.pattern, &sys.stiffness).expect("a chain is banded");
         assert_eq!(band.half_bandwidth(), 5.min(sys.n() - 1));
         let x: Vec<f64> = (0..sys.n()).map(|i| (i as f64 * 0.71).cos()).collect();
         let w = band.half_bandwidth();

@@ -3,11 +3,11 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
+use flexclear::batch::{run_batch, BatchOptions, Retry};
 use flexclear::contact::{Coupling, DampingLaw};
-use flexclear::integrator::newmark::Lockstep;
-use flexclear::recorder::RecordSpec;
+use flexclear::integrator::constant::Lockstep;
+use flexclear::record::RecordSpec;
 use flexclear::scenes::SliderYoke;
-use flexclear::study::{run_batch, BatchOptions, Retry};
 use flexclear::{simulate, Error, Settings};
 
 fn settings(t_end: f64, dt: f64) -> Settings {

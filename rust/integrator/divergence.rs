@@ -11,10 +11,10 @@
 //! whose sides follow prescribed motions can run away while every unknown stays bounded.
 
 /// Steps between two checks of the whole state.
-pub(crate) const CHECK_STRIDE: u64 = 16;
+pub const CHECK_STRIDE: u64 = 16;
 
 /// Largest elastic rotation before a run counts as diverged, rad.
-pub(crate) const ROTATION_LIMIT: f64 = std::f64::consts::PI;
+pub const ROTATION_LIMIT: f64 = std::f64::consts::PI;
 
 /// The first unknown `i < n` whose displacement `x(i)` or velocity `v(i)` is not finite, or whose
 /// displacement exceeds `limit` (m) in magnitude if it is translational, [`ROTATION_LIMIT`] if

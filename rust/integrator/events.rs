@@ -1,5 +1,5 @@
-//! Event location shared by the event-aware stepping of both integrators ([`super::newmark`]
-//! and [`super::ked`]): the earliest contact status change within a step, and the regula falsi
+//! Event location shared by the event-aware stepping of both integrators ([`super::constant`]
+//! and [`super::newton`]): the earliest contact status change within a step, and the regula falsi
 //! (Illinois) search for the length of the first substep so that it ends within a tolerance of
 //! the clearance circle on the chosen side.
 

@@ -1,10 +1,12 @@
-//! Time integrators: Newmark at a fixed step for translating-frame models ([`newmark`], the fast
-//! path with a contact-free factorization and Woodbury updates) and for kineto-elastodynamic
-//! mechanisms with rotating links ([`ked`]).
+//! Time integrators, one file per stepper kind (the table in [`crate::plan`]): [`constant`]
+//! (Newmark on a contact-free effective matrix factorized once, contact by Woodbury, lockstep
+//! lanes) and [`newton`] (Newton iterations on the moving-frame equations, the band LU
+//! refactorized when the Jacobian changes); [`events`] locates contact entry and exit for both,
+//! and one divergence rule serves both.
 
-mod divergence;
-mod events;
-pub mod ked;
-pub mod newmark;
+pub mod constant;
+pub mod divergence;
+pub mod events;
+pub mod newton;
 
-pub use newmark::{Newmark, NewmarkRun};
+pub use constant::{Newmark, NewmarkRun};

@@ -2,7 +2,7 @@
 //! planar motion (translation and rotation), ideal pins between links, supports, sliders on
 //! straight guides, point masses, nodal loads and clearance joints (docs/method.md sections 2-4).
 //!
-//! Plain data plus validation; [`crate::integrator::ked`] steps it. The nominal (rigid-body)
+//! Plain data plus validation; [`crate::integrator::newton`] steps it. The nominal (rigid-body)
 //! motion of every frame comes from a [`FrameKinematics`] (a spinning hub, a slider-crank, a
 //! four-bar, tables); elastic displacements are measured in each link's frame.
 

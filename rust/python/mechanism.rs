@@ -12,7 +12,7 @@ use super::output::{mat, output_dict};
 use super::{err, parse_coupling, parse_damping_law, parse_solver, PyMotion};
 use crate::contact::{DampingLaw, SpringDamper};
 use crate::error::Error;
-use crate::integrator::ked::KedRun;
+use crate::integrator::newton::NewtonRun;
 use crate::integrator::Newmark;
 use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankLink};
 use crate::model::mechanism::{
@@ -20,9 +20,9 @@ use crate::model::mechanism::{
 };
 use crate::model::{check_elements, Motion};
 use crate::plan::StepperKind;
-use crate::recorder::{LinkChannels, RecordSpec};
+use crate::record::{LinkChannels, RecordSpec};
+use crate::run::{NewtonSettings, Settings};
 use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
-use crate::simulation::{NewtonSettings, Settings};
 
 /// A real-number argument `name` (a Python int or float; bool refused), or an
 /// `InvalidParameterError` naming the parameter, the value and `allowed`.
@@ -651,7 +651,7 @@ impl PyMechanism {
     /// The unknowns: list of `(link, node, component)`.
     fn dof_map(&self, py: Python<'_>) -> PyResult<Vec<(i64, i64, String)>> {
         let settings = Settings::new(1.0, 1.0);
-        let run = KedRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
+        let run = NewtonRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
         Ok(run
             .dof_map()
             .into_iter()
@@ -683,7 +683,7 @@ impl PyMechanism {
         Bound<'py, PyArray1<f64>>,
     )> {
         let settings = Settings::new(t.max(1e-9) * 2.0 + 1.0, 1.0);
-        let mut run = KedRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
+        let mut run = NewtonRun::new(&self.inner, &settings).map_err(|e| err(py, e))?;
         let n = run.unknowns();
         let y = y.as_slice()?.to_vec();
         let yd = match yd {

@@ -14,14 +14,14 @@ use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use crate::batch::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 use crate::contact::{Coupling, DampingLaw, SpringDamper};
 use crate::error::Error;
 use crate::integrator::Newmark;
 use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
-use crate::recorder::RecordSpec;
+use crate::record::RecordSpec;
+use crate::run::{simulate, Settings, SolverMode};
 use crate::scenes::{SliderYoke, SliderYokeGeometry};
-use crate::simulation::{simulate, Settings, SolverMode};
-use crate::study::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 
 use errors::{run_detached, to_pyerr};
 use output::{extremes_list, joint_histories, output_dict};

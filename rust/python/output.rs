@@ -6,17 +6,17 @@ use numpy::{PyArray1, PyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::recorder::{JointExtremes, JointHistory, LinkHistory};
-use crate::simulation::RunOutput;
+use crate::record::{JointExtremes, JointHistory, LinkHistory};
+use crate::run::RunOutput;
 
 /// The impact logs of a recorder as a list of dicts of arrays (`joint`, `time`, `speed`,
 /// `peak_force`, `peak_penetration`, `duration`).
-fn impact_logs(py: Python<'_>, impacts: Vec<(usize, Vec<crate::recorder::Impact>)>) -> PyResult<Bound<'_, PyList>> {
+fn impact_logs(py: Python<'_>, impacts: Vec<(usize, Vec<crate::record::Impact>)>) -> PyResult<Bound<'_, PyList>> {
     let logs = PyList::empty(py);
     for (joint, log) in impacts {
         let x = PyDict::new(py);
         x.set_item("joint", joint)?;
-        let col = |f: fn(&crate::recorder::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
+        let col = |f: fn(&crate::record::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
         x.set_item("time", col(|i| i.time))?;
         x.set_item("speed", col(|i| i.speed))?;
         x.set_item("peak_force", col(|i| i.peak_force))?;

@@ -378,7 +378,7 @@ mod tests {
         assert!(matches!(ideal.pins[1].a, Endpoint::Node { link: 0, node: 8 }));
         assert!(ideal.validate(0.05).is_ok());
         // K_B closed form for the defaults: E* = 2e11 / (2 (1 - 0.09)), R* = 5e-3 * 5.5e-3 / 5e-4 m,
-        // K_B = 4/3 E* sqrt(R*) sqrt(1e-5 m) = 1.0866e8 N/m (the value docs/scenes.md and tests/ked.rs use).
+        // K_B = 4/3 E* sqrt(R*) sqrt(1e-5 m) = 1.0866e8 N/m (the value docs/scenes.md and tests/newton.rs use).
         let s = FlexibleSliderCrank {
             clearance_at: Some(SliderCrankPin::SliderPin),
             ..Default::default()

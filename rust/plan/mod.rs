@@ -3,19 +3,21 @@
 //!
 //! | the model | stepper |
 //! |---|---|
-//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::newmark`]) |
-//! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::ked`]) |
+//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::constant`]) |
+//! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::newton`]) |
 //!
 //! The constant stepper runs the mechanism's translating-frame form
 //! ([`Mechanism::to_translating`]) and records the link channels (frame, nodal displacements,
 //! axial force, midspan deflection) from its node histories, in the layout of the Newton
 //! stepper. Energy channels need the velocities: a run that records them takes the Newton stepper.
 
+pub mod assembly;
+
 use crate::error::Error;
 use crate::model::mechanism::Mechanism;
 use crate::model::Model;
-use crate::recorder::LinkHistory;
-use crate::simulation::{simulate as simulate_translating, RunFailure, RunOutput, Settings};
+use crate::record::LinkHistory;
+use crate::run::{simulate as simulate_translating, RunFailure, RunOutput, Settings};
 
 /// The kinds of stepper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -89,7 +91,7 @@ impl Plan {
 
 /// Runs `mech` with `settings` on the stepper [`Plan::compile`] chooses, after the one
 /// validation of the mechanism ([`Mechanism::validate`], which the Newton stepper makes itself); `control` as in
-/// [`crate::simulation::simulate`]. The output has the Newton stepper's layout either way (link
+/// [`crate::run::simulate`]. The output has the Newton stepper's layout either way (link
 /// histories in `record.links`), and `stats.stepper` says which ran.
 pub fn simulate(
     mech: &Mechanism,
@@ -104,7 +106,7 @@ pub fn simulate(
     };
     let plan = Plan::compile(mech, settings).map_err(fail)?;
     let Some(model) = plan.translating else {
-        return crate::integrator::ked::simulate_mechanism(mech, settings, control);
+        return crate::integrator::newton::simulate_mechanism(mech, settings, control);
     };
     mech.validate(settings.t_end).map_err(fail)?;
     let ch = settings.record.links;

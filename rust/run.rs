@@ -3,9 +3,9 @@
 use crate::contact::Coupling;
 use crate::error::{check_positive, Error, Result};
 use crate::integrator::{Newmark, NewmarkRun};
-use crate::linsolve::AnalysisCache;
+use crate::linalg::AnalysisCache;
 use crate::model::Model;
-use crate::recorder::{RecordSpec, Recorder};
+use crate::record::{RecordSpec, Recorder};
 
 /// How the effective matrix with contact terms is solved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -39,7 +39,7 @@ pub struct Settings {
     pub record: RecordSpec,
     /// Event-aware stepping: a step that changes a joint's contact status (open/closed) is redone
     /// as two substeps cut at the located crossing, with the acceleration restarted there (see
-    /// [`crate::integrator::newmark`]). Output stays on the `dt` grid. Such runs do not share
+    /// [`crate::integrator::constant`]). Output stays on the `dt` grid. Such runs do not share
     /// a lockstep factorization.
     pub events: bool,
     /// Step iterations of the moving-frame (Newton) stepper.
@@ -236,7 +236,7 @@ pub fn simulate(
 }
 
 /// As [`simulate`], taking the symbolic factorization from `cache` (shared among runs of models
-/// with the same sparsity pattern, as in [`crate::study::run_batch`]).
+/// with the same sparsity pattern, as in [`crate::batch::run_batch`]).
 pub fn simulate_shared(
     model: &Model,
     settings: &Settings,

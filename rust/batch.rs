@@ -6,7 +6,7 @@
 //! sparsity pattern ([`AnalysisCache`]); samples that change the element count get their own.
 //! A sample that fails (invalid parameters, divergence, a matrix that is not positive definite)
 //! is an outcome like any other: the batch goes on. Memory is what each sample's
-//! [`RecordSpec`](crate::recorder::RecordSpec) asks for, so a batch that records only running
+//! [`RecordSpec`](crate::record::RecordSpec) asks for, so a batch that records only running
 //! extremes needs O(samples x outputs), whatever the run length.
 //!
 //! **Lockstep groups.** Consecutive samples (in input order) whose contact-free effective matrix
@@ -22,12 +22,12 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::assembly::System;
 use crate::error::{Error, Result};
-use crate::integrator::newmark::{shares_factor, Lockstep, RunResult};
-use crate::linsolve::AnalysisCache;
+use crate::integrator::constant::{shares_factor, Lockstep, RunResult};
+use crate::linalg::AnalysisCache;
 use crate::model::Model;
-use crate::simulation::{simulate_shared, RunFailure, RunOutput, Settings, SolverMode};
+use crate::plan::assembly::System;
+use crate::run::{simulate_shared, RunFailure, RunOutput, Settings, SolverMode};
 
 /// What to do when a sample diverges.
 #[derive(Debug, Clone, Copy, PartialEq)]

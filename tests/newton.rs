@@ -3,19 +3,19 @@
 //! Banerjee (1987), the axially loaded pinned-pinned beam, the energy balance of a driven rotating
 //! beam, rigid-kinematics limits of multi-link mechanisms, term selection and error reporting.
 //!
-//! Every test states its tolerance and why. Run with `cargo test --profile dev-opt --test ked`.
+//! Every test states its tolerance and why. Run with `cargo test --profile dev-opt --test newton`.
 
 use std::sync::Arc;
 
 use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::element::BeamElement;
-use flexclear::integrator::ked::{simulate_mechanism, KedRun};
+use flexclear::integrator::newton::{simulate_mechanism, NewtonRun};
 use flexclear::kinematics::{
     FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
 };
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support, Terms};
 use flexclear::model::Motion;
-use flexclear::recorder::{LinkChannels, RecordSpec};
+use flexclear::record::{LinkChannels, RecordSpec};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Error;
 use flexclear::RunOutput;
@@ -79,7 +79,7 @@ fn clamped(l: Link) -> Mechanism {
 
 /// Equilibrium of the unknowns at `t` with the frame motion of that instant held, by the
 /// fixed-point iteration `K(F(y)) dy = -r(y)` of `Mechanism.static_state` in Python.
-fn static_state(run: &mut KedRun, t: f64) -> Vec<f64> {
+fn static_state(run: &mut NewtonRun, t: f64) -> Vec<f64> {
     let n = run.unknowns();
     let mut y = DVector::<f64>::zeros(n);
     let yd = vec![0.0; n];
@@ -99,7 +99,7 @@ fn static_state(run: &mut KedRun, t: f64) -> Vec<f64> {
 /// `t`, the gyroscopic (Coriolis) coupling dropped: eigenvalues of `L^-1 K L^-T`, `M = L L^T`.
 fn frequencies_without_coriolis(mech: &Mechanism, t: f64) -> Vec<f64> {
     let settings = Settings::new(1.0, 1e-3);
-    let mut run = KedRun::new(mech, &settings).unwrap();
+    let mut run = NewtonRun::new(mech, &settings).unwrap();
     let y = static_state(&mut run, t);
     let n = run.unknowns();
     let [m, _c, k, _] = run.linearize(t, &y, &vec![0.0; n]).unwrap();
@@ -674,7 +674,7 @@ fn four_bar(e: f64, lengths: [f64; 4]) -> Mechanism {
 /// The error of preparing a run of `mech` over 0.1 s.
 fn prepare_error(mech: &Mechanism) -> Error {
     let settings = Settings::new(0.1, 1e-4);
-    match KedRun::new(mech, &settings) {
+    match NewtonRun::new(mech, &settings) {
         Ok(_) => panic!("the model was accepted"),
         Err(e) => e,
     }

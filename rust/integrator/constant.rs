@@ -43,13 +43,13 @@
 
 use super::divergence::{self, CHECK_STRIDE};
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
-use crate::assembly::{Frames, Pattern, System};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
-use crate::linsolve::{solve_dense_in_place, Analysis, AnalysisCache, Cholesky};
+use crate::linalg::{solve_dense_in_place, Analysis, AnalysisCache, Cholesky};
 use crate::model::Model;
-use crate::recorder::Recorder;
-use crate::simulation::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
+use crate::plan::assembly::{Frames, Pattern, System};
+use crate::record::Recorder;
+use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 use std::sync::Arc;
 
 /// Newmark parameters. Default: average acceleration (beta 1/4, gamma 1/2), unconditionally
@@ -115,7 +115,7 @@ impl<'m> NewmarkRun<'m> {
         Ok(NewmarkRun { inner })
     }
 
-    /// Runs to the end. See [`crate::simulation::simulate`].
+    /// Runs to the end. See [`crate::run::simulate`].
     pub fn run(self, control: &mut dyn FnMut(f64) -> bool) -> RunResult {
         self.inner.run(control).pop().expect("a one-lane run has one outcome")
     }
@@ -158,7 +158,7 @@ pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
 
 /// A symmetric matrix stored as a dense band (row `r` holds columns `r - w ..= r + w`), for the
 /// per-step products `K x` and `C x` on lane-fastest vectors; the sums are formed in the order of
-/// [`crate::assembly::Band::mul`], lane by lane.
+/// [`crate::plan::assembly::Band::mul`], lane by lane.
 struct LaneBand {
     n: usize,
     w: usize,
@@ -168,10 +168,10 @@ struct LaneBand {
 }
 
 impl LaneBand {
-    /// The band of values `a` on `pattern` ([`crate::assembly::Band::from_csc`]), or `None` when
+    /// The band of values `a` on `pattern` ([`crate::plan::assembly::Band::from_csc`]), or `None` when
     /// the band would hold more than twice the pattern's entries.
     fn from_csc(pattern: &Pattern, a: &[f64]) -> Option<LaneBand> {
-        let (n, w, vals) = crate::assembly::Band::from_csc(pattern, a)?.into_parts();
+        let (n, w, vals) = crate::plan::assembly::Band::from_csc(pattern, a)?.into_parts();
         #[cfg(target_arch = "x86_64")]
         let avx2 = std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
@@ -353,7 +353,7 @@ fn set_lane<const L: usize>(x: &mut [[f64; L]], l: usize, v: &[f64]) {
 
 /// `P x` of joint `j` on lane `l`, with the operations of [`System::joint_project`].
 #[inline]
-fn project_lane<const L: usize>(j: &crate::assembly::JointPlan, x: &[[f64; L]], l: usize) -> [f64; 2] {
+fn project_lane<const L: usize>(j: &crate::plan::assembly::JointPlan, x: &[[f64; L]], l: usize) -> [f64; 2] {
     let mut r = [0.0; 2];
     for k in 0..j.ndof {
         let v = x[j.dofs[k]][l];

@@ -14,11 +14,11 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use flexclear::integrator::ked::simulate_mechanism;
+use flexclear::integrator::newton::simulate_mechanism;
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
 use flexclear::model::mechanism::{Link, Mechanism, Support, Terms};
 use flexclear::model::Motion;
-use flexclear::recorder::{LinkChannels, RecordSpec};
+use flexclear::record::{LinkChannels, RecordSpec};
 use flexclear::scenes::FlexibleSliderCrank;
 use flexclear::Settings;
 

@@ -36,10 +36,10 @@ use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
-use crate::linsolve::BandLu;
+use crate::linalg::BandLu;
 use crate::model::mechanism::{Endpoint, Mechanism};
-use crate::recorder::{JointHistory, LinkHistory, RecordSpec, Recorder};
-use crate::simulation::{RunFailure, RunOutput, RunStats, Settings};
+use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder};
+use crate::run::{RunFailure, RunOutput, RunStats, Settings};
 
 const NONE: usize = usize::MAX;
 
@@ -140,7 +140,7 @@ struct NodeT {
 }
 
 /// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
-/// 2 acceleration) from the local states of its two nodes (see [`KedRun::local`]).
+/// 2 acceleration) from the local states of its two nodes (see [`NewtonRun::local`]).
 #[inline]
 fn element_vec(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3], c: usize) -> Vec6 {
     Vec6::new(a[c][0], a[c][1], a[c][2], b[c][0], b[c][1], b[c][2])
@@ -200,8 +200,8 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
     nt
 }
 
-/// The KED run: DOF map, element data, Jacobian and state.
-pub struct KedRun<'a> {
+/// The Newton stepper's run: DOF map, element data, Jacobian and state.
+pub struct NewtonRun<'a> {
     mech: &'a Mechanism,
     settings: &'a Settings,
     links: Vec<LinkData>,
@@ -299,7 +299,7 @@ impl DofBuilder {
     }
 }
 
-impl<'a> KedRun<'a> {
+impl<'a> NewtonRun<'a> {
     /// Validates and prepares a run. Errors: invalid parameters or model
     /// ([`Mechanism::validate`]), an over-constrained node.
     pub fn new(mech: &'a Mechanism, settings: &'a Settings) -> Result<Self> {
@@ -600,7 +600,7 @@ impl<'a> KedRun<'a> {
                 });
             }
         }
-        Ok(KedRun {
+        Ok(NewtonRun {
             mech,
             settings,
             links,
@@ -1632,7 +1632,7 @@ impl<'a> KedRun<'a> {
 
     /// Runs to `t_end`. `control(fraction)` is called every 256 steps; returning false stops
     /// the run with [`Error::Interrupted`]. Failures carry everything recorded until then.
-    /// With [`Settings::events`] each step goes through [`Self::step_with_events`]; a step
+    /// With [`Settings::events`] each step goes through `step_with_events`; a step
     /// without a status change is the fixed step.
     pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<RunOutput, Box<RunFailure>> {
         if let Err(e) = self.initialize() {
@@ -1707,13 +1707,13 @@ impl<'a> KedRun<'a> {
     }
 }
 
-/// Runs a mechanism. See [`KedRun::run`].
+/// Runs a mechanism. See [`NewtonRun::run`].
 pub fn simulate_mechanism(
     mech: &Mechanism,
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
-    let run = KedRun::new(mech, settings).map_err(|error| {
+    let run = NewtonRun::new(mech, settings).map_err(|error| {
         Box::new(RunFailure {
             error,
             output: RunOutput::default(),

@@ -1,0 +1,535 @@
+//! Nominal (rigid-body) kinematics of link frames.
+//!
+//! In the floating frame of reference formulation every flexible link carries a frame whose motion
+//! is prescribed; the elastic displacements are measured in it. This module computes that nominal
+//! motion:
+//!
+//! * [`FrameState`]: origin, angle and their first two time derivatives at one instant, with the
+//!   rigid-body kinematics of material points ([`FrameState::point`]);
+//! * [`Rotation`]: prescribed angle drivers (fixed, constant rate, Kane's smooth spin-up,
+//!   harmonic, tabulated);
+//! * [`FrameKinematics`]: anything that yields a [`FrameState`] at time `t`, implemented by
+//!   [`RotatingFrame`] (a translating and rotating frame, e.g. a beam clamped to a spinning hub),
+//!   [`SliderCrankFrame`] (a link of a [`SliderCrank`]) and [`FourBarFrame`] (a link of a
+//!   [`FourBar`]).
+//!
+//! Conventions: SI units (m, s, rad); angles are counter-clockwise from the global +x axis; planar
+//! vectors are `[x, y]` in global coordinates. Evaluation (`at`, `frame`, ...) never fails and
+//! never panics: parameters are checked once, by the constructors (`new`, [`Rotation::tabulated`]),
+//! by [`Rotation::validate`] and by [`FrameKinematics::check`] over a time span.
+
+use std::f64::consts::{PI, TAU};
+use std::sync::Arc;
+
+use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
+use crate::model::{Kinematics, Motion};
+
+pub(crate) type Vec2 = [f64; 2];
+
+/// Unit vector at `angle` (rad).
+pub(crate) fn unit(angle: f64) -> Vec2 {
+    let (s, c) = angle.sin_cos();
+    [c, s]
+}
+
+/// The vector turned by +90 degrees (`S v` with `S = [[0, -1], [1, 0]]`).
+pub(crate) fn perp(v: Vec2) -> Vec2 {
+    [-v[1], v[0]]
+}
+
+/// z component of `a x b`.
+pub(crate) fn cross(a: Vec2, b: Vec2) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+/// Linear combination `sum c_i v_i`.
+pub(crate) fn comb<const N: usize>(terms: [(f64, Vec2); N]) -> Vec2 {
+    terms
+        .iter()
+        .fold([0.0, 0.0], |acc, (c, v)| [acc[0] + c * v[0], acc[1] + c * v[1]])
+}
+
+/// Solves `x1 c1 + x2 c2 = r` by Cramer's rule.
+pub(crate) fn solve2(c1: Vec2, c2: Vec2, r: Vec2) -> (f64, f64) {
+    let det = cross(c1, c2);
+    (cross(r, c2) / det, cross(c1, r) / det)
+}
+
+/// `name.field`, or just `field` when `name` is empty.
+pub(crate) fn field(name: &str, field: &str) -> String {
+    if name.is_empty() {
+        field.to_string()
+    } else {
+        format!("{name}.{field}")
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frame state
+// ---------------------------------------------------------------------------------------------
+
+/// The rigid-body state of a link frame at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FrameState {
+    /// Global position of the frame origin, m.
+    pub origin: [f64; 2],
+    /// Global velocity of the frame origin, m/s.
+    pub origin_vel: [f64; 2],
+    /// Global acceleration of the frame origin, m/s^2.
+    pub origin_acc: [f64; 2],
+    /// Angle of the frame x axis from the global x axis, counter-clockwise, rad.
+    pub angle: f64,
+    /// Angular velocity, rad/s.
+    pub rate: f64,
+    /// Angular acceleration, rad/s^2.
+    pub accel: f64,
+}
+
+impl FrameState {
+    /// Rotation matrix `R = [[cos, -sin], [sin, cos]]` of the frame, row-major: its columns are the
+    /// frame's x and y axes in global coordinates, so `global = origin + R local`.
+    pub fn rotation(&self) -> [[f64; 2]; 2] {
+        let (s, c) = self.angle.sin_cos();
+        [[c, -s], [s, c]]
+    }
+
+    /// Global position (m), velocity (m/s) and acceleration (m/s^2) of the material point at
+    /// `local` (m, frame coordinates) moving rigidly with the frame:
+    /// `r = R local`, `pos = origin + r`, `vel = origin_vel + rate S r`,
+    /// `acc = origin_acc + accel S r - rate^2 r`, with `S = [[0, -1], [1, 0]]`.
+    pub fn local_point(&self, local: [f64; 2]) -> Kinematics {
+        let rot = self.rotation();
+        let r = [
+            rot[0][0] * local[0] + rot[0][1] * local[1],
+            rot[1][0] * local[0] + rot[1][1] * local[1],
+        ];
+        let sr = perp(r);
+        let w2 = self.rate * self.rate;
+        Kinematics {
+            pos: comb([(1.0, self.origin), (1.0, r)]),
+            vel: comb([(1.0, self.origin_vel), (self.rate, sr)]),
+            acc: comb([(1.0, self.origin_acc), (self.accel, sr), (-w2, r)]),
+        }
+    }
+
+    /// Global position (m), velocity (m/s) and acceleration (m/s^2) of the material point at
+    /// distance `x` (m) along the frame's x axis, moving rigidly with the frame (see
+    /// [`FrameState::local_point`]).
+    pub fn point(&self, x: f64) -> Kinematics {
+        self.local_point([x, 0.0])
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Angle drivers
+// ---------------------------------------------------------------------------------------------
+
+/// A prescribed angle `phi(t)` (rad) with its rate (rad/s) and acceleration (rad/s^2).
+///
+/// Build the `Tabulated` variant with [`Rotation::tabulated`]; check the other variants' numbers
+/// with [`Rotation::validate`] (evaluating invalid parameters does not panic, it may give
+/// non-finite values).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Rotation {
+    /// At rest at `angle`.
+    Fixed {
+        /// Angle, rad.
+        angle: f64,
+    },
+    /// `phi = angle0 + rate t`.
+    Constant {
+        /// Angle at t = 0, rad.
+        angle0: f64,
+        /// Angular velocity, rad/s.
+        rate: f64,
+    },
+    /// Kane, Ryan & Banerjee (1987) smooth spin-up from rest to `final_rate` W over `ramp_time` T:
+    /// for `0 <= t < T`, `rate = (W/T) (t - (T/(2 pi)) sin(2 pi t/T))`,
+    /// `phi = angle0 + (W/T) (t^2/2 + (T/(2 pi))^2 (cos(2 pi t/T) - 1))`,
+    /// `accel = (W/T) (1 - cos(2 pi t/T))`; for `t >= T`, `rate = W`, `accel = 0`,
+    /// `phi = angle0 + W T/2 + W (t - T)`. At rest at `angle0` for `t < 0`.
+    SpinUp {
+        /// Angle at t = 0, rad.
+        angle0: f64,
+        /// Angular velocity reached at the end of the ramp, rad/s.
+        final_rate: f64,
+        /// Duration of the ramp, s (> 0).
+        ramp_time: f64,
+    },
+    /// `phi = mean + amplitude sin(2 pi frequency t + phase)`.
+    Harmonic {
+        /// Mean angle, rad.
+        mean: f64,
+        /// Amplitude, rad.
+        amplitude: f64,
+        /// Frequency, Hz (>= 0).
+        frequency: f64,
+        /// Phase, rad.
+        phase: f64,
+    },
+    /// Tabulated angle, linearly interpolated (see [`AngleTable`]).
+    Tabulated(AngleTable),
+}
+
+/// Samples of a tabulated angle: times (s), angles (rad), rates (rad/s) and accelerations
+/// (rad/s^2). Angle, rate and acceleration are each interpolated linearly between samples and
+/// held at the end values outside the table (so rate and acceleration are those of the table, not
+/// the derivatives of the interpolated angle). Build it with [`AngleTable::new`] or
+/// [`Rotation::tabulated`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct AngleTable {
+    time: Vec<f64>,
+    angle: Vec<f64>,
+    rate: Vec<f64>,
+    accel: Vec<f64>,
+}
+
+/// [`crate::model::motion::gradient`] of scalar samples.
+pub(crate) fn gradient(t: &[f64], y: &[f64]) -> Vec<f64> {
+    let y: Vec<[f64; 1]> = y.iter().map(|&v| [v]).collect();
+    crate::model::motion::gradient(t, &y).into_iter().map(|[v]| v).collect()
+}
+
+impl AngleTable {
+    /// Builds a table from strictly increasing finite times (s) and finite angles (rad); rates
+    /// (rad/s) and accelerations (rad/s^2) are derived by central differences (one-sided at the
+    /// ends) when not given. `name` prefixes parameter names in errors (`name.time[3]`; no prefix
+    /// when empty).
+    ///
+    /// Fails with [`Error::InvalidParameter`] for fewer than 2 samples, non-finite or
+    /// non-increasing times, arrays of different lengths or non-finite values.
+    pub fn new(
+        name: &str,
+        time: Vec<f64>,
+        angle: Vec<f64>,
+        rate: Option<Vec<f64>>,
+        accel: Option<Vec<f64>>,
+    ) -> Result<Self> {
+        let n = time.len();
+        if n < 2 {
+            return Err(Error::param(
+                field(name, "time"),
+                format!("{n} samples"),
+                "at least 2 samples",
+            ));
+        }
+        if !time[0].is_finite() {
+            return Err(Error::param(field(name, "time[0]"), time[0], "finite, s"));
+        }
+        for (i, w) in time.windows(2).enumerate() {
+            if !(w[1].is_finite() && w[1] > w[0]) {
+                return Err(Error::param(
+                    field(name, &format!("time[{}]", i + 1)),
+                    w[1],
+                    "finite and strictly increasing, s",
+                ));
+            }
+        }
+        for (label, unit, values) in [
+            ("angle", "rad", Some(&angle)),
+            ("rate", "rad/s", rate.as_ref()),
+            ("accel", "rad/s^2", accel.as_ref()),
+        ] {
+            if let Some(v) = values {
+                if v.len() != n {
+                    return Err(Error::param(
+                        field(name, label),
+                        format!("{} samples", v.len()),
+                        format!("as many samples as time ({n})"),
+                    ));
+                }
+                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                    return Err(Error::param(
+                        field(name, &format!("{label}[{i}]")),
+                        v[i],
+                        format!("finite values, {unit}"),
+                    ));
+                }
+            }
+        }
+        let rate = rate.unwrap_or_else(|| gradient(&time, &angle));
+        let accel = accel.unwrap_or_else(|| gradient(&time, &rate));
+        Ok(AngleTable {
+            time,
+            angle,
+            rate,
+            accel,
+        })
+    }
+
+    /// First tabulated time, s.
+    pub fn start_time(&self) -> f64 {
+        self.time[0]
+    }
+
+    /// Last tabulated time, s.
+    pub fn end_time(&self) -> f64 {
+        self.time[self.time.len() - 1]
+    }
+
+    /// The sample times, s.
+    pub fn times(&self) -> &[f64] {
+        &self.time
+    }
+
+    /// `(angle, rate, accel)` at `t` (s), linearly interpolated, held outside the table.
+    fn eval(&self, t: f64) -> (f64, f64, f64) {
+        let n = self.time.len();
+        let i = match self.time.partition_point(|&x| x <= t) {
+            0 => 0,
+            k if k >= n => n - 2,
+            k => k - 1,
+        };
+        let s = ((t - self.time[i]) / (self.time[i + 1] - self.time[i])).clamp(0.0, 1.0);
+        let lerp = |a: &[f64]| a[i] + s * (a[i + 1] - a[i]);
+        (lerp(&self.angle), lerp(&self.rate), lerp(&self.accel))
+    }
+}
+
+impl Rotation {
+    /// A tabulated angle: strictly increasing times (s), angles (rad), and optionally rates
+    /// (rad/s) and accelerations (rad/s^2), derived by central differences when `None`.
+    ///
+    /// Fails with [`Error::InvalidParameter`] naming `time`, `angle`, `rate` or `accel` (see
+    /// [`AngleTable::new`]).
+    pub fn tabulated(time: Vec<f64>, angle: Vec<f64>, rate: Option<Vec<f64>>, accel: Option<Vec<f64>>) -> Result<Self> {
+        AngleTable::new("", time, angle, rate, accel).map(Rotation::Tabulated)
+    }
+
+    /// `(angle, rate, accel)` at time `t` (s): rad, rad/s, rad/s^2.
+    #[inline]
+    pub fn at(&self, t: f64) -> (f64, f64, f64) {
+        match self {
+            Rotation::Fixed { angle } => (*angle, 0.0, 0.0),
+            Rotation::Constant { angle0, rate } => (angle0 + rate * t, *rate, 0.0),
+            Rotation::SpinUp {
+                angle0,
+                final_rate,
+                ramp_time,
+            } => {
+                let (w, tr) = (*final_rate, *ramp_time);
+                if t <= 0.0 {
+                    (*angle0, 0.0, 0.0)
+                } else if t < tr {
+                    let k = TAU / tr;
+                    let g = w / tr;
+                    let (s, c) = (k * t).sin_cos();
+                    // cos x - 1 = -2 sin^2(x/2), without the cancellation near t = 0.
+                    let half = (0.5 * k * t).sin();
+                    let angle = angle0 + g * (0.5 * t * t - 2.0 * half * half / (k * k));
+                    (angle, g * (t - s / k), g * (1.0 - c))
+                } else {
+                    (angle0 + w * (t - 0.5 * tr), w, 0.0)
+                }
+            }
+            Rotation::Harmonic {
+                mean,
+                amplitude,
+                frequency,
+                phase,
+            } => {
+                let om = TAU * frequency;
+                let (s, c) = (om * t + phase).sin_cos();
+                (mean + amplitude * s, amplitude * om * c, -amplitude * om * om * s)
+            }
+            Rotation::Tabulated(table) => table.eval(t),
+        }
+    }
+
+    /// True when the rate and acceleration are identically zero (the angle never changes):
+    /// `Fixed`, a zero `Constant` rate or spin-up `final_rate`, a zero harmonic amplitude or
+    /// frequency, a table whose rates and accelerations are all zero.
+    pub fn is_fixed(&self) -> bool {
+        match self {
+            Rotation::Fixed { .. } => true,
+            Rotation::Constant { rate, .. } => *rate == 0.0,
+            Rotation::SpinUp { final_rate, .. } => *final_rate == 0.0,
+            Rotation::Harmonic {
+                amplitude, frequency, ..
+            } => *amplitude == 0.0 || *frequency == 0.0,
+            Rotation::Tabulated(table) => table.rate.iter().chain(&table.accel).all(|&x| x == 0.0),
+        }
+    }
+
+    /// Checks the parameters: every number finite, `ramp_time > 0`, `frequency >= 0`. A table is
+    /// valid by construction. `name` prefixes parameter names in errors (`name.ramp_time`).
+    ///
+    /// Fails with [`Error::InvalidParameter`] naming the field and its allowed range.
+    pub fn validate(&self, name: &str) -> Result<()> {
+        let f = |s: &str| field(name, s);
+        match self {
+            Rotation::Fixed { angle } => check_finite(&f("angle"), *angle, "rad"),
+            Rotation::Constant { angle0, rate } => {
+                check_finite(&f("angle0"), *angle0, "rad")?;
+                check_finite(&f("rate"), *rate, "rad/s")
+            }
+            Rotation::SpinUp {
+                angle0,
+                final_rate,
+                ramp_time,
+            } => {
+                check_finite(&f("angle0"), *angle0, "rad")?;
+                check_finite(&f("final_rate"), *final_rate, "rad/s")?;
+                check_positive(&f("ramp_time"), *ramp_time, "s")
+            }
+            Rotation::Harmonic {
+                mean,
+                amplitude,
+                frequency,
+                phase,
+            } => {
+                check_finite(&f("mean"), *mean, "rad")?;
+                check_finite(&f("amplitude"), *amplitude, "rad")?;
+                check_non_negative(&f("frequency"), *frequency, "Hz")?;
+                check_finite(&f("phase"), *phase, "rad")
+            }
+            Rotation::Tabulated(_) => Ok(()),
+        }
+    }
+
+    /// Checks that a table covers `[0, t_end]` (s); the other variants cover every time.
+    ///
+    /// Fails with [`Error::InvalidParameter`] naming `name.time`.
+    pub fn covers(&self, name: &str, t_end: f64) -> Result<()> {
+        match self {
+            Rotation::Tabulated(table) if table.start_time() > 0.0 || table.end_time() < t_end => Err(Error::param(
+                field(name, "time"),
+                format!("[{}, {}] s", table.start_time(), table.end_time()),
+                format!("a table covering [0, t_end = {t_end}] s"),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frame kinematics
+// ---------------------------------------------------------------------------------------------
+
+/// The prescribed (nominal, rigid-body) motion of a link frame or rigid body.
+pub trait FrameKinematics: std::fmt::Debug + Send + Sync {
+    /// The frame state at time `t` (s). Never fails; the values are meaningful where
+    /// [`FrameKinematics::check`] passes.
+    fn frame(&self, t: f64) -> FrameState;
+
+    /// Checks that the motion is defined over `[0, t_end]` (s): parameters, table coverage,
+    /// closure of a mechanism's loop. `name` prefixes parameter names in errors.
+    ///
+    /// Fails with [`Error::InvalidParameter`] or [`Error::InvalidModel`]. The default accepts.
+    fn check(&self, name: &str, t_end: f64) -> Result<()> {
+        let _ = (name, t_end);
+        Ok(())
+    }
+
+    /// Whether the frame may rotate (non-zero rate or angular acceleration at some time); used to
+    /// switch rotation-dependent terms on automatically. The default, `true`, is conservative.
+    fn rotates(&self) -> bool {
+        true
+    }
+
+    /// Whether the frame origin may move (non-zero velocity or acceleration at some time). The
+    /// default, `true`, is conservative.
+    fn translates(&self) -> bool {
+        true
+    }
+
+    /// The frame as a translation at a fixed angle: the origin's prescribed motion and the angle
+    /// (rad), when the frame is exactly that (a translating frame of the constant stepper);
+    /// `None` otherwise (the default).
+    fn fixed_angle_translation(&self) -> Option<(&Motion, f64)> {
+        None
+    }
+}
+
+/// Largest link length of the loop kinematics, m: their closed forms take products of up to four
+/// lengths, which stay finite below this (1e75 m, far beyond any mechanism).
+pub const MAX_LINK_LENGTH: f64 = 1e75;
+
+/// A link length of a mechanism's loop: > 0 and at most [`MAX_LINK_LENGTH`].
+pub(crate) fn check_link_length(name: &str, l: f64) -> Result<()> {
+    check_positive(name, l, "m")?;
+    if l > MAX_LINK_LENGTH {
+        return Err(Error::param(name, l, format!("a length in (0, {MAX_LINK_LENGTH:e}] m")));
+    }
+    Ok(())
+}
+
+/// A frame whose origin translates by `origin` and which rotates by `rotation`, independently: for
+/// example a beam clamped to a spinning hub (origin fixed at the hub centre, or on its rim).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RotatingFrame {
+    /// Prescribed translation of the frame origin (global, m).
+    pub origin: Motion,
+    /// Prescribed angle of the frame x axis (rad).
+    pub rotation: Rotation,
+}
+
+impl RotatingFrame {
+    /// A checked rotating frame: validates `origin` and `rotation` (errors name `origin.*` and
+    /// `rotation.*`, [`Error::InvalidParameter`]). Table coverage is checked later, by
+    /// [`FrameKinematics::check`].
+    pub fn new(origin: Motion, rotation: Rotation) -> Result<Self> {
+        origin.validate("origin")?;
+        rotation.validate("rotation")?;
+        Ok(RotatingFrame { origin, rotation })
+    }
+}
+
+impl FrameKinematics for RotatingFrame {
+    fn frame(&self, t: f64) -> FrameState {
+        let o = self.origin.at(t);
+        let (angle, rate, accel) = self.rotation.at(t);
+        FrameState {
+            origin: o.pos,
+            origin_vel: o.vel,
+            origin_acc: o.acc,
+            angle,
+            rate,
+            accel,
+        }
+    }
+
+    /// Validates `name.origin` and `name.rotation` and checks that tables cover `[0, t_end]`.
+    fn check(&self, name: &str, t_end: f64) -> Result<()> {
+        let origin = field(name, "origin");
+        self.origin.validate(&origin)?;
+        if let Motion::Tabulated(table) = &self.origin {
+            if table.start_time() > 0.0 || table.end_time() < t_end {
+                return Err(Error::param(
+                    field(&origin, "time"),
+                    format!("[{}, {}] s", table.start_time(), table.end_time()),
+                    format!("a table covering [0, t_end = {t_end}] s"),
+                ));
+            }
+        }
+        let rotation = field(name, "rotation");
+        self.rotation.validate(&rotation)?;
+        self.rotation.covers(&rotation, t_end)
+    }
+
+    /// False when the rotation is fixed ([`Rotation::is_fixed`]).
+    fn rotates(&self) -> bool {
+        !self.rotation.is_fixed()
+    }
+
+    /// False when the origin is fixed ([`Motion::is_fixed`]).
+    fn translates(&self) -> bool {
+        !self.origin.is_fixed()
+    }
+
+    /// The origin's motion and the angle when the rotation is [`Rotation::Fixed`].
+    fn fixed_angle_translation(&self) -> Option<(&Motion, f64)> {
+        match self.rotation {
+            Rotation::Fixed { angle } => Some((&self.origin, angle)),
+            _ => None,
+        }
+    }
+}
+
+mod four_bar;
+mod slider_crank;
+#[cfg(test)]
+mod tests;
+
+pub use four_bar::{FourBar, FourBarFrame, FourBarLink};
+pub use slider_crank::{SliderCrank, SliderCrankFrame, SliderCrankLink};

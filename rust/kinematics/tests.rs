@@ -1,0 +1,691 @@
+use super::*;
+use crate::model::Table;
+
+// Finite-difference checks. Central differences with step h have truncation error
+// ~ h^2 |f'''| / 6 and round-off ~ eps |f| / h. The motions below have time scales of
+// 0.05 s or more (rates <= ~20 rad/s, frequencies <= 2 Hz), so with h = 1e-5 s the truncation
+// error is ~ (20 * 1e-5)^2 / 6 ~ 1e-8 relative and the round-off ~ 1e-16 / 1e-5 ~ 1e-11
+// relative: a tolerance of 1e-6 relative to the quantity's magnitude (over the whole run, so
+// that zero crossings do not demand absolute precision) leaves two orders of margin both ways.
+const H: f64 = 1e-5;
+const FD_TOL: f64 = 1e-6;
+
+fn assert_close(label: &str, t: f64, got: f64, want: f64, scale: f64) {
+    let tol = FD_TOL * want.abs().max(scale).max(1e-12);
+    assert!(
+        (got - want).abs() <= tol,
+        "{label} at t = {t}: finite difference {got} vs exact {want} (tol {tol})"
+    );
+}
+
+fn times(t0: f64, t1: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|i| t0 + (t1 - t0) * i as f64 / (n - 1) as f64).collect()
+}
+
+fn max_abs(v: impl Iterator<Item = f64>) -> f64 {
+    v.fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// Checks rate/accel of `(angle, rate, accel)` against central differences.
+fn check_angles(label: &str, f: impl Fn(f64) -> (f64, f64, f64), ts: &[f64]) {
+    let rs = max_abs(ts.iter().map(|&t| f(t).1));
+    let as_ = max_abs(ts.iter().map(|&t| f(t).2));
+    for &t in ts {
+        let (p, m, x) = (f(t + H), f(t - H), f(t));
+        assert_close(&format!("{label} rate"), t, (p.0 - m.0) / (2.0 * H), x.1, rs);
+        assert_close(&format!("{label} accel"), t, (p.1 - m.1) / (2.0 * H), x.2, as_);
+    }
+}
+
+/// Checks a point's velocity/acceleration against central differences.
+fn check_point(label: &str, f: impl Fn(f64) -> Kinematics, ts: &[f64]) {
+    let vs = max_abs(ts.iter().flat_map(|&t| f(t).vel));
+    let acs = max_abs(ts.iter().flat_map(|&t| f(t).acc));
+    for &t in ts {
+        let (p, m, x) = (f(t + H), f(t - H), f(t));
+        for k in 0..2 {
+            assert_close(
+                &format!("{label} vel[{k}]"),
+                t,
+                (p.pos[k] - m.pos[k]) / (2.0 * H),
+                x.vel[k],
+                vs,
+            );
+            assert_close(
+                &format!("{label} acc[{k}]"),
+                t,
+                (p.vel[k] - m.vel[k]) / (2.0 * H),
+                x.acc[k],
+                acs,
+            );
+        }
+    }
+}
+
+/// Checks a frame's origin and angle derivatives against central differences.
+fn check_frame(label: &str, f: impl Fn(f64) -> FrameState, ts: &[f64]) {
+    check_angles(
+        label,
+        |t| {
+            let s = f(t);
+            (s.angle, s.rate, s.accel)
+        },
+        ts,
+    );
+    check_point(
+        &format!("{label} origin"),
+        |t| {
+            let s = f(t);
+            Kinematics {
+                pos: s.origin,
+                vel: s.origin_vel,
+                acc: s.origin_acc,
+            }
+        },
+        ts,
+    );
+}
+
+fn smooth_drivers() -> Vec<Rotation> {
+    vec![
+        Rotation::Constant { angle0: 0.3, rate: 7.0 },
+        Rotation::Constant {
+            angle0: -1.0,
+            rate: -5.0,
+        },
+        Rotation::SpinUp {
+            angle0: 0.2,
+            final_rate: 15.0,
+            ramp_time: 0.6,
+        },
+        Rotation::Harmonic {
+            mean: 0.4,
+            amplitude: 2.5,
+            frequency: 1.5,
+            phase: 0.3,
+        },
+    ]
+}
+
+fn err_name(e: Error) -> String {
+    match e {
+        Error::InvalidParameter { name, .. } => name,
+        other => panic!("expected InvalidParameter, got {other:?}"),
+    }
+}
+
+fn err_message(e: Error) -> String {
+    match e {
+        Error::InvalidModel { message } => message,
+        other => panic!("expected InvalidModel, got {other:?}"),
+    }
+}
+
+fn sub(a: Vec2, b: Vec2) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+#[test]
+fn frame_state_point_matches_finite_differences() {
+    let frame = RotatingFrame::new(
+        Motion::Harmonic {
+            offset: [0.1, -0.2],
+            amplitude: [0.05, 0.03],
+            frequency: 2.0,
+            phase: 0.4,
+        },
+        Rotation::Harmonic {
+            mean: 0.2,
+            amplitude: 1.2,
+            frequency: 1.3,
+            phase: -0.5,
+        },
+    )
+    .unwrap();
+    let ts = times(0.0, 1.5, 61);
+    check_frame("rotating", |t| frame.frame(t), &ts);
+    check_point("point(0.7)", |t| frame.frame(t).point(0.7), &ts);
+    check_point("local_point", |t| frame.frame(t).local_point([0.3, -0.2]), &ts);
+    let f = frame.frame(0.37);
+    let r = f.rotation();
+    let p = f.point(0.7).pos;
+    assert!(sub(p, [f.origin[0] + 0.7 * r[0][0], f.origin[1] + 0.7 * r[1][0]]) < 1e-15);
+    assert!((r[0][0] - f.angle.cos()).abs() < 1e-15 && (r[1][0] - f.angle.sin()).abs() < 1e-15);
+}
+
+#[test]
+fn drivers_match_finite_differences() {
+    let ts = times(0.0, 2.0, 81);
+    check_angles("fixed", |t| Rotation::Fixed { angle: 0.7 }.at(t), &ts);
+    for d in smooth_drivers() {
+        check_angles(&format!("{d:?}"), |t| d.at(t), &ts);
+    }
+    // Spin-up: during the ramp and after it (finite differences straddling t = T would mix the
+    // two pieces of the definition).
+    let spin = Rotation::SpinUp {
+        angle0: 0.0,
+        final_rate: 20.0,
+        ramp_time: 0.5,
+    };
+    check_angles("spin-up ramp", |t| spin.at(t), &times(0.01, 0.49, 49));
+    check_angles("spin-up after", |t| spin.at(t), &times(0.51, 1.5, 20));
+    // Tabulated: at interior samples of a uniform grid, the central difference of the
+    // interpolant (h << spacing) equals the table's own central difference exactly.
+    let tt = times(0.0, 1.0, 101);
+    let angle: Vec<f64> = tt.iter().map(|t| (3.0 * t).sin()).collect();
+    let table = Rotation::tabulated(tt.clone(), angle, None, None).unwrap();
+    check_angles("tabulated", |t| table.at(t), &tt[2..99]);
+}
+
+#[test]
+fn spin_up_reaches_half_w_t_and_rate_is_continuous() {
+    let (a0, w, tr) = (0.25, 12.0, 0.8);
+    let d = Rotation::SpinUp {
+        angle0: a0,
+        final_rate: w,
+        ramp_time: tr,
+    };
+    let (angle, rate, accel) = d.at(tr);
+    assert!((angle - (a0 + w * tr / 2.0)).abs() < 1e-12);
+    assert_eq!((rate, accel), (w, 0.0));
+    let before = d.at(tr - 1e-9);
+    assert!((before.0 - angle).abs() < 1e-7 && (before.1 - w).abs() < 1e-6 && before.2.abs() < 1e-6);
+    assert_eq!(d.at(0.0), (a0, 0.0, 0.0));
+    assert_eq!(d.at(-1.0), (a0, 0.0, 0.0));
+    let (a, r, _) = d.at(tr + 1.0);
+    assert!((a - (a0 + w * tr / 2.0 + w)).abs() < 1e-12 && r == w);
+    // Smooth start: tiny but positive angle and rate just after 0.
+    let (a, r, al) = d.at(1e-3);
+    assert!(a > a0 && r > 0.0 && al > 0.0 && a - a0 < 1e-8);
+}
+
+#[test]
+fn tabulated_rotation_validates_and_interpolates() {
+    let e = |r: Result<Rotation>| err_name(r.unwrap_err());
+    assert_eq!(e(Rotation::tabulated(vec![0.0], vec![0.0], None, None)), "time");
+    assert_eq!(
+        e(Rotation::tabulated(vec![0.0, 1.0, 1.0], vec![0.0; 3], None, None)),
+        "time[2]"
+    );
+    assert_eq!(
+        e(Rotation::tabulated(vec![f64::NAN, 1.0], vec![0.0; 2], None, None)),
+        "time[0]"
+    );
+    assert_eq!(
+        e(Rotation::tabulated(vec![0.0, f64::INFINITY], vec![0.0; 2], None, None)),
+        "time[1]"
+    );
+    assert_eq!(
+        e(Rotation::tabulated(vec![0.0, 1.0], vec![0.0; 3], None, None)),
+        "angle"
+    );
+    assert_eq!(
+        e(Rotation::tabulated(vec![0.0, 1.0], vec![0.0, f64::NAN], None, None)),
+        "angle[1]"
+    );
+    assert_eq!(
+        e(Rotation::tabulated(vec![0.0, 1.0], vec![0.0; 2], Some(vec![1.0]), None)),
+        "rate"
+    );
+    assert_eq!(
+        e(Rotation::tabulated(
+            vec![0.0, 1.0],
+            vec![0.0; 2],
+            None,
+            Some(vec![1.0, f64::NAN])
+        )),
+        "accel[1]"
+    );
+    let named = AngleTable::new("hub", vec![0.0, 0.0], vec![0.0; 2], None, None).unwrap_err();
+    assert_eq!(err_name(named), "hub.time[1]");
+
+    let d = Rotation::tabulated(vec![0.0, 1.0, 2.0], vec![0.0, 2.0, 3.0], None, None).unwrap();
+    let (a, r, al) = d.at(0.5);
+    assert_eq!((a, r), (1.0, 1.75)); // rates [2, 1.5, 1]
+    assert_eq!(al, -0.5); // accels [-0.5, -0.5, -0.5]
+    assert_eq!(d.at(-1.0).0, 0.0);
+    assert_eq!(d.at(5.0).0, 3.0);
+    let given = Rotation::tabulated(
+        vec![0.0, 1.0],
+        vec![0.0, 1.0],
+        Some(vec![4.0, 4.0]),
+        Some(vec![9.0, 9.0]),
+    )
+    .unwrap();
+    assert_eq!(given.at(0.3), (0.3, 4.0, 9.0));
+
+    assert!(d.covers("rot", 2.0).is_ok());
+    assert_eq!(err_name(d.covers("rot", 2.5).unwrap_err()), "rot.time");
+    let late = Rotation::tabulated(vec![0.1, 1.0], vec![0.0, 1.0], None, None).unwrap();
+    assert_eq!(err_name(late.covers("rot", 0.5).unwrap_err()), "rot.time");
+    assert!(Rotation::Constant { angle0: 0.0, rate: 1.0 }.covers("rot", 1e9).is_ok());
+}
+
+#[test]
+fn rotation_validate_names_the_field() {
+    let v = |d: Rotation| err_name(d.validate("r").unwrap_err());
+    assert_eq!(v(Rotation::Fixed { angle: f64::NAN }), "r.angle");
+    assert_eq!(
+        v(Rotation::Constant {
+            angle0: 0.0,
+            rate: f64::INFINITY
+        }),
+        "r.rate"
+    );
+    assert_eq!(
+        v(Rotation::SpinUp {
+            angle0: 0.0,
+            final_rate: 1.0,
+            ramp_time: 0.0
+        }),
+        "r.ramp_time"
+    );
+    assert_eq!(
+        v(Rotation::Harmonic {
+            mean: 0.0,
+            amplitude: 1.0,
+            frequency: -1.0,
+            phase: 0.0
+        }),
+        "r.frequency"
+    );
+    match (Rotation::SpinUp {
+        angle0: 0.0,
+        final_rate: 1.0,
+        ramp_time: -2.0,
+    })
+    .validate("r")
+    .unwrap_err()
+    {
+        Error::InvalidParameter { allowed, .. } => assert!(allowed.contains("> 0") && allowed.contains('s')),
+        other => panic!("{other:?}"),
+    }
+    for d in smooth_drivers() {
+        d.validate("r").unwrap();
+    }
+}
+
+fn slider_cranks() -> Vec<SliderCrank> {
+    let mut out = Vec::new();
+    for d in smooth_drivers() {
+        out.push(SliderCrank::new(0.15, 0.6, 0.0, d.clone()).unwrap());
+        out.push(SliderCrank::new(0.15, 0.6, 0.08, d.clone()).unwrap());
+        out.push(SliderCrank::new(0.2, 0.35, -0.1, d).unwrap());
+    }
+    out
+}
+
+#[test]
+fn slider_crank_frames_match_finite_differences() {
+    let ts = times(0.0, 2.0, 81);
+    for sc in slider_cranks() {
+        let label = format!("{sc:?}");
+        check_frame(&format!("crank {label}"), |t| sc.crank_frame(t), &ts);
+        check_frame(&format!("rod {label}"), |t| sc.rod_frame(t), &ts);
+        check_frame(&format!("slider {label}"), |t| sc.slider_frame(t), &ts);
+        check_point(&format!("B {label}"), |t| sc.slider(t), &ts);
+        check_point(
+            &format!("rod midpoint {label}"),
+            |t| sc.rod_frame(t).point(0.5 * sc.rod()),
+            &ts,
+        );
+    }
+}
+
+#[test]
+fn slider_crank_loop_closes() {
+    for sc in slider_cranks() {
+        for t in times(0.0, 3.0, 1001) {
+            let rod = sc.rod_frame(t);
+            let end = rod.point(sc.rod());
+            let b = sc.slider(t);
+            assert!(
+                sub(end.pos, b.pos) < 1e-12,
+                "closure at t = {t}: {:?} vs {:?}",
+                end.pos,
+                b.pos
+            );
+            assert!((b.pos[1] - sc.offset()).abs() < 1e-15);
+            // The rod's far end moves with the slider (exact identities up to round-off).
+            let vs = 1.0 + b.vel[0].abs();
+            let acs = 1.0 + b.acc[0].abs();
+            assert!(sub(end.vel, b.vel) < 1e-9 * vs && sub(end.acc, b.acc) < 1e-9 * acs);
+            // The rod starts at the crank pin.
+            let pin = sc.crank_frame(t).point(sc.crank());
+            assert!(sub(pin.pos, rod.origin) < 1e-15);
+            assert!(rod.angle.cos() > 0.0);
+        }
+    }
+}
+
+#[test]
+fn slider_crank_dead_centres() {
+    let (a, l) = (0.1, 0.45);
+    let at = |th: f64| {
+        SliderCrank::new(a, l, 0.0, Rotation::Fixed { angle: th })
+            .unwrap()
+            .slider(0.0)
+    };
+    let b0 = at(0.0);
+    assert!(sub(b0.pos, [a + l, 0.0]) < 1e-15);
+    let b1 = at(PI);
+    assert!(sub(b1.pos, [l - a, 0.0]) < 1e-15);
+    assert_eq!((b0.vel, b0.acc), ([0.0, 0.0], [0.0, 0.0]));
+    // Constant rate w at theta = 0: the slider acceleration is -a w^2 (1 + a / l).
+    let w = 10.0;
+    let sc = SliderCrank::new(a, l, 0.0, Rotation::Constant { angle0: 0.0, rate: w }).unwrap();
+    let b = sc.slider(0.0);
+    assert!((b.acc[0] + a * w * w * (1.0 + a / l)).abs() < 1e-12);
+    assert!(b.vel[0].abs() < 1e-15);
+}
+
+#[test]
+fn slider_crank_rejects_bad_geometry() {
+    let d = || Rotation::Constant { angle0: 0.0, rate: 1.0 };
+    let e = |r: Result<SliderCrank>| err_name(r.unwrap_err());
+    assert_eq!(e(SliderCrank::new(0.3, 0.2, 0.0, d())), "rod");
+    assert_eq!(e(SliderCrank::new(0.3, 0.4, 0.1, d())), "rod"); // rod == crank + |offset|
+    assert_eq!(e(SliderCrank::new(0.3, 0.45, -0.2, d())), "rod");
+    assert_eq!(e(SliderCrank::new(0.0, 1.0, 0.0, d())), "crank");
+    assert_eq!(e(SliderCrank::new(0.1, f64::NAN, 0.0, d())), "rod");
+    assert_eq!(e(SliderCrank::new(0.1, 1.0, f64::NAN, d())), "offset");
+    let bad = Rotation::SpinUp {
+        angle0: 0.0,
+        final_rate: 1.0,
+        ramp_time: 0.0,
+    };
+    assert_eq!(e(SliderCrank::new(0.1, 1.0, 0.0, bad)), "driver.ramp_time");
+    match SliderCrank::new(0.3, 0.2, 0.0, d()).unwrap_err() {
+        Error::InvalidParameter { allowed, .. } => assert!(allowed.contains("crank + |offset| = 0.3 m")),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Crank-rocker (crank shortest, Grashof), both branches, and a drag link (ground shortest,
+/// crank longer than ground).
+fn four_bars(driver: &Rotation) -> Vec<FourBar> {
+    vec![
+        FourBar::new(0.4, 0.1, 0.35, 0.3, 1.0, driver.clone()).unwrap(),
+        FourBar::new(0.4, 0.1, 0.35, 0.3, -1.0, driver.clone()).unwrap(),
+        FourBar::new(0.1, 0.3, 0.35, 0.32, 1.0, driver.clone()).unwrap(),
+        FourBar::new(0.1, 0.3, 0.35, 0.32, -1.0, driver.clone()).unwrap(),
+    ]
+}
+
+#[test]
+fn four_bar_frames_match_finite_differences() {
+    let ts = times(0.0, 2.0, 81);
+    for d in smooth_drivers() {
+        for fb in four_bars(&d) {
+            fb.check("fb", 2.0 + H).unwrap();
+            let label = format!("{fb:?}");
+            check_frame(&format!("crank {label}"), |t| fb.crank_frame(t), &ts);
+            check_frame(&format!("coupler {label}"), |t| fb.coupler_frame(t), &ts);
+            check_frame(&format!("rocker {label}"), |t| fb.rocker_frame(t), &ts);
+            check_point(&format!("B {label}"), |t| fb.rocker_frame(t).point(fb.rocker()), &ts);
+        }
+    }
+}
+
+#[test]
+fn four_bar_loop_closes() {
+    for d in smooth_drivers() {
+        for fb in four_bars(&d) {
+            for t in times(0.0, 3.0, 1001) {
+                let (cr, co, ro) = (fb.crank_frame(t), fb.coupler_frame(t), fb.rocker_frame(t));
+                let a = cr.point(fb.crank());
+                let b3 = co.point(fb.coupler());
+                let b4 = ro.point(fb.rocker());
+                assert!(sub(a.pos, co.origin) < 1e-15);
+                assert!(sub(b3.pos, b4.pos) < 1e-12, "closure at t = {t}: {:?}", fb);
+                // B computed along the coupler and along the rocker moves the same way.
+                let vs = 1.0 + max_abs(b4.vel.into_iter());
+                let acs = 1.0 + max_abs(b4.acc.into_iter());
+                assert!(sub(b3.vel, b4.vel) < 1e-9 * vs, "velocity at t = {t}");
+                assert!(sub(b3.acc, b4.acc) < 1e-9 * acs, "acceleration at t = {t}");
+                assert!(sub(a.vel, co.origin_vel) < 1e-12 && sub(a.acc, co.origin_acc) < 1e-9 * acs);
+                assert_eq!(ro.origin, [fb.ground(), 0.0]);
+            }
+        }
+    }
+}
+
+#[test]
+fn four_bar_branch_convention() {
+    // Norton's open (+) and crossed (-) solutions for theta4 of a crank-rocker.
+    let (a, b, c, d) = (0.1, 0.35, 0.3, 0.4);
+    let norton = |th2: f64, sign: f64| {
+        let (k1, k2, k3) = (d / a, d / c, (a * a - b * b + c * c + d * d) / (2.0 * a * c));
+        let aa = th2.cos() - k1 - k2 * th2.cos() + k3;
+        let bb = -2.0 * th2.sin();
+        let cc = k1 - (k2 + 1.0) * th2.cos() + k3;
+        2.0 * ((-bb - sign * (bb * bb - 4.0 * aa * cc).sqrt()) / (2.0 * aa)).atan()
+    };
+    for branch in [1.0, -1.0] {
+        for th2 in times(-3.0, 3.0, 25) {
+            let fb = FourBar::new(d, a, b, c, branch, Rotation::Fixed { angle: th2 }).unwrap();
+            let (th3, th4) = (fb.coupler_frame(0.0).angle, fb.rocker_frame(0.0).angle);
+            let diff = (th4 - norton(th2, branch)).rem_euclid(TAU);
+            assert!(diff < 1e-12 || TAU - diff < 1e-12, "branch {branch} th2 {th2}");
+            assert!(branch * (th4 - th3).sin() > 0.0);
+        }
+    }
+    // With the crank straight up, the open assembly has B above the ground line.
+    let fb = FourBar::new(d, a, b, c, 1.0, Rotation::Fixed { angle: PI / 2.0 }).unwrap();
+    assert!(fb.rocker_frame(0.0).point(c).pos[1] > 0.0);
+}
+
+#[test]
+fn four_bar_angles_are_continuous() {
+    // Two crank turns: crank-rocker angles oscillate, drag-link angles turn with the crank.
+    let d = Rotation::Constant { angle0: 0.0, rate: TAU };
+    for fb in four_bars(&d) {
+        let ts = times(0.0, 2.0, 4001);
+        for w in ts.windows(2) {
+            for f in [FourBar::coupler_frame, FourBar::rocker_frame] {
+                let jump = (f(&fb, w[1]).angle - f(&fb, w[0]).angle).abs();
+                assert!(jump < 0.05, "jump {jump} at t = {} in {fb:?}", w[0]);
+            }
+        }
+        let turns = (fb.coupler_frame(2.0).angle - fb.coupler_frame(0.0).angle) / TAU;
+        let expected = if fb.crank() > fb.ground() { 2.0 } else { 0.0 };
+        assert!((turns - expected).abs() < 1e-9, "coupler turns {turns} in {fb:?}");
+    }
+}
+
+#[test]
+fn four_bar_check_reports_failures() {
+    let spin = Rotation::Constant { angle0: 0.0, rate: 3.0 };
+    // Can never close.
+    let fb = FourBar::new(10.0, 1.0, 1.0, 1.0, 1.0, spin.clone()).unwrap();
+    let msg = err_message(fb.check("links[0].frame", 1.0).unwrap_err());
+    assert!(msg.starts_with("links[0].frame: the four-bar does not close at crank angle 0 rad (t = 0 s)"));
+    assert!(msg.contains("|coupler - rocker| <= |A - O4| <= coupler + rocker violated"));
+    assert!(
+        msg.contains("non-Grashof") && msg.contains("closes at no crank angle"),
+        "{msg}"
+    );
+    // Non-Grashof (s + l = 5 > p + q = 4.7): closes for |theta2| <= acos(-0.7575) = 2.43 rad.
+    let rock = |amplitude: f64| Rotation::Harmonic {
+        mean: 0.0,
+        amplitude,
+        frequency: 1.0,
+        phase: 0.0,
+    };
+    let fb = FourBar::new(2.0, 3.0, 2.5, 2.2, 1.0, rock(1.0)).unwrap();
+    fb.check("fb", 3.0).unwrap();
+    let fb = FourBar::new(2.0, 3.0, 2.5, 2.2, 1.0, rock(3.0)).unwrap();
+    let msg = err_message(fb.check("fb", 3.0).unwrap_err());
+    assert!(msg.contains("does not close") && msg.contains("non-Grashof"), "{msg}");
+    assert!(msg.contains("[0, 2.43"), "{msg}");
+    // ... but only once the driver gets there.
+    FourBar::new(2.0, 3.0, 2.5, 2.2, 1.0, rock(3.0))
+        .unwrap()
+        .check("fb", 0.1)
+        .unwrap();
+    // Grashof, rocker shortest: the crank cannot turn fully.
+    let fb = FourBar::new(0.4, 0.3, 0.35, 0.1, 1.0, spin.clone()).unwrap();
+    let msg = err_message(fb.check("fb", 3.0).unwrap_err());
+    assert!(msg.contains("coupler or rocker is the shortest"), "{msg}");
+    // Parallelogram: dead centre at theta2 = pi (found between samples).
+    let fb = FourBar::new(2.0, 1.0, 2.0, 1.0, 1.0, Rotation::Constant { angle0: 0.5, rate: 1.0 }).unwrap();
+    fb.check("fb", 1.0).unwrap();
+    let msg = err_message(fb.check("fb", 4.0).unwrap_err());
+    assert!(msg.contains("dead-centre") && msg.contains("change-point"), "{msg}");
+    assert!(msg.contains(&format!("crank angle {PI} rad")), "{msg}");
+    // A harmonic driver just past the limit (2.43027 rad) is caught at its peak, which is
+    // among the sampled times.
+    let peak = |amplitude: f64| Rotation::Harmonic {
+        mean: 0.0,
+        amplitude,
+        frequency: 0.37,
+        phase: 0.1,
+    };
+    let fb = FourBar::new(2.0, 3.0, 2.5, 2.2, 1.0, peak(2.4303)).unwrap();
+    let t_peak = (0.5 * PI - 0.1) / (TAU * 0.37);
+    assert!(fb.check_times(100.0).contains(&t_peak));
+    assert!(fb.check("fb", 100.0).is_err());
+    FourBar::new(2.0, 3.0, 2.5, 2.2, 1.0, peak(2.4302))
+        .unwrap()
+        .check("fb", 100.0)
+        .unwrap();
+    // Parameter errors.
+    assert_eq!(err_name(fb.check("fb", -1.0).unwrap_err()), "t_end");
+    assert_eq!(err_name(fb.check("fb", f64::NAN).unwrap_err()), "t_end");
+    let table = Rotation::tabulated(vec![0.0, 1.0], vec![0.0, 0.1], None, None).unwrap();
+    let fb = FourBar::new(0.4, 0.1, 0.35, 0.3, 1.0, table).unwrap();
+    fb.check("fb", 1.0).unwrap();
+    assert_eq!(err_name(fb.check("fb", 2.0).unwrap_err()), "fb.driver.time");
+}
+
+#[test]
+fn four_bar_rejects_bad_parameters() {
+    let d = || Rotation::Fixed { angle: 0.0 };
+    let e = |r: Result<FourBar>| err_name(r.unwrap_err());
+    assert_eq!(e(FourBar::new(-1.0, 1.0, 1.0, 1.0, 1.0, d())), "ground");
+    assert_eq!(e(FourBar::new(1.0, 0.0, 1.0, 1.0, 1.0, d())), "crank");
+    assert_eq!(e(FourBar::new(1.0, 1.0, f64::NAN, 1.0, 1.0, d())), "coupler");
+    assert_eq!(e(FourBar::new(1.0, 1.0, 1.0, f64::INFINITY, 1.0, d())), "rocker");
+    assert_eq!(e(FourBar::new(1.0, 1.0, 1.0, 1.0, 0.0, d())), "branch");
+    assert_eq!(e(FourBar::new(1.0, 1.0, 1.0, 1.0, 0.5, d())), "branch");
+    assert_eq!(
+        e(FourBar::new(
+            1.0,
+            1.0,
+            1.0,
+            1.0,
+            1.0,
+            Rotation::Fixed { angle: f64::NAN }
+        )),
+        "driver.angle"
+    );
+}
+
+#[test]
+fn frame_kinematics_wrappers() {
+    let driver = Rotation::SpinUp {
+        angle0: 0.1,
+        final_rate: 8.0,
+        ramp_time: 0.5,
+    };
+    let sc = Arc::new(SliderCrank::new(0.1, 0.4, 0.02, driver.clone()).unwrap());
+    let fb = Arc::new(FourBar::new(0.4, 0.1, 0.35, 0.3, 1.0, driver.clone()).unwrap());
+    let mut frames: Vec<(Arc<dyn FrameKinematics>, FrameState)> = Vec::new();
+    let t = 0.73;
+    for (link, want) in [
+        (SliderCrankLink::Crank, sc.crank_frame(t)),
+        (SliderCrankLink::Rod, sc.rod_frame(t)),
+        (SliderCrankLink::Slider, sc.slider_frame(t)),
+    ] {
+        let f: Arc<dyn FrameKinematics> = Arc::new(SliderCrankFrame {
+            mechanism: sc.clone(),
+            link,
+        });
+        frames.push((f, want));
+    }
+    for (link, want) in [
+        (FourBarLink::Crank, fb.crank_frame(t)),
+        (FourBarLink::Coupler, fb.coupler_frame(t)),
+        (FourBarLink::Rocker, fb.rocker_frame(t)),
+    ] {
+        let f: Arc<dyn FrameKinematics> = Arc::new(FourBarFrame {
+            mechanism: fb.clone(),
+            link,
+        });
+        frames.push((f, want));
+    }
+    let rot = RotatingFrame::new(Motion::Fixed { position: [1.0, 2.0] }, driver).unwrap();
+    let want = FrameState {
+        origin: [1.0, 2.0],
+        angle: sc.crank_frame(t).angle,
+        rate: sc.crank_frame(t).rate,
+        accel: sc.crank_frame(t).accel,
+        ..FrameState::default()
+    };
+    let f: Arc<dyn FrameKinematics> = Arc::new(rot);
+    frames.push((f, want));
+    for (f, want) in &frames {
+        assert_eq!(f.frame(t), *want, "{f:?}");
+        f.check("f", 10.0).unwrap();
+    }
+    // rotates / translates: crank, rod, slider, crank, coupler, rocker, rotating frame.
+    let flags: Vec<(bool, bool)> = frames.iter().map(|(f, _)| (f.rotates(), f.translates())).collect();
+    let (y, n) = (true, false);
+    assert_eq!(flags, [(y, n), (y, y), (n, y), (y, n), (y, y), (y, n), (y, n)]);
+    let still = FourBarFrame {
+        mechanism: Arc::new(FourBar::new(0.4, 0.1, 0.35, 0.3, 1.0, Rotation::Fixed { angle: 1.0 }).unwrap()),
+        link: FourBarLink::Coupler,
+    };
+    assert!(!still.rotates() && !still.translates());
+    let table_zero = Rotation::tabulated(vec![0.0, 1.0], vec![0.5, 0.5], None, None).unwrap();
+    assert!(table_zero.is_fixed());
+    assert!(Rotation::Constant { angle0: 1.0, rate: 0.0 }.is_fixed());
+    assert!(!smooth_drivers().iter().any(Rotation::is_fixed));
+    assert_eq!(sc.slider_frame(t).origin, sc.slider(t).pos);
+    let ((th, _, _), (psi, _, _)) = sc.angles(t);
+    assert_eq!((th, psi), (sc.crank_frame(t).angle, sc.rod_frame(t).angle));
+
+    // Checks through the trait: coverage of tables and parameter validation.
+    let table = Rotation::tabulated(vec![0.0, 1.0], vec![0.0, 1.0], None, None).unwrap();
+    let short = RotatingFrame {
+        origin: Motion::Fixed { position: [0.0, 0.0] },
+        rotation: table.clone(),
+    };
+    assert!(short.check("f", 1.0).is_ok());
+    assert_eq!(err_name(short.check("f", 2.0).unwrap_err()), "f.rotation.time");
+    let origin = Table::new("o", vec![0.0, 0.5], vec![[0.0, 0.0], [1.0, 0.0]], None, None).unwrap();
+    let moving = RotatingFrame {
+        origin: Motion::Tabulated(origin),
+        rotation: table.clone(),
+    };
+    assert_eq!(err_name(moving.check("f", 1.0).unwrap_err()), "f.origin.time");
+    let bad = RotatingFrame {
+        origin: Motion::Fixed { position: [0.0, 0.0] },
+        rotation: Rotation::Harmonic {
+            mean: 0.0,
+            amplitude: 1.0,
+            frequency: f64::NAN,
+            phase: 0.0,
+        },
+    };
+    assert_eq!(err_name(bad.check("f", 1.0).unwrap_err()), "f.rotation.frequency");
+    assert_eq!(
+        err_name(
+            RotatingFrame::new(
+                Motion::Fixed {
+                    position: [f64::NAN, 0.0]
+                },
+                table.clone()
+            )
+            .unwrap_err()
+        ),
+        "origin.position[0]"
+    );
+    let sct = SliderCrankFrame {
+        mechanism: Arc::new(SliderCrank::new(0.1, 0.4, 0.0, table).unwrap()),
+        link: SliderCrankLink::Rod,
+    };
+    assert!(sct.check("s", 1.0).is_ok());
+    assert!(sct.rotates() && sct.translates());
+    assert_eq!(err_name(sct.check("s", 1.5).unwrap_err()), "s.driver.time");
+}

@@ -1,0 +1,14 @@
+//! Linear solves with faer: a simplicial sparse Cholesky (LDL^T) whose symbolic analysis is done
+//! once per pattern and whose numeric factorization is redone into persistent buffers, plus the
+//! low-rank (Sherman-Morrison-Woodbury) correction that lets the contact-free factorization serve
+//! a step whose effective matrix differs only on the joints' DOFs (docs/method.md section 5).
+//!
+//! Nothing here allocates after construction.
+
+mod band_lu;
+mod dense;
+mod ldlt;
+
+pub use band_lu::BandLu;
+pub use dense::solve_dense_in_place;
+pub use ldlt::{Analysis, AnalysisCache, Cholesky, BAND};
