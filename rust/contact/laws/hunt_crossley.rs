@@ -1,48 +1,11 @@
 //! The Hunt-Crossley law (1975): hysteresis damping proportional to the elastic force.
 
 use super::power::hysteresis_law;
-use super::{DEFAULT_EXPONENT, DEFAULT_MIN_APPROACH_SPEED};
 
-/// Hunt & Crossley (1975), "Coefficient of restitution interpreted as damping in vibroimpact",
-/// J. Appl. Mech. 42:440-445: `chi = 3 (1 - e) / 2`, derived for `e` near 1. Nominal `e` in
-/// [0, 1]; its effective restitution exceeds `e` as `e` falls (0.663 at nominal 0.5).
-///
-/// `F = K d^n (1 + chi dd / v0)` for `d > 0` with `v0 = max(approach speed of the episode,
-/// min_approach_speed)`; with `clip_tension` the force is `max(F, 0)` (see the module
-/// documentation of [`laws`](super) for both choices).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HuntCrossley {
-    /// Stiffness coefficient `K`, N/m^n.
-    pub stiffness: f64,
-    /// Exponent `n`, default 1.5.
-    pub exponent: f64,
-    /// Nominal coefficient of restitution `e` (dimensionless).
-    pub restitution: f64,
-    /// Floor of the approach speed, m/s (default 1e-3).
-    pub min_approach_speed: f64,
-    /// Clip a tensile force to zero (default true).
-    pub clip_tension: bool,
+hysteresis_law! {
+    /// Hunt & Crossley (1975), "Coefficient of restitution interpreted as damping in vibroimpact",
+    /// J. Appl. Mech. 42:440-445: `chi = 3 (1 - e) / 2`, derived for `e` near 1. Nominal `e` in
+    /// [0, 1]; its effective restitution exceeds `e` as `e` falls (0.663 at nominal 0.5).
+    HuntCrossley, "HuntCrossley", restitution_from(0.0, open: false),
+    chi(e) = 1.5 * (1.0 - e), "`chi = 3 (1 - e) / 2`"
 }
-
-impl HuntCrossley {
-    /// Stiffness `K` (N/m^1.5) and nominal restitution `e`, other parameters at their
-    /// defaults (n = 1.5, floor 1e-3 m/s, tension clipped).
-    pub fn new(stiffness: f64, restitution: f64) -> Self {
-        HuntCrossley {
-            stiffness,
-            exponent: DEFAULT_EXPONENT,
-            restitution,
-            min_approach_speed: DEFAULT_MIN_APPROACH_SPEED,
-            clip_tension: true,
-        }
-    }
-
-    /// Hysteresis factor `chi = 3 (1 - e) / 2` (dimensionless).
-    #[inline]
-    pub fn chi(&self) -> f64 {
-        let e = self.restitution;
-        1.5 * (1.0 - e)
-    }
-}
-
-hysteresis_law!(HuntCrossley, "HuntCrossley", 0.0, false);

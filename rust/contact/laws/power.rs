@@ -104,8 +104,50 @@ impl NormalLaw for PowerLaw {
 /// `min_approach_speed` and `clip_tension` and a method `chi()`, by delegation to
 /// [`PowerLaw`]; `$lo`/`$lo_open` give the restitution's lower bound.
 macro_rules! hysteresis_law {
-    ($ty:ident, $name:literal, $lo:expr, $lo_open:expr) => {
+    (
+        $(#[$doc:meta])*
+        $ty:ident, $name:literal, restitution_from($lo:expr, open: $lo_open:expr),
+        chi($e:ident) = $chi:expr, $chi_doc:literal
+    ) => {
+        $(#[$doc])*
+        ///
+        /// `F = K d^n (1 + chi dd / v0)` for `d > 0` with `v0 = max(approach speed of the episode,
+        /// min_approach_speed)`; with `clip_tension` the force is `max(F, 0)` (see the module
+        /// documentation of [`laws`](super) for both choices).
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub struct $ty {
+            /// Stiffness coefficient `K`, N/m^n.
+            pub stiffness: f64,
+            /// Exponent `n`, default 1.5.
+            pub exponent: f64,
+            /// Nominal coefficient of restitution `e` (dimensionless).
+            pub restitution: f64,
+            /// Floor of the approach speed, m/s (default 1e-3).
+            pub min_approach_speed: f64,
+            /// Clip a tensile force to zero (default true).
+            pub clip_tension: bool,
+        }
+
         impl $ty {
+            /// Stiffness `K` (N/m^1.5) and nominal restitution `e`, other parameters at their
+            /// defaults (n = 1.5, floor 1e-3 m/s, tension clipped).
+            pub fn new(stiffness: f64, restitution: f64) -> Self {
+                $ty {
+                    stiffness,
+                    exponent: super::DEFAULT_EXPONENT,
+                    restitution,
+                    min_approach_speed: super::DEFAULT_MIN_APPROACH_SPEED,
+                    clip_tension: true,
+                }
+            }
+
+            #[doc = concat!("Hysteresis factor ", $chi_doc, " (dimensionless).")]
+            #[inline]
+            pub fn chi(&self) -> f64 {
+                let $e = self.restitution;
+                $chi
+            }
+
             /// The law as a [`PowerLaw`](super::PowerLaw) with its `chi`.
             pub fn power(&self) -> super::PowerLaw {
                 super::PowerLaw {
