@@ -17,18 +17,31 @@ use crate::error::Error;
 /// A float64 array handed to Python.
 type Array<'py> = Bound<'py, PyArray1<f64>>;
 
-/// The slices of `arrays`, which must all have the length of the first.
-fn slices<'a>(py: Python<'_>, names: &str, arrays: &[&'a PyReadonlyArray1<'_, f64>]) -> PyResult<Vec<&'a [f64]>> {
-    let out = arrays.iter().map(|a| a.as_slice()).collect::<Result<Vec<_>, _>>()?;
-    let n = out[0].len();
-    if out.iter().any(|s| s.len() != n) {
-        let lens: Vec<String> = out.iter().map(|s| s.len().to_string()).collect();
+/// `f` applied elementwise to `arrays` (which must all have one length), into `K` new arrays;
+/// `names` names the arguments in the error.
+fn map_arrays<'py, const N: usize, const K: usize>(
+    py: Python<'py>,
+    names: &str,
+    arrays: [&PyReadonlyArray1<'_, f64>; N],
+    f: impl Fn([f64; N]) -> [f64; K],
+) -> PyResult<[Array<'py>; K]> {
+    let s = arrays.iter().map(|a| a.as_slice()).collect::<Result<Vec<_>, _>>()?;
+    let n = s[0].len();
+    if s.iter().any(|x| x.len() != n) {
+        let lens: Vec<String> = s.iter().map(|x| x.len().to_string()).collect();
         return Err(err(
             py,
             Error::param(names, format!("lengths {}", lens.join(", ")), "arrays of one length"),
         ));
     }
-    Ok(out)
+    let mut out: [Vec<f64>; K] = std::array::from_fn(|_| Vec::with_capacity(n));
+    for i in 0..n {
+        let r = f(std::array::from_fn(|j| s[j][i]));
+        for (o, v) in out.iter_mut().zip(r) {
+            o.push(v);
+        }
+    }
+    Ok(out.map(|v| PyArray1::from_vec(py, v)))
 }
 
 /// A normal-force law (kind = the Python class name).
@@ -124,15 +137,13 @@ impl PyNormalLaw {
         rate: PyReadonlyArray1<'_, f64>,
         approach_speed: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<Array<'py>> {
-        let s = slices(
+        let [f] = map_arrays(
             py,
             "penetration, rate, approach_speed",
-            &[&penetration, &rate, &approach_speed],
+            [&penetration, &rate, &approach_speed],
+            |[x0, x1, x2]| [self.inner.force(x0, x1, x2)],
         )?;
-        let f: Vec<f64> = (0..s[0].len())
-            .map(|i| self.inner.force(s[0][i], s[1][i], s[2][i]))
-            .collect();
-        Ok(PyArray1::from_vec(py, f))
+        Ok(f)
     }
 
     /// Tangents `(dF/dd` in N/m, `dF/d(dd)` in N s/m) at the same arguments as `force`.
@@ -143,15 +154,16 @@ impl PyNormalLaw {
         rate: PyReadonlyArray1<'_, f64>,
         approach_speed: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<(Array<'py>, Array<'py>)> {
-        let s = slices(
+        let [a, b] = map_arrays(
             py,
             "penetration, rate, approach_speed",
-            &[&penetration, &rate, &approach_speed],
+            [&penetration, &rate, &approach_speed],
+            |[x0, x1, x2]| {
+                let (a, b) = self.inner.tangent(x0, x1, x2);
+                [a, b]
+            },
         )?;
-        let (a, b): (Vec<f64>, Vec<f64>) = (0..s[0].len())
-            .map(|i| self.inner.tangent(s[0][i], s[1][i], s[2][i]))
-            .unzip();
-        Ok((PyArray1::from_vec(py, a), PyArray1::from_vec(py, b)))
+        Ok((a, b))
     }
 
     /// One impact of `mass` (kg) at `approach_speed` (m/s): `(restitution, contact_time` in s,
@@ -223,9 +235,13 @@ impl PyCoulomb {
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<Array<'py>> {
-        let s = slices(py, "slip_speed, normal_force", &[&slip_speed, &normal_force])?;
-        let f: Vec<f64> = (0..s[0].len()).map(|i| self.inner.force(s[0][i], s[1][i])).collect();
-        Ok(PyArray1::from_vec(py, f))
+        let [f] = map_arrays(
+            py,
+            "slip_speed, normal_force",
+            [&slip_speed, &normal_force],
+            |[x0, x1]| [self.inner.force(x0, x1)],
+        )?;
+        Ok(f)
     }
 
     /// Tangents `(dF/dv` in N s/m, `dF/dF_N)`.
@@ -235,9 +251,16 @@ impl PyCoulomb {
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<(Array<'py>, Array<'py>)> {
-        let s = slices(py, "slip_speed, normal_force", &[&slip_speed, &normal_force])?;
-        let (a, b): (Vec<f64>, Vec<f64>) = (0..s[0].len()).map(|i| self.inner.tangent(s[0][i], s[1][i])).unzip();
-        Ok((PyArray1::from_vec(py, a), PyArray1::from_vec(py, b)))
+        let [a, b] = map_arrays(
+            py,
+            "slip_speed, normal_force",
+            [&slip_speed, &normal_force],
+            |[x0, x1]| {
+                let (a, b) = self.inner.tangent(x0, x1);
+                [a, b]
+            },
+        )?;
+        Ok((a, b))
     }
 }
 
@@ -281,11 +304,10 @@ impl PyLuGre {
         state: PyReadonlyArray1<'_, f64>,
         slip_speed: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<Array<'py>> {
-        let s = slices(py, "state, slip_speed", &[&state, &slip_speed])?;
-        let f: Vec<f64> = (0..s[0].len())
-            .map(|i| self.inner.derivative(s[0][i], s[1][i]))
-            .collect();
-        Ok(PyArray1::from_vec(py, f))
+        let [f] = map_arrays(py, "state, slip_speed", [&state, &slip_speed], |[x0, x1]| {
+            [self.inner.derivative(x0, x1)]
+        })?;
+        Ok(f)
     }
 
     /// The state (m) after `dt` (s) at constant slip speed, exactly.
@@ -296,11 +318,13 @@ impl PyLuGre {
         slip_speed: PyReadonlyArray1<'_, f64>,
         dt: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<Array<'py>> {
-        let s = slices(py, "state, slip_speed, dt", &[&state, &slip_speed, &dt])?;
-        let f: Vec<f64> = (0..s[0].len())
-            .map(|i| self.inner.advance(s[0][i], s[1][i], s[2][i]))
-            .collect();
-        Ok(PyArray1::from_vec(py, f))
+        let [f] = map_arrays(
+            py,
+            "state, slip_speed, dt",
+            [&state, &slip_speed, &dt],
+            |[x0, x1, x2]| [self.inner.advance(x0, x1, x2)],
+        )?;
+        Ok(f)
     }
 
     /// Steady state (m) at slip speed (m/s).
@@ -320,15 +344,13 @@ impl PyLuGre {
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<Array<'py>> {
-        let s = slices(
+        let [f] = map_arrays(
             py,
             "state, slip_speed, normal_force",
-            &[&state, &slip_speed, &normal_force],
+            [&state, &slip_speed, &normal_force],
+            |[x0, x1, x2]| [self.inner.force(x0, x1, x2)],
         )?;
-        let f: Vec<f64> = (0..s[0].len())
-            .map(|i| self.inner.force(s[0][i], s[1][i], s[2][i]))
-            .collect();
-        Ok(PyArray1::from_vec(py, f))
+        Ok(f)
     }
 
     /// Tangents `(dF/dz` in N/m, `dF/dv` in N s/m, `dF/dF_N)`.
@@ -339,24 +361,16 @@ impl PyLuGre {
         slip_speed: PyReadonlyArray1<'_, f64>,
         normal_force: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<(Array<'py>, Array<'py>, Array<'py>)> {
-        let s = slices(
+        let [a, b, c] = map_arrays(
             py,
             "state, slip_speed, normal_force",
-            &[&state, &slip_speed, &normal_force],
+            [&state, &slip_speed, &normal_force],
+            |[x0, x1, x2]| {
+                let (a, b, c) = self.inner.tangent(x0, x1, x2);
+                [a, b, c]
+            },
         )?;
-        let n = s[0].len();
-        let (mut a, mut b, mut c) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-        for i in 0..n {
-            let t = self.inner.tangent(s[0][i], s[1][i], s[2][i]);
-            a.push(t.0);
-            b.push(t.1);
-            c.push(t.2);
-        }
-        Ok((
-            PyArray1::from_vec(py, a),
-            PyArray1::from_vec(py, b),
-            PyArray1::from_vec(py, c),
-        ))
+        Ok((a, b, c))
     }
 }
 
