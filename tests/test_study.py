@@ -285,6 +285,36 @@ def test_diverging_and_invalid_samples_are_flagged_and_the_batch_goes_on():
 # -- designs and marginals -------------------------------------------------------------------------
 
 
+def test_given_design_runs_exactly_the_samples_given_row_by_row():
+    inputs = pd.DataFrame({"clearance": [1e-4, 3e-4, 2e-4], "elements": [6.0, 8.0, 6.0]})
+    s = Study.from_inputs("slider_yoke", inputs, t_end=0.004, dt=1e-5)
+    assert (s.design, s.samples) == ("given", 3)
+    x = s.inputs()
+    assert list(x["clearance"]) == [1e-4, 3e-4, 2e-4]
+    assert list(x["elements"]) == [6, 8, 6] and x["elements"].dtype.kind == "i"
+    # the definition survives the round trip through plain data (what a store keeps)
+    again = Study.from_dict(s.to_dict())
+    assert again.fingerprint() == s.fingerprint() and again.inputs().equals(x)
+    # each sample is the run of its own row: the same as a single-sample study of that row
+    res = s.run(progress=False, threads=2)
+    one = Study.from_inputs("slider_yoke", {"clearance": [3e-4], "elements": [8]}, t_end=0.004, dt=1e-5)
+    row = one.run(progress=False).frame.iloc[0]
+    assert res.frame.loc[1, "bearing.max_penetration"] == row["bearing.max_penetration"]
+
+
+def test_given_design_errors_name_what_is_wrong():
+    with pytest.raises(flexclear.InvalidParameterError, match="one length"):
+        Study("slider_yoke", vary={"clearance": [1e-4, 2e-4], "amplitude": [0.01]}, design="given")
+    with pytest.raises(flexclear.InvalidParameterError, match="each a list"):
+        Study("slider_yoke", vary={"clearance": Uniform(1e-4, 2e-4)}, design="given")
+    with pytest.raises(flexclear.InvalidParameterError, match="at least one parameter"):
+        Study("slider_yoke", design="given")
+    with pytest.raises(flexclear.InvalidParameterError, match="come from inputs"):
+        Study.from_inputs("slider_yoke", {"clearance": [1e-4]}, samples=3)
+    with pytest.raises(flexclear.InvalidParameterError, match="mapping name"):
+        Study.from_inputs("slider_yoke", {"clearance": ["a"]})
+
+
 def test_latin_hypercube_puts_one_sample_in_each_stratum():
     n = 50
     s = Study(

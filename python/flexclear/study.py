@@ -296,7 +296,7 @@ def _label(name: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-DESIGNS = ("random", "lhs", "sobol", "grid")
+DESIGNS = ("random", "lhs", "sobol", "grid", "given")
 #: Most samples a study may have (its inputs alone are samples x parameters x 8 bytes).
 MAX_SAMPLES = 10**8
 _STATUS = ("ok", "diverged", "unconverged", "invalid", "singular", "interrupted", "not_run")
@@ -418,9 +418,12 @@ class Study:
     samples : int
         Number of samples (ignored by the ``"grid"`` design, whose size is the product of the
         levels).
-    design : {"random", "lhs", "sobol", "grid"}
+    design : {"random", "lhs", "sobol", "grid", "given"}
         Plain random draws, Latin hypercube, scrambled Sobol (best balanced at a power of two),
-        or the full grid (lists as given; a distribution contributes ``levels`` quantiles).
+        the full grid (lists as given; a distribution contributes ``levels`` quantiles), or the
+        samples given row by row: every parameter a list of one common length ``n``, sample
+        ``i`` takes the ``i``-th value of each (``samples`` is then ``n``; see also
+        :meth:`Study.from_inputs`).
     seed : int
         Seed of the design: the same seed gives the same samples and, the runs being
         deterministic, the same results.
@@ -511,6 +514,24 @@ class Study:
             raise InvalidParameterError(f"levels = {levels!r} is not allowed; allowed: an integer >= 1")
         if not isinstance(seed, (int, np.integer)) or seed < 0:
             raise InvalidParameterError(f"seed = {seed!r} is not allowed; allowed: an integer >= 0")
+        if design == "given":
+            lengths = {k: len(d.values) if isinstance(d, Values) else None for k, d in self.vary.items()}
+            not_lists = sorted(k for k, n in lengths.items() if n is None)
+            if not lengths or not_lists:
+                raise InvalidParameterError(
+                    f"vary = {not_lists or '{}'} is not allowed with design = 'given'; allowed: "
+                    "at least one parameter, each a list (Values) of the samples' values"
+                )
+            if len(set(lengths.values())) > 1:
+                raise InvalidParameterError(
+                    f"vary lengths {lengths} are not allowed with design = 'given'; allowed: lists of one "
+                    "length (one value per sample)"
+                )
+            samples = next(iter(lengths.values()))
+            if samples > MAX_SAMPLES:
+                raise InvalidParameterError(
+                    f"{samples:,} given samples are not allowed; allowed: at most {MAX_SAMPLES:,}"
+                )
         self.samples, self.levels, self.seed = int(samples), int(levels), int(seed)
         if design == "grid":
             size = 1
@@ -642,6 +663,34 @@ class Study:
         vary = {k: distribution_from_dict(k, v) for k, v in (d.pop("vary", None) or {}).items()}
         return cls(vary=vary, **d)
 
+    @classmethod
+    def from_inputs(cls, build: Union[str, Callable], inputs: Any, **kwargs: Any) -> Study:
+        """A study of exactly the samples in ``inputs`` (design ``"given"``).
+
+        Parameters
+        ----------
+        build : str or callable
+            As for :class:`Study`.
+        inputs : pandas.DataFrame or mapping
+            One column (or key) per varied parameter, one row (or list entry) per sample, in the
+            builder's units.
+        **kwargs
+            Other :class:`Study` arguments (``fixed``, ``t_end``, ``dt``, ``outputs``, ...);
+            ``vary``, ``design`` and ``samples`` come from ``inputs``.
+        """
+        clash = sorted({"vary", "design", "samples"} & set(kwargs))
+        if clash:
+            raise InvalidParameterError(f"{clash} may not be given to from_inputs; they come from inputs")
+        try:
+            columns = {str(k): np.asarray(inputs[k], dtype=float).reshape(-1).tolist() for k in inputs}
+        except (TypeError, ValueError, KeyError) as e:
+            raise InvalidParameterError(
+                f"inputs = {type(inputs).__name__} is not allowed ({e}); allowed: a DataFrame or a "
+                "mapping name -> sequence of numbers"
+            ) from None
+        vary = {k: Values(v) if v else v for k, v in columns.items()}
+        return cls(build, vary=vary, design="given", **kwargs)
+
     @property
     def output_columns(self) -> list[str]:
         """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output."""
@@ -685,7 +734,9 @@ class Study:
         if self._inputs is not None:
             return self._inputs
         names = list(self.vary)
-        if self.design == "grid":
+        if self.design == "given":
+            table = np.column_stack([np.asarray(self.vary[k].values, dtype=float) for k in names])
+        elif self.design == "grid":
             axes = []
             for k in names:
                 dist = self.vary[k]

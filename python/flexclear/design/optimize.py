@@ -56,13 +56,9 @@ class _Batch:
         if self.evaluate is not None:
             y = np.asarray(self.evaluate(inputs), dtype=float).reshape(-1)
         else:
-            from ..study import Study, Uniform
+            from ..study import Study
 
-            vary = {
-                k: Uniform(float(inputs[k].min()) - 1.0, float(inputs[k].max()) + 1.0) for k in self.names
-            }
-            study = Study(self.build, vary=vary, fixed=self.fixed, samples=len(inputs), **self.options)
-            study._inputs = inputs  # these exact samples (a study's inputs are otherwise drawn)
+            study = Study.from_inputs(self.build, inputs, fixed=self.fixed, **self.options)
             res = study.run(progress=False, threads=self.threads)
             if callable(self.objective):
                 y = np.asarray(self.objective(res), dtype=float).reshape(-1)
