@@ -274,13 +274,7 @@ impl AngleTable {
 
     /// `(angle, rate, accel)` at `t` (s), linearly interpolated, held outside the table.
     fn eval(&self, t: f64) -> (f64, f64, f64) {
-        let n = self.time.len();
-        let i = match self.time.partition_point(|&x| x <= t) {
-            0 => 0,
-            k if k >= n => n - 2,
-            k => k - 1,
-        };
-        let s = ((t - self.time[i]) / (self.time[i + 1] - self.time[i])).clamp(0.0, 1.0);
+        let (i, s) = crate::model::motion::segment(&self.time, t);
         let lerp = |a: &[f64]| a[i] + s * (a[i + 1] - a[i]);
         (lerp(&self.angle), lerp(&self.rate), lerp(&self.accel))
     }

@@ -134,13 +134,7 @@ impl Table {
     }
 
     fn eval(&self, t: f64) -> Kinematics {
-        let n = self.time.len();
-        let i = match self.time.partition_point(|&x| x <= t) {
-            0 => 0,
-            k if k >= n => n - 2,
-            k => k - 1,
-        };
-        let s = ((t - self.time[i]) / (self.time[i + 1] - self.time[i])).clamp(0.0, 1.0);
+        let (i, s) = crate::model::motion::segment(&self.time, t);
         let lerp = |a: &[[f64; 2]]| {
             [
                 a[i][0] + s * (a[i + 1][0] - a[i][0]),
@@ -210,4 +204,17 @@ impl Motion {
             Motion::Tabulated(_) => Ok(()),
         }
     }
+}
+
+/// The segment of the strictly increasing sample times `time` (at least two) that holds `t`, s,
+/// and the fraction of the way through it, clamped to [0, 1]: values held outside the table.
+#[inline]
+pub(crate) fn segment(time: &[f64], t: f64) -> (usize, f64) {
+    let n = time.len();
+    let i = match time.partition_point(|&x| x <= t) {
+        0 => 0,
+        k if k >= n => n - 2,
+        k => k - 1,
+    };
+    (i, ((t - time[i]) / (time[i + 1] - time[i])).clamp(0.0, 1.0))
 }
