@@ -296,6 +296,45 @@ def test_optimizer_on_the_slider_yoke():
     assert opt.fun < ends.fun
 
 
+PRELOAD_CASE = {"clearance_at": "crank_pin", "clearance": 5e-4, "crank_speed": 50.0}
+
+
+def _preloaded_peak(preload: float, dt: float = 1e-5):
+    """Peak crank-pin force (N) and impacts over turns 2 and 3 of the preloaded slider-crank."""
+    turn = 2 * np.pi / PRELOAD_CASE["crank_speed"]
+    m = design.preloaded_slider_crank(preload, **PRELOAD_CASE)
+    rec = fc.Record(histories=False, start=turn)
+    j = m.simulate(3 * turn, dt, iterate=True, record=rec).joint("crank_pin")
+    return j.max_force, j.impacts
+
+
+def test_preload_past_the_impact_threshold_adds_one_to_one_to_the_pin_force():
+    """The worked example's physics. A compressive preload P along the rod keeps the crank-pin
+    journal on the bearing wall once P exceeds the largest tension the ideal linkage puts
+    through the pin; from there the pin carries the ideal force plus the preload (a static load
+    path through the axially stiff rod), so the peak force grows one to one with P and no impact
+    occurs; below the threshold the journal crosses the clearance and impacts set the peak."""
+    (f200, i200), (f300, i300) = _preloaded_peak(200.0), _preloaded_peak(300.0)
+    assert i200 == i300 == 0
+    # the dynamic part of the pin force does not depend on the preload, which adds along the rod:
+    # the peak grows by P cos(a), a the angle between the peak force and the rod axis (a few
+    # degrees near dead centre: 0.99 allows 8 degrees), never by more than P
+    slope = (f300 - f200) / 100.0
+    assert 0.99 <= slope <= 1.0 + 1e-9
+    f0, i0 = _preloaded_peak(0.0)
+    assert i0 > 50 and f0 > f200  # unloaded: the journal rattles and hits harder
+
+
+def test_preloaded_builder_is_rebuilt_by_the_design_methods():
+    m = design.preloaded_slider_crank(150.0, **PRELOAD_CASE)
+    assert m.parameters["preload"] == 150.0
+    build, kwargs = design._common.builder(m)
+    assert build is design.preloaded_slider_crank and kwargs["preload"] == 150.0
+    assert kwargs["clearance_at"] == "crank_pin"
+    with pytest.raises(fc.InvalidParameterError, match="preload"):
+        design.preloaded_slider_crank(-1.0)
+
+
 def test_optimizer_errors():
     with pytest.raises(fc.InvalidParameterError, match="bounds"):
         design.optimize(None, None, {"a": (1.0, 0.0)}, evaluate=lambda df: df["a"].to_numpy())
@@ -311,7 +350,8 @@ def test_optimizer_errors():
 def test_design_cli_report(tmp_path, capsys):
     from flexclear.cli import main
 
-    assert main(["design", "--out", str(tmp_path), "--t-end", "0.1"]) == 0
+    assert main(["design", "--out", str(tmp_path), "--t-end", "0.1", "--quick"]) == 0
     text = (tmp_path / "design.md").read_text()
     assert "| c [m] |" in text and "departures matched" in text
+    assert "| preload [N] |" in text and (tmp_path / "preload.png").stat().st_size > 10_000
     assert (tmp_path / "contact_loss_c100um.png").stat().st_size > 10_000

@@ -4,6 +4,7 @@ run, statistical tolerance allocation and optimization on the study runner. See 
 
 from .contact_loss import ContactLoss, contact_loss, continuous_contact, wall_departures
 from .optimize import Optimum, optimize
+from .preload import preloaded_slider_crank
 from .tolerance import Allocation, allocate_tolerances
 
 __all__ = [
@@ -14,5 +15,6 @@ __all__ = [
     "contact_loss",
     "continuous_contact",
     "optimize",
+    "preloaded_slider_crank",
     "wall_departures",
 ]

@@ -36,6 +36,9 @@ _SCENES = ("slider_yoke", "slider_crank", "four_bar")
 
 def _scene_of(model: Model) -> tuple[str, Callable[..., Model], dict]:
     """The scene that built ``model`` and its keywords, recognised from ``model.parameters``."""
+    rebuild = getattr(model, "_rebuild", None)  # set by builders of this package that extend a scene
+    if rebuild is not None:
+        return rebuild
     params = model.parameters
     for name in _SCENES:
         fn = getattr(scenes, name)
