@@ -40,6 +40,9 @@ pub enum Error {
         what: String,
         /// Pivot index where the factorization failed.
         index: usize,
+        /// The unknown of that pivot in the user's terms ("theta of node 5000 of link \"rod\""),
+        /// empty where the factorization does not know the model.
+        dof: String,
     },
     /// The nonlinear iterations of a step (geometric stiffness, iterated contact) did not converge
     /// within the iteration cap, and step halving was not asked for or did not help.
@@ -101,8 +104,11 @@ impl fmt::Display for Error {
                 f,
                 "simulation diverged at t = {time:.6e} s (step {step}): {reason}; first at {dof}"
             ),
-            Error::Singular { what, index } => {
+            Error::Singular { what, index, dof } if dof.is_empty() => {
                 write!(f, "{what} is not positive definite (pivot {index})")
+            }
+            Error::Singular { what, index, dof } => {
+                write!(f, "{what} is not positive definite at {dof} (pivot {index})")
             }
             Error::NotConverged {
                 time,

@@ -37,11 +37,13 @@ pub fn natural_frequencies(model: &Model, count: usize) -> Result<Vec<f64>> {
     let chol = m.cholesky().ok_or(Error::Singular {
         what: "the mass matrix".into(),
         index: 0,
+        dof: String::new(),
     })?;
     let l = chol.l();
     let linv = l.clone().try_inverse().ok_or(Error::Singular {
         what: "the mass matrix".into(),
         index: 0,
+        dof: String::new(),
     })?;
     let a = &linv * k * linv.transpose();
     let a = (&a + a.transpose()) * 0.5;

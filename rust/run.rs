@@ -189,6 +189,10 @@ pub struct RunStats {
     pub stepper: &'static str,
     /// Newton stepper: substeps taken by step halving.
     pub halved_substeps: u64,
+    /// Newton stepper: steps accepted at the round-off floor, where the correction stalled
+    /// below [`crate::integrator::newton::ROUNDOFF_FLOOR`] but above the asked tolerance (a
+    /// tolerance finer than the arithmetic of that system can deliver).
+    pub roundoff_steps: u64,
     /// Newton stepper: event steps kept whole because a substep did not converge where the
     /// whole step did.
     pub event_fallbacks: u64,

@@ -46,10 +46,14 @@ class SingularMatrixError(FlexclearError, ArithmeticError):
         Which matrix.
     pivot : int
         Pivot index where the factorization failed.
+    dof : str
+        The unknown of that pivot in the model's terms (``'theta of node 5 of link "rod"'``,
+        ``'slider "slider"'``), or ``""`` where the matrix is not tied to a model's unknowns.
     """
 
     matrix: str = ""
     pivot: int = 0
+    dof: str = ""
 
 
 class SimulationDivergedError(FlexclearError, ArithmeticError):

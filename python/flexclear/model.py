@@ -60,6 +60,7 @@ _STAT_KEYS = (
     "woodbury_fallbacks",
     "unconverged_steps",
     "halved_substeps",
+    "roundoff_steps",
     "event_fallbacks",
 )
 

@@ -271,7 +271,9 @@ class Result:
         equations), ``method``, ``iterate``, ``iter_tol``, ``max_iter`` (the settings chosen),
         ``steps``, ``factorizations``, ``iterations``, ``max_iterations``, ``event_steps``,
         ``woodbury_steps``, ``woodbury_fallbacks``, ``unconverged_steps``, ``halved_substeps``,
-        ``event_fallbacks`` (counters that do not apply to the engine are 0), ``stepper``
+        ``roundoff_steps`` (Newton steps accepted at the round-off floor: the correction stopped
+        decreasing below 1e-6 of the displacement scale, above a tolerance finer than the
+        arithmetic delivers), ``event_fallbacks`` (counters that do not apply to the engine are 0), ``stepper``
         (``"constant"``: one factorization of a constant effective matrix, contact by Woodbury;
         ``"newton"``: the Jacobian refactorized when it changes), ``unknowns`` (number of
         unknowns), ``bandwidth`` (half-bandwidth of the Newton Jacobian, 0 for the constant

@@ -945,10 +945,10 @@ impl<'m> Lane<'m> {
             }
             chol.factorize(&self.ac_values, "the effective matrix with contact terms")
                 .map_err(|e| match e {
-                    Error::Singular { what, index } => Error::Diverged {
+                    Error::Singular { what, index, .. } => Error::Diverged {
                         time: t + self.settings.dt,
                         step: step + 1,
-                        dof: format!("pivot {index}"),
+                        dof: format!("{} (pivot {index})", self.sys.describe_dof(self.model, index)),
                         reason: format!("{what} is not positive definite"),
                     },
                     e => e,
@@ -1221,7 +1221,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             a0_values,
             zcols,
             wmat,
-        } = StepConsts::new(&sys, dt, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)))?;
+        } = StepConsts::new(&sys, dt, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)))
+            .map_err(|e| sys.name_pivot(runs[0].0, e))?;
         let joint_pos = sys
             .joints
             .iter()
@@ -1255,7 +1256,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     .all(|(x, y)| x.motion == y.motion && x.rotation == y.rotation && x.inertia_load == y.inertia_load)
         });
         let mut mchol = Cholesky::with_analysis(Arc::clone(&analysis));
-        mchol.factorize(&sys.mass, "the mass matrix")?;
+        mchol
+            .factorize(&sys.mass, "the mass matrix")
+            .map_err(|e| sys.name_pivot(runs[0].0, e))?;
         let mut run = Lockstep {
             sh: Shared {
                 frames: sys.frames(),

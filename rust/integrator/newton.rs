@@ -43,6 +43,15 @@ use crate::run::{RunFailure, RunOutput, RunStats, Settings};
 
 const NONE: usize = usize::MAX;
 
+/// Largest relative correction (of the displacement scale) that a step may stall at and still be
+/// accepted as converged at round-off: when a Newton correction below this level is no smaller
+/// than one of the two before it, the iterates are at the floor of the system's floating-point
+/// arithmetic (about eps times its conditioning: 1e-13 to 2e-12 on a 200-element rod), so a
+/// tolerance finer than that floor does not fail the run; such steps are counted in
+/// [`RunStats::roundoff_steps`](crate::run::RunStats::roundoff_steps). A stall above it is a
+/// real failure to converge and ends the run (or halves the step).
+pub const ROUNDOFF_FLOOR: f64 = 1e-6;
+
 /// The gap element is not offered in moving frames; every other setting of [`Settings`] applies
 /// (the Newton iterations from [`Settings::newton`]).
 fn validate_settings(settings: &Settings) -> Result<()> {
@@ -1019,10 +1028,22 @@ impl<'a> NewtonRun<'a> {
         let nm = self.settings.newmark;
         let mut lu = std::mem::replace(&mut self.lu, BandLu::new(0, 0));
         self.assemble(nm.beta * h * h, nm.gamma * h, &mut lu, true);
-        let res = lu.factorize("effective matrix of the mechanism");
+        let what = if h == 0.0 {
+            "mass matrix of the mechanism (with the transforms)"
+        } else {
+            "effective matrix of the mechanism"
+        };
+        let res = lu.factorize(what);
         self.lu = lu;
         self.stats.factorizations += 1;
-        res
+        res.map_err(|e| match e {
+            Error::Singular { what, index, .. } => Error::Singular {
+                dof: self.describe(index),
+                what,
+                index,
+            },
+            e => e,
+        })
     }
 
     /// Assembles `A + gh B + bh2 K` into `lu`, where the Jacobian of the residual with respect
@@ -1246,6 +1267,8 @@ impl<'a> NewtonRun<'a> {
         let mut iters = 0usize;
         let mut last_res;
         let mut last_corr;
+        // the two corrections before the last, for the round-off floor's stall test
+        let mut prev_corr = [f64::INFINITY; 2];
         let converged = loop {
             iters += 1;
             if iterate_contact {
@@ -1254,12 +1277,26 @@ impl<'a> NewtonRun<'a> {
             }
             if (iters == 1 || iterate_contact) && self.jacobian_changed(h, iters == 1) {
                 if let Err(e) = self.factorize(h) {
+                    let finite = self.y.iter().chain(&self.yd).chain(&self.a).all(|x| x.is_finite());
+                    if iters > 1 && !finite {
+                        // the iterates ran away (a step too long for the contact or the frame
+                        // motion): not converged, which step halving may mend
+                        last_res = f64::INFINITY;
+                        last_corr = f64::INFINITY;
+                        break false;
+                    }
                     self.restore();
+                    // a state that went non-finite between two divergence checks is reported as
+                    // the divergence it is, with the unknown that went first
+                    self.check_divergence(t, step)?;
                     return Err(e);
                 }
             }
             self.residual(h, t + h);
-            last_res = self.r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            last_res = self.r.iter().fold(
+                0.0f64,
+                |m, v| if v.is_finite() { m.max(v.abs()) } else { f64::INFINITY },
+            );
             let mut dx = std::mem::take(&mut self.r);
             self.lu.solve_in_place(&mut dx);
             let mut dmax = 0.0f64;
@@ -1273,14 +1310,28 @@ impl<'a> NewtonRun<'a> {
                 dmax = dmax.max((bh2 * da).abs());
                 ymax = ymax.max(self.y[i].abs());
             }
+            // f64::max skips NaN: a non-finite correction is caught here, not by dmax
+            let finite = dx.iter().all(|d| d.is_finite());
             self.r = dx;
-            last_corr = dmax / ymax.max(scale_floor);
+            last_corr = if finite {
+                dmax / ymax.max(scale_floor)
+            } else {
+                f64::INFINITY
+            };
             if !last_corr.is_finite() {
                 break false;
             }
             if linear || last_corr <= self.settings.newton.tol {
                 break true;
             }
+            if last_corr <= ROUNDOFF_FLOOR && last_corr >= prev_corr[0].min(prev_corr[1]) {
+                // stalled: no smaller than one of the two corrections before it (round-off
+                // fluctuates; a slow but converging iteration keeps decreasing and goes on), at
+                // a level no result depends on: what is left is the system's round-off
+                self.stats.roundoff_steps += 1;
+                break true;
+            }
+            prev_corr = [prev_corr[1], last_corr];
             if iters >= self.settings.newton.max_iter {
                 break false;
             }
@@ -1292,7 +1343,7 @@ impl<'a> NewtonRun<'a> {
         }
         self.restore();
         self.update_frames(t);
-        if depth < self.settings.newton.step_halving && last_corr.is_finite() {
+        if depth < self.settings.newton.step_halving {
             self.step(t, 0.5 * h, step, depth + 1)?;
             self.step(t + 0.5 * h, 0.5 * h, step, depth + 1)?;
             self.stats.halved_substeps += 2;

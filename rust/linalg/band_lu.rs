@@ -2,6 +2,10 @@
 
 use crate::error::{Error, Result};
 
+/// A pivot at most this fraction of its row's largest entry (before elimination) counts as
+/// singular: a few hundred ulps, i.e. what is left when elimination cancels the row.
+pub const PIVOT_TOL: f64 = 1e-13;
+
 /// Dense-band LU factorization without pivoting, for the nonsymmetric effective matrices of
 /// rotating links (the Coriolis term `2 phidot rho A int N^T S N` and the `phiddot` part of
 /// `M_IC` are skew-symmetric). Refactorized in place with no allocation, `O(n b^2)` for
@@ -10,14 +14,18 @@ use crate::error::{Error, Result};
 /// Without pivoting the factorization exists whenever the symmetric part of the matrix is
 /// positive definite (every leading principal minor is then nonzero), which holds for Newmark
 /// effective matrices `M/(beta dt^2) + gamma/(beta dt) C + K` at the steps of interest; a pivot that
-/// is not finite or is tiny relative to the diagonal's scale is reported as
-/// [`Error::Singular`] instead of being divided by.
+/// is not finite, or that elimination has cancelled to [`PIVOT_TOL`] of its own row's largest
+/// entry, is reported as [`Error::Singular`] instead of being divided by. The test is per row:
+/// the unknowns of a mechanism differ in unit and scale (a slider's mass against the rotary
+/// inertia of a 60 um beam element, 1e13 apart), so a pivot is small only against its own row.
 #[derive(Debug, Clone)]
 pub struct BandLu {
     n: usize,
     b: usize,
     /// Row-major band: entry (i, j) at `i * (2b + 1) + (j + b - i)`, for `|i - j| <= b`.
     a: Vec<f64>,
+    /// Largest magnitude in each row before elimination (the pivot test's scale).
+    row_scale: Vec<f64>,
     /// Numeric factorizations done.
     pub factorizations: u64,
 }
@@ -29,6 +37,7 @@ impl BandLu {
             n,
             b,
             a: vec![0.0; n * (2 * b + 1)],
+            row_scale: vec![0.0; n],
             factorizations: 0,
         }
     }
@@ -70,14 +79,20 @@ impl BandLu {
     pub fn factorize(&mut self, what: &str) -> Result<()> {
         let (n, b) = (self.n, self.b);
         let w = 2 * b + 1;
-        let scale = (0..n).fold(0.0f64, |s, i| s.max(self.a[i * w + b].abs()));
-        let tiny = scale * 1e-14;
+        for (i, row) in self.a.chunks_exact(w).enumerate() {
+            self.row_scale[i] = row.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        }
         for k in 0..n {
             let piv = self.a[k * w + b];
-            if !piv.is_finite() || piv.abs() <= tiny {
+            if !piv.is_finite() || piv.abs() <= PIVOT_TOL * self.row_scale[k] {
                 return Err(Error::Singular {
-                    what: what.to_string(),
+                    what: if piv.is_finite() {
+                        what.to_string()
+                    } else {
+                        format!("{what} (non-finite entries)")
+                    },
                     index: k,
+                    dof: String::new(),
                 });
             }
             let last = (k + b).min(n - 1);
@@ -150,6 +165,38 @@ mod band_lu_tests {
         m.solve_in_place(&mut x);
         for i in 0..n {
             assert!((x[i] - x_true[i]).abs() < 1e-13, "{i}: {} vs {}", x[i], x_true[i]);
+        }
+    }
+
+    /// Rows of very different scale (a slider's mass beside the rotary inertia of a tiny beam
+    /// element, 1e13 apart) factorize: each pivot is judged against its own row.
+    #[test]
+    fn rows_of_different_scale_factorize() {
+        let mut m = BandLu::new(3, 1);
+        m.add(0, 0, 7.6e-2);
+        m.add(1, 1, 4.1e-15);
+        m.add(1, 2, 1.0e-16);
+        m.add(2, 1, 1.0e-16);
+        m.add(2, 2, 5.0e-15);
+        m.factorize("M").unwrap();
+        let mut x = vec![7.6e-2, 4.2e-15, 5.1e-15];
+        m.solve_in_place(&mut x);
+        for v in x {
+            assert!((v - 1.0).abs() < 1e-14, "{v}");
+        }
+    }
+
+    /// A row that elimination cancels (row 1 = row 0 up to 1e-15) is singular at that row.
+    #[test]
+    fn a_cancelled_row_is_singular_at_its_index() {
+        let mut m = BandLu::new(2, 1);
+        m.add(0, 0, 1.0);
+        m.add(0, 1, 2.0);
+        m.add(1, 0, 1.0);
+        m.add(1, 1, 2.0 + 1e-15);
+        match m.factorize("K") {
+            Err(crate::error::Error::Singular { index, .. }) => assert_eq!(index, 1),
+            other => panic!("{other:?}"),
         }
     }
 

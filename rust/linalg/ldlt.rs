@@ -341,6 +341,7 @@ impl Cholesky {
         .map_err(|_| Error::Singular {
             what: what.to_string(),
             index: 0,
+            dof: String::new(),
         })?;
         // D sits first in each column of the factor; every pivot must be positive and finite.
         let cp = an.symbolic.col_ptr();
@@ -350,6 +351,7 @@ impl Cholesky {
                 return Err(Error::Singular {
                     what: what.to_string(),
                     index: k,
+                    dof: String::new(),
                 });
             }
         }

@@ -462,6 +462,19 @@ impl System {
         r
     }
 
+    /// `e` with the unknown of a [`Error::Singular`] pivot named in the user's terms.
+    pub fn name_pivot(&self, model: &Model, e: crate::error::Error) -> crate::error::Error {
+        use crate::error::Error;
+        match e {
+            Error::Singular { what, index, .. } => Error::Singular {
+                dof: self.describe_dof(model, index),
+                what,
+                index,
+            },
+            e => e,
+        }
+    }
+
     /// Describes global DOF `d` in words, for error messages.
     pub fn describe_dof(&self, model: &Model, d: usize) -> String {
         for (l, plan) in model.links.iter().zip(&self.links) {

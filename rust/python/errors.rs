@@ -29,11 +29,12 @@ pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyDict>>) -
                 ],
             ),
             Error::InvalidModel { .. } => ("ModelError", vec![]),
-            Error::Singular { what, index } => (
+            Error::Singular { what, index, dof } => (
                 "SingularMatrixError",
                 vec![
                     ("matrix", what.clone().into_pyobject(py)?.into_any().unbind()),
                     ("pivot", index.into_pyobject(py)?.into_any().unbind()),
+                    ("dof", dof.clone().into_pyobject(py)?.into_any().unbind()),
                 ],
             ),
             Error::Diverged {

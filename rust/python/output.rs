@@ -135,6 +135,7 @@ pub(super) fn output_dict<'py>(
     st.set_item("terms", s.terms)?;
     st.set_item("stepper", s.stepper)?;
     st.set_item("halved_substeps", s.halved_substeps)?;
+    st.set_item("roundoff_steps", s.roundoff_steps)?;
     st.set_item("event_fallbacks", s.event_fallbacks)?;
     st.set_item("unknowns", s.unknowns)?;
     st.set_item("bandwidth", s.bandwidth)?;
