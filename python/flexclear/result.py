@@ -273,7 +273,8 @@ class Result:
         ``woodbury_steps``, ``woodbury_fallbacks``, ``unconverged_steps``, ``halved_substeps``,
         ``roundoff_steps`` (Newton steps accepted at the round-off floor: the correction stopped
         decreasing below 1e-6 of the displacement scale, above a tolerance finer than the
-        arithmetic delivers), ``event_fallbacks`` (counters that do not apply to the engine are 0), ``stepper``
+        arithmetic delivers), ``event_fallbacks`` (counters that do not apply to the engine are
+        0), ``stepper``
         (``"constant"``: one factorization of a constant effective matrix, contact by Woodbury;
         ``"newton"``: the Jacobian refactorized when it changes), ``unknowns`` (number of
         unknowns), ``bandwidth`` (half-bandwidth of the Newton Jacobian, 0 for the constant
