@@ -1,7 +1,7 @@
 """Conservation and passivity (issue 5, item 4) on a free rattling problem with no external work:
 the slider-yoke's slider with a fixed yoke, thrown at the bearing with a uniform transverse
-velocity. Energy = kinetic + strain (numpy matrices of flexclear.analysis.linear, checked against the
-engine's natural frequencies) + bearing potential K_B max(delta, 0)^2 / 2.
+velocity. Energy = kinetic + strain (the engine's matrices, Model.matrices, checked against the
+closed forms of tests/beam_oracle.py in tests/test_matrices.py) + bearing potential K_B max(delta, 0)^2 / 2.
 
 The bound (derived in docs/stability.md, section "Energy"): average-acceleration Newmark changes
 M- and K-energy by exactly the trapezoidal work of the contact force, minus the dissipation

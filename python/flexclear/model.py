@@ -762,6 +762,37 @@ class Model:
                 "only); give it mass",
             ) from None
 
+    def matrices(self, t: float = 0.0, state: Optional[np.ndarray] = None) -> tuple:
+        """The mass ``M`` (kg, kg m^2), damping ``C`` (N s/m, ...) and stiffness ``K`` (N/m, ...)
+        of the moving-frame unknowns (in :meth:`dof_map` order) at time ``t`` (s), linearized
+        about ``state`` (the unknowns' values; default zero deflection) with every clearance
+        joint open and the frame rates of that instant held: the engine's own beam matrices
+        (consistent mass, Euler-Bernoulli stiffness, Kelvin-Voigt damping) with the frame terms
+        (Coriolis in ``C``; centrifugal softening and the axial-force stiffening in ``K``) where
+        the frames move. Dense arrays; for a model of a few thousand unknowns at most."""
+        t = _num("t", t, "a finite time >= 0, s")
+        if t < 0:
+            raise _bad("t", t, "a finite time >= 0, s")
+        core = self._moving_core()
+        n = len(core.dof_map())
+        need = 4.0 * 8.0 * n * n  # M, C, K and the engine's working copy
+        limit, source = _memory_limit()
+        if need > limit:
+            e = ResourceError(
+                f"matrices of {n} unknowns would take about {_fmt_bytes(need)} as dense arrays, above the "
+                f"memory limit of {_fmt_bytes(limit)} ({source}); use fewer elements"
+            )
+            e.estimate, e.limit = int(need), int(min(limit, 2**63 - 1))
+            raise e
+        if state is None:
+            y = np.zeros(n)
+        else:
+            y = np.asarray(state, dtype=float).reshape(-1)
+            if y.shape != (n,) or not np.all(np.isfinite(y)):
+                raise _bad("state", state, f"{n} finite values, one per unknown of dof_map()")
+        m, c, k, _ = core.linearize(float(t), y, contacts=False)
+        return m, c, k
+
     @staticmethod
     def _frequencies(m, c, k, count: int, coriolis: bool) -> np.ndarray:
         n = m.shape[0]

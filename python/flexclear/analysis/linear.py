@@ -1,7 +1,8 @@
-"""Linear algebra of one straight link in numpy: the beam matrices of ``rust/element/beam.rs`` in
-closed form (docs/method.md section 2), assembled for a chain of equal elements, and the energy of a
-state. Used by the stability theory (:mod:`flexclear.analysis.stability`) and the energy checks
-(:mod:`flexclear.analysis.accuracy`, tests); the engine itself never calls this.
+"""Linear algebra of a run: a link's matrices from the engine (:meth:`flexclear.Model.matrices`),
+the velocities the Newmark recurrence implies, and the energy of a state. Used by the stability
+theory (:mod:`flexclear.analysis.stability`) and the energy checks
+(:mod:`flexclear.analysis.accuracy`, tests). The closed-form beam matrices these used to hold are
+an independent oracle in ``tests/beam_oracle.py`` now.
 
 DOF order: ``[u, v, theta]`` per node, link frame (m, m, rad), nodes 0..elements.
 """
@@ -15,8 +16,8 @@ import numpy as np
 
 @dataclasses.dataclass
 class LinkMatrices:
-    """Assembled matrices of one link: mass ``M`` (kg), stiffness ``K1`` (N/m) and material damping
-    ``C = (eta/E) K1`` (N s/m), each ``3 (elements + 1)`` square."""
+    """Matrices of one link: mass ``M`` (kg), stiffness ``K`` (N/m) and damping ``C`` (N s/m),
+    each ``3 (elements + 1)`` square."""
 
     M: np.ndarray
     K: np.ndarray
@@ -32,60 +33,33 @@ def link_matrices(
     inertia: float,
     eta: float = 0.0,
 ) -> LinkMatrices:
-    """Consistent mass (no rotary inertia), linear stiffness and Kelvin-Voigt damping of a
-    straight link of ``elements`` equal Euler-Bernoulli elements (closed forms; the Rust tests
-    check the engine's quadrature against the same forms)."""
-    n = 3 * (elements + 1)
-    le = length / elements
-    ra, ea, ei = density * area, youngs_modulus * area, youngs_modulus * inertia
-    me = np.zeros((6, 6))
-    ke = np.zeros((6, 6))
-    ax = [0, 3]
-    me[np.ix_(ax, ax)] = ra * le / 6 * np.array([[2.0, 1.0], [1.0, 2.0]])
-    ke[np.ix_(ax, ax)] = ea / le * np.array([[1.0, -1.0], [-1.0, 1.0]])
-    tr = [1, 2, 4, 5]
-    l_ = le
-    me[np.ix_(tr, tr)] = (
-        ra
-        * le
-        / 420
-        * np.array(
-            [
-                [156, 22 * l_, 54, -13 * l_],
-                [22 * l_, 4 * l_**2, 13 * l_, -3 * l_**2],
-                [54, 13 * l_, 156, -22 * l_],
-                [-13 * l_, -3 * l_**2, -22 * l_, 4 * l_**2],
-            ]
-        )
+    """The engine's consistent mass (no rotary inertia), linear stiffness and Kelvin-Voigt
+    damping ``C = (eta / E) K`` of a straight link of ``elements`` equal Euler-Bernoulli elements:
+    :meth:`flexclear.Model.matrices` of a model holding that link alone, translating."""
+    from ..model import Model
+
+    m = Model().add_body("ground")
+    m.add_link(
+        "link",
+        length=length,
+        elements=int(elements),
+        youngs_modulus=youngs_modulus,
+        density=density,
+        area=area,
+        inertia=inertia,
+        damping=eta,
     )
-    ke[np.ix_(tr, tr)] = (
-        ei
-        / le**3
-        * np.array(
-            [
-                [12, 6 * l_, -12, 6 * l_],
-                [6 * l_, 4 * l_**2, -6 * l_, 2 * l_**2],
-                [-12, -6 * l_, 12, -6 * l_],
-                [6 * l_, 2 * l_**2, -6 * l_, 4 * l_**2],
-            ]
-        )
-    )
-    M = np.zeros((n, n))
-    K = np.zeros((n, n))
-    for e in range(elements):
-        s = slice(3 * e, 3 * e + 6)
-        M[s, s] += me
-        K[s, s] += ke
-    return LinkMatrices(M, K, (eta / youngs_modulus) * K)
+    # a model needs its link held; the joint is open in the matrices and adds nothing to them
+    m.add_joint("hold", "link", 0, body="ground", clearance=1.0, stiffness=1.0, damping=0.0)
+    M, C, K = m.matrices()
+    return LinkMatrices(M, K, C)
 
 
 def slider_yoke_matrices(model) -> LinkMatrices:
-    """The matrices of the slider of a :func:`flexclear.scenes.slider_yoke` model (from its
-    ``parameters``)."""
-    p = model.parameters
-    return link_matrices(
-        p["length"], p["elements"], p["youngs_modulus"], p["density"], p["area"], p["inertia"], p["eta"]
-    )
+    """The matrices of the slider of a :func:`flexclear.scenes.slider_yoke` model (the model's
+    only link: its moving-frame unknowns are the slider's nodal DOFs)."""
+    M, C, K = model.matrices()
+    return LinkMatrices(M, K, C)
 
 
 def newmark_velocities(u: np.ndarray, v0: np.ndarray, dt: float) -> np.ndarray:
