@@ -354,4 +354,6 @@ def test_design_cli_report(tmp_path, capsys):
     text = (tmp_path / "design.md").read_text()
     assert "| c [m] |" in text and "departures matched" in text
     assert "| preload [N] |" in text and (tmp_path / "preload.png").stat().st_size > 10_000
+    assert "| crank speed [rad/s] |" in text
+    assert (tmp_path / "slider_crank_contact_loss.png").stat().st_size > 10_000
     assert (tmp_path / "contact_loss_c100um.png").stat().st_size > 10_000

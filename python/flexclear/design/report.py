@@ -121,10 +121,134 @@ def write_report(
     lines += ["", f"Agreement over the sweep: {matched} of {total} departures matched.", ""]
     for name in figures:
         lines += [f"![contact loss]({name})", ""]
+    lines += _slider_crank_section(out, plt, say, quick)
     lines += _preload_section(out, plt, say, quick)
     path = out / "design.md"
     path.write_text("\n".join(lines))
     return path
+
+
+def time_agreement(pred, run, joint: str) -> dict:
+    """Fractions of the prediction's time grid where the prediction and the clearance run agree
+    or not: ``both_contact``, ``both_free``, ``predicted_only`` (loss predicted, the run in
+    contact) and ``run_only`` (the run free, no loss predicted); the run is free where its
+    penetration (interpolated on the grid) is <= 0."""
+    t = pred.time
+    lost = pred._mask()
+    free = np.interp(t, run.time, run.joint(joint).penetration) <= 0.0
+    return {
+        "both_contact": float(np.mean(~lost & ~free)),
+        "both_free": float(np.mean(lost & free)),
+        "predicted_only": float(np.mean(lost & ~free)),
+        "run_only": float(np.mean(~lost & free)),
+    }
+
+
+def _contact_modes(run, joint: str, min_contact: float) -> tuple:
+    """The run's contact episodes split into impacts (shorter than ``min_contact``, s) and
+    continuous contacts: two lists of ``(start, end)`` in s, from the penetration history."""
+    t = run.time
+    closed = run.joint(joint).penetration > 0.0
+    edges = np.flatnonzero(np.diff(closed.astype(np.int8)))
+    starts = [t[i + 1] for i in edges if not closed[i]]
+    ends = [t[i + 1] for i in edges if closed[i]]
+    if closed[0]:
+        starts.insert(0, t[0])
+    if len(ends) < len(starts):
+        ends.append(t[-1])
+    episodes = list(zip(starts, ends))
+    impacts = [e for e in episodes if e[1] - e[0] < min_contact]
+    continuous = [e for e in episodes if e[1] - e[0] >= min_contact]
+    return impacts, continuous
+
+
+#: The keys of :func:`time_agreement`, in the table's order.
+FRACTIONS = ("both_contact", "both_free", "predicted_only", "run_only")
+
+#: The slider-crank sweep: crank speeds (rad/s) and crank-pin clearances (m).
+SPEEDS = (50.0, 100.0, 150.0)
+CLEARANCES = (1e-4, 2.5e-4, 5e-4)
+
+
+def _slider_crank_section(out: Path, plt, say, quick: bool = False) -> list:
+    """Contact-loss prediction against clearance runs of Simeon's slider-crank (crank-pin
+    clearance) over crank speed and clearance: a figure for one case and the agreement table."""
+    from ..result import Record
+
+    speeds, clearances = ((150.0,), (5e-4,)) if quick else (SPEEDS, CLEARANCES)
+    min_contact = 2e-3
+    rows = []
+    for w in speeds:
+        turns = 2 * (2 * np.pi / w)
+        for c in clearances:
+            model = scenes.slider_crank(clearance_at="crank_pin", clearance=c, crank_speed=w)
+            pred = contact_loss(model, "crank_pin", turns, 1e-5)
+            run = model.simulate(turns, 1e-6, iterate=True, events=True, record=Record(every=10))
+            dep = wall_departures(run, "crank_pin", min_contact=min_contact)
+            a = agreement(pred, dep, min_contact)
+            frac = time_agreement(pred, run, "crank_pin")
+            impacts, continuous = _contact_modes(run, "crank_pin", min_contact)
+            rows.append((w, c, pred, a, frac, len(impacts), len(continuous)))
+            say(f"slider-crank {w:g} rad/s, c = {c:.3g} m: {a}, {frac}")
+            if (w, c) == (speeds[-1], clearances[-1]):
+                fig = plt.figure(figsize=(13, 4.8))
+                ax1 = fig.add_subplot(1, 3, 1)
+                fx, fy = pred.force[:, 0], pred.force[:, 1]
+                lost = pred._mask()
+                ax1.plot(fx, fy, color="0.6", lw=0.8)
+                ax1.plot(np.where(lost, fx, np.nan), np.where(lost, fy, np.nan), "r", lw=1.5)
+                ax1.plot([0], [0], "k+")
+                ax1.set_aspect("equal", "datalim")
+                ax1.set_xlabel("F_x [N]")
+                ax1.set_ylabel("F_y [N]")
+                ax1.set_title("zero-clearance crank-pin force (red: loss predicted)")
+                ax2 = fig.add_subplot(1, 3, (2, 3))
+                for lo, hi in continuous:
+                    ax2.axvspan(lo, hi, ymin=0.0, ymax=0.08, color="g", alpha=0.7, lw=0)
+                for lo, hi in impacts:
+                    ax2.axvspan(lo, hi, ymin=0.08, ymax=0.16, color="orange", alpha=0.9, lw=0)
+                for lo, hi in pred.intervals:
+                    ax2.axvspan(lo, hi, ymin=0.92, ymax=1.0, color="r", alpha=0.8, lw=0)
+                ax2.plot(pred.time, pred.normal_force, "b", lw=0.6, label="continuous-contact N [N]")
+                ax2.set_xlabel("t [s]")
+                ax2.set_ylabel("N [N]")
+                ax2.set_title(
+                    f"{w:g} rad/s, c = {c * 1e3:g} mm: continuous contact (green), impacts (orange), "
+                    "predicted loss (red)",
+                    fontsize=9,
+                )
+                ax2.legend(loc="upper right", fontsize=8)
+                fig.tight_layout()
+                fig.savefig(out / "slider_crank_contact_loss.png", dpi=110)
+                plt.close(fig)
+    table = [
+        "| crank speed [rad/s] | c [mm] | departures | matched | both in contact | both free | "
+        "predicted only | run only | predicted intervals | impacts | continuous contacts |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for w, c, pred, a, f, ni, nc in rows:
+        table.append(
+            f"| {w:g} | {c * 1e3:g} | {a['departures']} | {a['matched']} | "
+            + " | ".join(f"{100 * f[k]:.1f} %" for k in FRACTIONS)
+            + f" | {len(pred.intervals)} | {ni} | {nc} |"
+        )
+    agree = sum(r[4]["both_contact"] + r[4]["both_free"] for r in rows)
+    return [
+        "# Contact-loss prediction on the slider-crank",
+        "",
+        "Simeon's slider-crank (undamped rod), clearance at the crank pin, two crank turns from rest. "
+        "Zero-clearance run at dt 1e-5 s; clearance runs with iterated kappa and events at dt 1e-6 s. "
+        f"A departure ends a contact of >= {min_contact * 1e3:g} ms; time fractions are on the "
+        "prediction's grid (free: penetration <= 0).",
+        "",
+        *table,
+        "",
+        f"Prediction and run agree (both in contact or both free) {100 * agree / len(rows):.1f} % of the "
+        "time on average over the sweep.",
+        "",
+        "![slider-crank contact loss](slider_crank_contact_loss.png)",
+        "",
+    ]
 
 
 #: The worked example: Simeon's slider-crank, 0.5 mm radial clearance at the crank pin, 50 rad/s.
