@@ -562,14 +562,15 @@ class Model:
         node: int,
         *,
         clearance: float,
-        stiffness: float,
-        damping: float,
+        stiffness: Optional[float] = None,
+        damping: Optional[float] = None,
         body: Optional[str] = None,
         point: Sequence[float] = (0.0, 0.0),
         target: Optional[tuple[str, int]] = None,
         slider: Optional[str] = None,
         damping_law: str = "viscous",
         no_tension: bool = False,
+        law: Any = None,
     ) -> Model:
         """Adds a revolute clearance joint: the journal is ``node`` of ``link``, the bearing a
         point of rigid body ``body`` (at ``point``, m, in the body frame), node
@@ -581,14 +582,24 @@ class Model:
         clearance : float
             Radial clearance delta_c, m (>= 0).
         stiffness : float
-            Bearing stiffness K_B, N/m (>= 0).
+            Bearing stiffness K_B, N/m (>= 0) of the paper's spring-dashpot (required without
+            ``law``).
         damping : float
-            Bearing damping C_B, N s/m (>= 0), active only in contact.
+            Bearing damping C_B, N s/m (>= 0), active only in contact (required without ``law``).
         damping_law : {"viscous", "radial", "literal"}
             ``-C_B qdot`` (default, the paper's modified-matrix form), ``-C_B (n.qdot) n``, or the
             paper's literal force-method form ``-C_B |qdot| n`` (unstable on the slider-yoke).
         no_tension : bool
             Forbid a tensile (sticky) contact force.
+        law : flexclear.contact.NormalLaw, optional
+            The contact law instead of the spring-dashpot: ``Hertz``, ``HuntCrossley``,
+            ``LankaraniNikravesh``, ``Flores``, ``Gonthier``, ``CarvalhoMartins`` (stiffness from
+            :func:`flexclear.contact.pin_in_hole`) or ``KelvinVoigt`` (the spring-dashpot itself).
+            The force ``F(d, dd, v0)`` acts along the line of centres; the approach speed ``v0`` of
+            each contact episode is the penetration rate at its first state. With the modified
+            coupling ``F(d, 0, v0) / |q|`` enters the stiffness and ``dF/d(dd)`` the damping (the
+            split is exact for every law here). ``stiffness``, ``damping``, ``damping_law`` and
+            ``no_tension`` are then not given.
         """
         self._unique("joint", name, self._connectors)
         link_i = self._link_index(link)
@@ -596,13 +607,35 @@ class Model:
         side = self._other_side(body, point, target, slider)
         if not isinstance(damping_law, str):
             raise _bad("damping_law", damping_law, 'one of "viscous", "radial", "literal"')
-        law = dict(
-            clearance=_num("clearance", clearance, "a finite number >= 0, m"),
-            stiffness=_num("stiffness", stiffness, "a finite number >= 0, N/m"),
-            damping=_num("damping", damping, "a finite number >= 0, N s/m"),
-            damping_law=damping_law,
-            no_tension=bool(no_tension),
-        )
+        if law is None:
+            if stiffness is None or damping is None:
+                missing = [k for k, v in (("stiffness", stiffness), ("damping", damping)) if v is None]
+                raise _bad(missing[0], None, "a finite number >= 0 (or a contact law: law=...)")
+            law = dict(
+                clearance=_num("clearance", clearance, "a finite number >= 0, m"),
+                stiffness=_num("stiffness", stiffness, "a finite number >= 0, N/m"),
+                damping=_num("damping", damping, "a finite number >= 0, N s/m"),
+                damping_law=damping_law,
+                no_tension=bool(no_tension),
+            )
+        else:
+            from .contact import NormalLaw
+
+            if not isinstance(law, NormalLaw):
+                raise _bad("law", law, "a law of flexclear.contact (Hertz, LankaraniNikravesh, ...)")
+            given = [k for k, v in (("stiffness", stiffness), ("damping", damping)) if v is not None]
+            if given or damping_law != "viscous" or no_tension:
+                raise _bad(
+                    given[0] if given else "damping_law" if damping_law != "viscous" else "no_tension",
+                    stiffness if given and given[0] == "stiffness" else damping if given else damping_law,
+                    "not given with law= (the law holds its stiffness, damping and tension choice)",
+                )
+            law = dict(
+                clearance=_num("clearance", clearance, "a finite number >= 0, m"),
+                stiffness=0.0,
+                damping=0.0,
+                law=law._core,
+            )
         if self._kind == TRANSLATING:
             self._core.add_joint(name, link_i, int(node), **law, **side)
         else:

@@ -60,6 +60,21 @@ pub trait ContactLaw: std::fmt::Debug + Send + Sync {
     /// `clearance` (m). Must return finite terms for every finite input, including `q = 0`.
     fn evaluate(&self, q: [f64; 2], qd: [f64; 2], clearance: f64) -> ContactTerms;
 
+    /// Whether the law's force depends on the approach speed of the contact episode (the
+    /// hysteresis laws of [`laws`]); the steppers then track it per joint and call
+    /// [`ContactLaw::evaluate_episode`].
+    fn needs_approach_speed(&self) -> bool {
+        false
+    }
+
+    /// [`ContactLaw::evaluate`] within a contact episode whose approach speed is
+    /// `approach_speed` (m/s, the penetration rate at the episode's first state: see
+    /// [`approach_speed`]). Default: the approach speed is not used.
+    fn evaluate_episode(&self, q: [f64; 2], qd: [f64; 2], clearance: f64, approach_speed: f64) -> ContactTerms {
+        let _ = approach_speed;
+        self.evaluate(q, qd, clearance)
+    }
+
     /// Checks the law's parameters; `name` prefixes parameter names in errors.
     fn validate(&self, name: &str) -> Result<()>;
 
@@ -89,5 +104,35 @@ pub trait ContactLaw: std::fmt::Debug + Send + Sync {
             }
         }
         k
+    }
+}
+
+/// The approach speed (m/s) with which a law that needs one ([`ContactLaw::needs_approach_speed`])
+/// is evaluated at a journal state `(q, qd)` of joint with clearance `clearance`: the stored speed
+/// of the current episode (`episode`, set from the first accepted state in contact), or, at a
+/// state in contact before the episode has an accepted state (the trial states of the step that
+/// closes the gap), the state's own penetration rate `n . qd` — each episode's first state is its
+/// own approach. Never negative (a grazing entry gives 0, which the laws floor).
+#[inline]
+pub fn approach_speed(q: [f64; 2], qd: [f64; 2], episode: Option<f64>) -> f64 {
+    if let Some(v0) = episode {
+        return v0;
+    }
+    let r = q[0].hypot(q[1]);
+    if r == 0.0 {
+        return 0.0;
+    }
+    ((q[0] * qd[0] + q[1] * qd[1]) / r).max(0.0)
+}
+
+/// The episode's approach speed after an accepted state: `None` while the joint is open (the
+/// next episode takes its own), kept while in contact, and set from the state when an episode
+/// starts ([`approach_speed`] with no episode).
+#[inline]
+pub fn next_episode(q: [f64; 2], qd: [f64; 2], penetration: f64, episode: Option<f64>) -> Option<f64> {
+    if penetration > 0.0 {
+        Some(approach_speed(q, qd, episode))
+    } else {
+        None
     }
 }

@@ -494,6 +494,7 @@ struct Snapshot {
     gap_closed: Vec<bool>,
     gap_normal: Vec<[f64; 2]>,
     pa_old: Vec<f64>,
+    episode: Vec<Option<f64>>,
 }
 
 /// After this many contact status switches of a joint within one step's iteration, its dashpot
@@ -540,6 +541,12 @@ struct Lane<'m> {
     gap_closed: Vec<bool>,
     gap_normal: Vec<[f64; 2]>,
     gap_k: Vec<f64>,
+    /// Joints whose law depends on the approach speed of the contact episode.
+    needs_v0: Vec<bool>,
+    /// Some joint's law does (one test per step for the laws that do not).
+    any_v0: bool,
+    /// Approach speed of each joint's current episode, m/s (`None` while open).
+    episode: Vec<Option<f64>>,
     /// Event-aware stepping's first substep: each joint's contact status held at its
     /// start-of-step value (`Some(closed)`), so that the substep follows the old-status
     /// trajectory up to the crossing; empty otherwise.
@@ -648,6 +655,9 @@ impl<'m> Lane<'m> {
             gap_closed: vec![false; nj],
             gap_normal: vec![[1.0, 0.0]; nj],
             gap_k,
+            needs_v0: model.joints.iter().map(|j| j.law.needs_approach_speed()).collect(),
+            any_v0: model.joints.iter().any(|j| j.law.needs_approach_speed()),
+            episode: vec![None; nj],
             frozen: Vec::new(),
             switches: vec![0; nj],
             prev_change: f64::INFINITY,
@@ -704,6 +714,9 @@ impl<'m> Lane<'m> {
             let q = self.q[jj];
             let dr = norm2(q);
             self.pen[jj] = dr - j.clearance;
+            if self.needs_v0[jj] {
+                self.episode[jj] = crate::contact::next_episode(q, self.qd[jj], self.pen[jj], None);
+            }
             self.gap_closed[jj] = self.pen[jj] > 0.0;
             if dr > 0.0 {
                 self.gap_normal[jj] = [q[0] / dr, q[1] / dr];
@@ -749,6 +762,10 @@ impl<'m> Lane<'m> {
                     ],
                     f_explicit: [k * j.clearance * n[0], k * j.clearance * n[1]],
                 }
+            }
+            _ if self.any_v0 && self.needs_v0[jj] => {
+                let v0 = crate::contact::approach_speed(q, qd, self.episode[jj]);
+                j.law.evaluate_episode(q, qd, j.clearance, v0)
             }
             _ => j.law.evaluate(q, qd, j.clearance),
         }
@@ -1120,7 +1137,21 @@ impl<'m> Lane<'m> {
                 }
             }
         }
+        if self.any_v0 {
+            self.track_episodes();
+        }
         Ok(())
+    }
+
+    /// The contact episodes after an accepted state, for the laws that need the approach speed.
+    #[cold]
+    fn track_episodes(&mut self) {
+        for jj in 0..self.sys.joints.len() {
+            if self.needs_v0[jj] {
+                self.episode[jj] =
+                    crate::contact::next_episode(self.q[jj], self.qd[jj], self.pen[jj], self.episode[jj]);
+            }
+        }
     }
 
     /// The divergence error of joint `jj` whose penetration is not finite or beyond the limit.
@@ -1639,6 +1670,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             snap.fmag.clone_from(&lane.fmag);
             snap.gap_closed.clone_from(&lane.gap_closed);
             snap.gap_normal.clone_from(&lane.gap_normal);
+            snap.episode.clone_from(&lane.episode);
             snap.pa_old.clone_from(&lane.pa_old);
         }
         self.advance(t1);
@@ -1720,6 +1752,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         lane.fmag.clone_from(&snap.fmag);
         lane.gap_closed.clone_from(&snap.gap_closed);
         lane.gap_normal.clone_from(&snap.gap_normal);
+        lane.episode.clone_from(&snap.episode);
         lane.pa_old.clone_from(&snap.pa_old);
     }
 

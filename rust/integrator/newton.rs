@@ -243,6 +243,9 @@ pub struct NewtonRun<'a> {
     /// (implicit contact keeps them for the step).
     damping_at_start: Vec<(Mat2, [f64; 2])>,
     contact_was: Vec<bool>,
+    /// Approach speed of each joint's current contact episode, m/s (`None` while open; only
+    /// for laws that need it).
+    episode: Vec<Option<f64>>,
     /// Per clearance joint: its sides move apart under the nominal motion, so its relative
     /// position includes the nominal one ([`Mechanism::joint_moves_apart`]).
     nominal_offset: Vec<bool>,
@@ -635,6 +638,7 @@ impl<'a> NewtonRun<'a> {
             implicit_contact: matches!(settings.coupling, Coupling::Modified { iterate: true, .. })
                 && !mech.joints.is_empty(),
             contact_was: vec![false; mech.joints.len()],
+            episode: vec![None; mech.joints.len()],
             nominal_offset: (0..nj).map(|j| mech.joint_moves_apart(j, settings.t_end)).collect(),
             t_frames: 0.0,
             rec: Recorder::new(&joint_spec(&settings.record), nj, |_, _| 0, 0),
@@ -1200,6 +1204,19 @@ impl<'a> NewtonRun<'a> {
         }
     }
 
+    /// The law of joint `j` at `(q, qd)`, within its contact episode when the law needs the
+    /// approach speed ([`crate::contact::approach_speed`]).
+    #[inline]
+    fn law_terms(&self, j: usize, q: [f64; 2], qd: [f64; 2]) -> ContactTerms {
+        let jt = &self.mech.joints[j];
+        if jt.law.needs_approach_speed() {
+            let v0 = crate::contact::approach_speed(q, qd, self.episode[j]);
+            jt.law.evaluate_episode(q, qd, jt.clearance, v0)
+        } else {
+            jt.law.evaluate(q, qd, jt.clearance)
+        }
+    }
+
     fn evaluate_contacts(&mut self, from_start: bool) {
         for j in 0..self.mech.joints.len() {
             let (q, qd) = if from_start {
@@ -1208,7 +1225,7 @@ impl<'a> NewtonRun<'a> {
                 self.joint_state(j, &self.y, &self.yd)
             };
             let jt = &self.mech.joints[j];
-            let mut terms = jt.law.evaluate(q, qd, jt.clearance);
+            let mut terms = self.law_terms(j, q, qd);
             if self.implicit_contact {
                 // The spring is implicit (kappa and the force direction at the iterate); the
                 // damping keeps the terms of the step start, as in the paper's modified method
@@ -1537,8 +1554,7 @@ impl<'a> NewtonRun<'a> {
                 continue;
             };
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let jt = &self.mech.joints[j];
-            let terms = jt.law.evaluate(q, qd, jt.clearance);
+            let terms = self.law_terms(j, q, qd);
             let f = terms.force(q, qd);
             let h = &mut self.hist_joints[slot];
             h.penetration.push(terms.penetration);
@@ -1557,8 +1573,7 @@ impl<'a> NewtonRun<'a> {
         let counts = t >= self.settings.record.start;
         for j in 0..self.mech.joints.len() {
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let jt = &self.mech.joints[j];
-            let terms = jt.law.evaluate(q, qd, jt.clearance);
+            let terms = self.law_terms(j, q, qd);
             let f = terms.force(q, qd);
             let fmag = (f[0] * f[0] + f[1] * f[1]).sqrt();
             let h = &mut self.track[j];
@@ -1571,6 +1586,9 @@ impl<'a> NewtonRun<'a> {
                 h.max_force = h.max_force.max(fmag);
             }
             self.contact_was[j] = closed;
+            if self.mech.joints[j].law.needs_approach_speed() {
+                self.episode[j] = crate::contact::next_episode(q, qd, terms.penetration, self.episode[j]);
+            }
             (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, fmag, q, qd);
         }
         match step {

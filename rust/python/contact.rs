@@ -8,11 +8,14 @@ use pyo3::prelude::*;
 use super::err;
 use super::parse_damping_law;
 use crate::contact::friction::{Coulomb, LuGre, Regularization, Stribeck};
+use crate::contact::laws::NormalContact;
 use crate::contact::laws::{
     CarvalhoMartins, Flores, Gonthier, Hertz, HuntCrossley, KelvinVoigt, LankaraniNikravesh, NormalLaw,
 };
 use crate::contact::restitution::effective_restitution;
+use crate::contact::{ContactLaw, SpringDamper};
 use crate::error::Error;
+use std::sync::Arc;
 
 /// A float64 array handed to Python.
 type Array<'py> = Bound<'py, PyArray1<f64>>;
@@ -47,7 +50,39 @@ fn map_arrays<'py, const N: usize, const K: usize>(
 /// A normal-force law (kind = the Python class name).
 #[pyclass(name = "NormalLaw", module = "flexclear._core", frozen)]
 pub(super) struct PyNormalLaw {
-    inner: Box<dyn NormalLaw>,
+    inner: Arc<dyn NormalLaw>,
+    /// The same law as the engine's spring-dashpot, for a Kelvin-Voigt law.
+    spring_damper: Option<SpringDamper>,
+}
+
+/// The contact law of a clearance joint: `law` (a `flexclear.contact` law, the pin-in-hole form
+/// of [`NormalContact`]; a Kelvin-Voigt law is the engine's own spring-dashpot) or, without one,
+/// the paper's spring-dashpot from `stiffness`, `damping`, `damping_law` and `no_tension`.
+/// `name` prefixes parameter names in errors.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn joint_law(
+    py: Python<'_>,
+    name: &str,
+    law: Option<PyRef<'_, PyNormalLaw>>,
+    stiffness: f64,
+    damping: f64,
+    damping_law: &str,
+    no_tension: bool,
+) -> PyResult<Arc<dyn ContactLaw>> {
+    let law: Arc<dyn ContactLaw> = match law {
+        Some(l) => match l.spring_damper {
+            Some(sd) => Arc::new(sd),
+            None => Arc::new(NormalContact::new(Arc::clone(&l.inner))),
+        },
+        None => Arc::new(SpringDamper {
+            stiffness,
+            damping,
+            damping_law: parse_damping_law(py, damping_law)?,
+            no_tension,
+        }),
+    };
+    law.validate(name).map_err(|e| err(py, e))?;
+    Ok(law)
 }
 
 #[pymethods]
@@ -73,28 +108,39 @@ impl PyNormalLaw {
     ) -> PyResult<Self> {
         macro_rules! hysteresis {
             ($ty:ident) => {
-                Box::new($ty {
+                Arc::new($ty {
                     stiffness,
                     exponent,
                     restitution,
                     min_approach_speed,
                     clip_tension,
-                }) as Box<dyn NormalLaw>
+                }) as Arc<dyn NormalLaw>
             };
         }
-        let inner: Box<dyn NormalLaw> = match kind {
-            "Hertz" => Box::new(Hertz { stiffness, exponent }),
+        let mut spring_damper = None;
+        let inner: Arc<dyn NormalLaw> = match kind {
+            "Hertz" => Arc::new(Hertz { stiffness, exponent }),
             "HuntCrossley" => hysteresis!(HuntCrossley),
             "LankaraniNikravesh" => hysteresis!(LankaraniNikravesh),
             "Flores" => hysteresis!(Flores),
             "Gonthier" => hysteresis!(Gonthier),
             "CarvalhoMartins" => hysteresis!(CarvalhoMartins),
-            "KelvinVoigt" => Box::new(KelvinVoigt {
-                stiffness,
-                damping,
-                damping_law: parse_damping_law(py, damping_law)?,
-                no_tension: clip_tension,
-            }),
+            "KelvinVoigt" => {
+                let law = KelvinVoigt {
+                    stiffness,
+                    damping,
+                    damping_law: parse_damping_law(py, damping_law)?,
+                    no_tension: clip_tension,
+                };
+                // on a joint it is the engine's own spring-dashpot (the paper's law)
+                spring_damper = Some(SpringDamper {
+                    stiffness,
+                    damping,
+                    damping_law: law.damping_law,
+                    no_tension: clip_tension,
+                });
+                Arc::new(law)
+            }
             other => {
                 return Err(err(
                     py,
@@ -108,7 +154,7 @@ impl PyNormalLaw {
             }
         };
         inner.validate("").map_err(|e| err(py, e))?;
-        Ok(PyNormalLaw { inner })
+        Ok(PyNormalLaw { inner, spring_damper })
     }
 
     /// The law's name.

@@ -10,7 +10,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt};
 use super::errors::{run_detached, to_pyerr};
 use super::output::{mat, output_dict};
 use super::{err, parse_coupling, parse_damping_law, parse_solver, PyMotion};
-use crate::contact::{DampingLaw, SpringDamper};
+use crate::contact::DampingLaw;
 use crate::error::Error;
 use crate::integrator::newton::NewtonRun;
 use crate::integrator::Newmark;
@@ -506,7 +506,8 @@ impl PyMechanism {
     /// Adds a clearance joint: journal at node `node` of `link`, bearing at the target (as for
     /// `add_pin`), radial clearance (m), spring-dashpot bearing (N/m, N s/m).
     #[pyo3(signature = (name, link, node, target, clearance, stiffness, damping, target_link=None, target_node=None,
-                        frame=None, point=(0.0, 0.0), slider=None, body="body", damping_law="viscous", no_tension=false))]
+                        frame=None, point=(0.0, 0.0), slider=None, body="body", damping_law="viscous", no_tension=false,
+                        law=None))]
     #[allow(clippy::too_many_arguments)]
     fn add_clearance(
         &mut self,
@@ -526,25 +527,27 @@ impl PyMechanism {
         body: &str,
         damping_law: &str,
         no_tension: bool,
+        law: Option<PyRef<'_, super::contact::PyNormalLaw>>,
     ) -> PyResult<()> {
         self.link(py, "node", link, node)?;
         let i = self.inner.joints.len();
         crate::error::check_non_negative(&format!("joints[{i}].clearance"), clearance, "m").map_err(|e| err(py, e))?;
-        let law = SpringDamper {
+        let law = super::contact::joint_law(
+            py,
+            &format!("joints[{i}]"),
+            law,
             stiffness,
             damping,
-            damping_law: parse_damping_law(py, damping_law)?,
+            damping_law,
             no_tension,
-        };
-        use crate::contact::ContactLaw;
-        law.validate(&format!("joints[{i}]")).map_err(|e| err(py, e))?;
+        )?;
         let b = self.endpoint(py, target, target_link, target_node, frame, point, slider, body)?;
         self.inner.joints.push(Clearance {
             name,
             journal: Endpoint::Node { link, node },
             bearing: b,
             clearance,
-            law: Arc::new(law),
+            law,
         });
         Ok(())
     }

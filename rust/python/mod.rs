@@ -15,7 +15,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use crate::batch::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
-use crate::contact::{Coupling, DampingLaw, SpringDamper};
+use crate::contact::{Coupling, DampingLaw};
 use crate::error::Error;
 use crate::integrator::Newmark;
 use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
@@ -202,7 +202,7 @@ impl PyModel {
     /// Adds a clearance joint between node `node` of link `link` and either a point of rigid body
     /// `body` (offset `point`, m) or node `target_node` of link `target_link`; returns its index.
     #[pyo3(signature = (name, link, node, clearance, stiffness, damping, body=None, point=(0.0, 0.0),
-                        target_link=None, target_node=None, damping_law="viscous", no_tension=false))]
+                        target_link=None, target_node=None, damping_law="viscous", no_tension=false, law=None))]
     #[allow(clippy::too_many_arguments)]
     fn add_joint(
         &mut self,
@@ -219,6 +219,7 @@ impl PyModel {
         target_node: Option<i64>,
         damping_law: &str,
         no_tension: bool,
+        law: Option<PyRef<'_, contact::PyNormalLaw>>,
     ) -> PyResult<usize> {
         let idx = |v: i64, what: &str| -> PyResult<usize> {
             usize::try_from(v).map_err(|_| err(py, Error::param(what, v, "an index >= 0")))
@@ -241,19 +242,23 @@ impl PyModel {
                 ))
             }
         };
-        let law = SpringDamper {
+        let i = self.inner.joints.len();
+        let law = contact::joint_law(
+            py,
+            &format!("joints[{i}]"),
+            law,
             stiffness,
             damping,
-            damping_law: parse_damping_law(py, damping_law)?,
+            damping_law,
             no_tension,
-        };
+        )?;
         let joint = ClearanceJoint {
             name,
             link: idx(link, "link")?,
             node: idx(node, "node")?,
             target,
             clearance,
-            law: Arc::new(law),
+            law,
         };
         self.inner.joints.push(joint);
         let i = self.inner.joints.len() - 1;

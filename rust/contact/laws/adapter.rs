@@ -16,9 +16,9 @@ use crate::error::{check_positive, Result};
 ///
 /// When the law clips a tensile force, the clipped state returns zero terms.
 ///
-/// `approach_speed` (m/s) is the normal approach speed of the current contact episode: the engine
-/// sets it at the entry of every episode ([`NormalContact::with_approach_speed`]); the laws floor
-/// it. Not yet used by the integrators.
+/// `approach_speed` (m/s) is the normal approach speed used by [`ContactLaw::evaluate`]; the
+/// steppers track each joint's episode and call [`ContactLaw::evaluate_episode`] with its own
+/// (see [`crate::contact::approach_speed`]); the laws floor it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NormalContact<L: NormalLaw> {
     /// The normal law.
@@ -49,6 +49,14 @@ impl<L: NormalLaw> NormalContact<L> {
 
 impl<L: NormalLaw> ContactLaw for NormalContact<L> {
     fn evaluate(&self, q: [f64; 2], qd: [f64; 2], clearance: f64) -> ContactTerms {
+        self.evaluate_episode(q, qd, clearance, self.approach_speed)
+    }
+
+    fn needs_approach_speed(&self) -> bool {
+        self.law.needs_approach_speed()
+    }
+
+    fn evaluate_episode(&self, q: [f64; 2], qd: [f64; 2], clearance: f64, approach_speed: f64) -> ContactTerms {
         let r = q[0].hypot(q[1]);
         let d = r - clearance;
         if d <= 0.0 || r == 0.0 {
@@ -59,7 +67,7 @@ impl<L: NormalLaw> ContactLaw for NormalContact<L> {
         }
         let n = [q[0] / r, q[1] / r];
         let dd = n[0] * qd[0] + n[1] * qd[1];
-        let v0 = self.approach_speed;
+        let v0 = approach_speed;
         let f = self.law.force(d, dd, v0);
         if f == 0.0 {
             return ContactTerms {

@@ -87,6 +87,37 @@ pub trait NormalLaw: std::fmt::Debug + Send + Sync {
     fn validate(&self, name: &str) -> Result<()>;
 }
 
+/// A shared law is a law (the bindings hold laws in an `Arc`, so one Python law object can serve
+/// several joints).
+impl<T: NormalLaw + ?Sized> NormalLaw for std::sync::Arc<T> {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    #[inline]
+    fn force(&self, d: f64, dd: f64, v0: f64) -> f64 {
+        (**self).force(d, dd, v0)
+    }
+    #[inline]
+    fn tangent(&self, d: f64, dd: f64, v0: f64) -> (f64, f64) {
+        (**self).tangent(d, dd, v0)
+    }
+    fn velocity_dependent(&self) -> bool {
+        (**self).velocity_dependent()
+    }
+    fn needs_approach_speed(&self) -> bool {
+        (**self).needs_approach_speed()
+    }
+    fn stiffness(&self) -> f64 {
+        (**self).stiffness()
+    }
+    fn exponent(&self) -> f64 {
+        (**self).exponent()
+    }
+    fn validate(&self, name: &str) -> Result<()> {
+        (**self).validate(name)
+    }
+}
+
 /// `prefix.field`, or `field` when `prefix` is empty.
 pub(crate) fn pname(prefix: &str, field: &str) -> String {
     if prefix.is_empty() {
