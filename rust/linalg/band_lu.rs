@@ -2,10 +2,6 @@
 
 use crate::error::{Error, Result};
 
-/// A pivot at most this fraction of its row's largest entry (before elimination) counts as
-/// singular: a few hundred ulps, i.e. what is left when elimination cancels the row.
-pub const PIVOT_TOL: f64 = 1e-13;
-
 /// Dense-band LU factorization without pivoting, for the nonsymmetric effective matrices of
 /// rotating links (the Coriolis term `2 phidot rho A int N^T S N` and the `phiddot` part of
 /// `M_IC` are skew-symmetric). Refactorized in place with no allocation, `O(n b^2)` for
@@ -14,18 +10,26 @@ pub const PIVOT_TOL: f64 = 1e-13;
 /// Without pivoting the factorization exists whenever the symmetric part of the matrix is
 /// positive definite (every leading principal minor is then nonzero), which holds for Newmark
 /// effective matrices `M/(beta dt^2) + gamma/(beta dt) C + K` at the steps of interest; a pivot that
-/// is not finite, or that elimination has cancelled to [`PIVOT_TOL`] of its own row's largest
-/// entry, is reported as [`Error::Singular`] instead of being divided by. The test is per row:
-/// the unknowns of a mechanism differ in unit and scale (a slider's mass against the rotary
-/// inertia of a 60 um beam element, 1e13 apart), so a pivot is small only against its own row.
+/// is not finite or is rounding noise is reported as [`Error::Singular`] (with the pivot's
+/// index; the caller names the unknown) instead of being divided by.
+///
+/// A pivot `u_kk = a_kk - sum_j l_kj u_jk` is judged against what was subtracted to form it, not
+/// against the largest diagonal entry of the whole matrix: it is noise when
+/// `|u_kk| <= 8 (b + 1) eps (|a_kk| + sum_j |l_kj u_jk|)` (the rounding error of a sum of `b + 1`
+/// terms, with a margin of 8). Rows of very different scale (the rotation of a 60 um element has
+/// a mass ~1e-15 kg m^2 next to a slider of 0.08 kg; a translation's stiffness grows like
+/// `1/l^3` with the element length `l`) then do not pass for singular, while a row that is a
+/// combination of earlier ones to working precision (a massless unknown: zero row, zero pivot)
+/// still does. The test is invariant under a diagonal scaling of the unknowns.
 #[derive(Debug, Clone)]
 pub struct BandLu {
     n: usize,
     b: usize,
     /// Row-major band: entry (i, j) at `i * (2b + 1) + (j + b - i)`, for `|i - j| <= b`.
     a: Vec<f64>,
-    /// Largest magnitude in each row before elimination (the pivot test's scale).
-    row_scale: Vec<f64>,
+    /// Scratch of [`Self::factorize`]: per row, `|a_kk| + sum_j |l_kj u_jk|` (the magnitude the
+    /// pivot is formed from).
+    pivot_scale: Vec<f64>,
     /// Numeric factorizations done.
     pub factorizations: u64,
 }
@@ -37,7 +41,7 @@ impl BandLu {
             n,
             b,
             a: vec![0.0; n * (2 * b + 1)],
-            row_scale: vec![0.0; n],
+            pivot_scale: vec![0.0; n],
             factorizations: 0,
         }
     }
@@ -79,12 +83,14 @@ impl BandLu {
     pub fn factorize(&mut self, what: &str) -> Result<()> {
         let (n, b) = (self.n, self.b);
         let w = 2 * b + 1;
-        for (i, row) in self.a.chunks_exact(w).enumerate() {
-            self.row_scale[i] = row.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        // rounding of a pivot formed from up to b + 1 terms, with a margin of 8
+        let noise = 8.0 * (b + 1) as f64 * f64::EPSILON;
+        for (i, s) in self.pivot_scale.iter_mut().enumerate() {
+            *s = self.a[i * w + b].abs();
         }
         for k in 0..n {
             let piv = self.a[k * w + b];
-            if !piv.is_finite() || piv.abs() <= PIVOT_TOL * self.row_scale[k] {
+            if !piv.is_finite() || piv.abs() <= noise * self.pivot_scale[k] {
                 return Err(Error::Singular {
                     what: if piv.is_finite() {
                         what.to_string()
@@ -102,6 +108,7 @@ impl BandLu {
                 self.a[ik] = l;
                 if l != 0.0 {
                     let (ri, rk) = (i * w + b - i, k * w + b - k);
+                    self.pivot_scale[i] += (l * self.a[rk + i]).abs();
                     for j in k + 1..=last {
                         self.a[ri + j] -= l * self.a[rk + j];
                     }
@@ -165,6 +172,56 @@ mod band_lu_tests {
         m.solve_in_place(&mut x);
         for i in 0..n {
             assert!((x[i] - x_true[i]).abs() < 1e-13, "{i}: {} vs {}", x[i], x_true[i]);
+        }
+    }
+
+    /// The pivot test is relative to each row's own magnitude: a matrix and its diagonal
+    /// scaling `D A D` with `D` from 1 down to 2^-30 (unknowns whose squared units differ by
+    /// 1e18, like the rotation of a 60 um beam element next to a slider's travel; the old test
+    /// against 1e-14 of the largest diagonal entry refused it) both factorize, and with powers of
+    /// two the scaled solve is the unscaled one to the bit; a singular matrix (a row the sum of
+    /// two earlier ones) stays singular under a scaling, at that row.
+    #[test]
+    fn pivot_test_is_invariant_under_diagonal_scaling() {
+        let (n, b) = (30, 3);
+        let d: Vec<f64> = (0..n).map(|i| 2f64.powi(-3 * (i % 11) as i32)).collect();
+        let entry = |i: usize, j: usize| -> f64 {
+            if i == j {
+                8.0
+            } else {
+                1.0 / (1.0 + (i + 2 * j) as f64 % 3.0) - 0.2 * (i as f64 - j as f64).signum()
+            }
+        };
+        let (mut plain, mut scaled) = (BandLu::new(n, b), BandLu::new(n, b));
+        for i in 0..n {
+            for j in i.saturating_sub(b)..=(i + b).min(n - 1) {
+                plain.add(i, j, entry(i, j));
+                scaled.add(i, j, d[i] * entry(i, j) * d[j]);
+            }
+        }
+        let rhs: Vec<f64> = (0..n).map(|i| 2.0 + (i as f64 * 0.7).cos()).collect();
+        // A x = rhs and (D A D) z = D rhs: z = D^-1 x
+        let mut x = rhs.clone();
+        let mut z: Vec<f64> = rhs.iter().zip(&d).map(|(r, d)| r * d).collect();
+        plain.factorize("plain").unwrap();
+        scaled.factorize("scaled").unwrap();
+        plain.solve_in_place(&mut x);
+        scaled.solve_in_place(&mut z);
+        for i in 0..n {
+            assert_eq!(z[i] * d[i], x[i], "{i}");
+        }
+        // singular: row 2 = row 0 + row 1 (tridiagonal), scaled
+        let rows = [[2.0, -1.0, 0.0], [-1.0, 3.0, -1.0], [1.0, 2.0, -1.0]];
+        let s = [1.0, 1e-6, 1e-9];
+        let mut m = BandLu::new(3, 2);
+        for i in 0..3 {
+            for j in 0..3 {
+                m.add(i, j, s[i] * rows[i][j] * s[j]);
+            }
+        }
+        match m.factorize("K") {
+            Err(crate::error::Error::Singular { index, .. }) => assert_eq!(index, 2),
+            r => panic!("expected a singular pivot at 2, got {r:?}"),
         }
     }
 
