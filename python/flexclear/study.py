@@ -1642,14 +1642,43 @@ class _Lock:
                 self.file.unlink()
 
 
-def _write_text(path: Path, text: str) -> None:
+def _fsync(path: Path) -> None:
+    """Flushes a file, or a folder's entries, to the disk (where the platform allows: a folder
+    cannot be opened on Windows, nor fsynced on some file systems)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        if path.is_dir():
+            return
+        raise
+    try:
+        os.fsync(fd)
+    except OSError:
+        if not path.is_dir():
+            raise
+    finally:
+        os.close(fd)
+
+
+def _write_whole(path: Path, write: Callable[[Path], None]) -> None:
+    """Writes a store file whole: ``write`` fills a temporary file named after this writer,
+    which is flushed to the disk and then renamed to ``path`` (and the rename flushed too).
+    Readers take no lock: they see the file whole or not at all, while the writer runs (the
+    rename is atomic) and after a crash of the machine (the data is on the disk before the name
+    points at it; without the flush a crash could leave a named but empty part)."""
     tmp = path.with_name(path.name + _tmp_suffix())
     try:
-        tmp.write_text(text)
+        write(tmp)
+        _fsync(tmp)
         os.replace(tmp, path)
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)  # e.g. Ctrl-C mid-write: leave no half-written file
         raise
+    _fsync(path.parent)
+
+
+def _write_text(path: Path, text: str) -> None:
+    _write_whole(path, lambda tmp: tmp.write_text(text))
 
 
 def _probe_write(path: Path) -> None:
@@ -1666,13 +1695,7 @@ def _probe_write(path: Path) -> None:
 
 
 def _write_parquet(frame, path: Path) -> None:
-    tmp = path.with_name(path.name + _tmp_suffix())
-    try:
-        frame.to_parquet(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)  # e.g. Ctrl-C mid-write: leave no half-written file
-        raise
+    _write_whole(path, frame.to_parquet)
 
 
 class _Progress:
@@ -1976,7 +1999,12 @@ def write_report(
 
 
 def open_store(path: Union[str, os.PathLike]) -> StudyResult:
-    """The results stored in ``path`` so far (finished or not), without running anything."""
+    """The results stored in ``path`` so far (finished or not), without running anything.
+
+    Takes no lock, so it may be called while a writer runs (to watch a long study): every file
+    of a store is written to a temporary name, flushed to the disk and renamed whole, so a read
+    sees each part whole or not at all, and each sample once (a sample in two parts with
+    different results raises :class:`StoreError`)."""
     study = load(path)
     store = _Store(Path(path), study, write=False)
     return StudyResult(study, _concat(store.read(), study), 0.0)
