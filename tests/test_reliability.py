@@ -412,6 +412,31 @@ def test_item3_parts_are_written_as_samples_finish_within_a_chunk(tmp_path, monk
     same(open_store(tmp_path).frame, res.frame)
 
 
+def test_item3_on_dask_parts_are_written_as_samples_finish_within_a_chunk(tmp_path, monkeypatch):
+    """On Dask too, one chunk of every sample does not wait for its end: tasks are cut to last
+    about FLUSH_SECONDS (here 0: one sample per task) and finished samples reach the store as
+    their tasks end; results bitwise those of the local run."""
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.setattr(study_mod, "FLUSH_SECONDS", 0.0)
+    s = small_study()
+    stored_while_running = []
+
+    def progress(done, total):
+        stored_while_running.append((done, len(list(tmp_path.glob("part-*.parquet")))))
+
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        res = s.run(store=tmp_path, client=client, chunk_size=12, progress=progress)
+    assert max(n for d, n in stored_while_running if d < 12) >= 5
+    assert len(list(tmp_path.glob("part-*.parquet"))) == 12
+    same(res.frame, s.run(progress=False).frame)
+    same(open_store(tmp_path).frame, res.frame)
+
+
 # -- item 4: no silent NaN ----------------------------------------------------------------------
 
 
