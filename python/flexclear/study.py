@@ -1683,17 +1683,19 @@ class _Lock:
 
 def _fsync(path: Path) -> None:
     """Flushes a file, or a folder's entries, to the disk (where the platform allows: a folder
-    cannot be opened on Windows, nor fsynced on some file systems)."""
+    cannot be opened on Windows, nor fsynced on some file systems). A file is opened for writing
+    (Windows flushes only such handles)."""
+    folder = path.is_dir()
     try:
-        fd = os.open(path, os.O_RDONLY)
+        fd = os.open(path, os.O_RDONLY if folder else os.O_RDWR)
     except OSError:
-        if path.is_dir():
+        if folder:
             return
         raise
     try:
         os.fsync(fd)
     except OSError:
-        if not path.is_dir():
+        if not folder:
             raise
     finally:
         os.close(fd)
