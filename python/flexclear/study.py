@@ -813,9 +813,10 @@ class Study:
         threads : int
             Worker threads of the local Rust pool (0 = one per core). On Dask, threads per task.
         chunk_size : int, optional
-            Samples per part (and per Dask task). Default: about 16 s of single-thread work
-            (estimated at 1 us per step) per chunk locally, chunks of even size, and enough
-            chunks to keep a cluster busy.
+            Samples per chunk (locally a part never spans two chunks; on Dask a task never
+            does, and tasks are cut to last about FLUSH_SECONDS). Default: about 16 s of
+            single-thread work (estimated at 1 us per step) per chunk locally, chunks of even
+            size, and enough chunks to keep a cluster busy.
         client : dask.distributed.Client, optional
             Run the chunks on this cluster.
         progress : bool or callable
@@ -970,31 +971,69 @@ class Study:
             raise interrupted() from None
 
     def _run_dask(self, client, inputs, chunks, pool, store_, frames, bar) -> None:
+        """The chunks on a Dask cluster, cut into tasks that last about :data:`FLUSH_SECONDS`
+        (the first ones one sample per thread, the next sized from the measured wall time of
+        the samples done, and at most a fair share of what is left), two per thread of the
+        cluster in flight: finished samples reach the store within about that time (grouped
+        into one part per FLUSH_SECONDS), however large a chunk, as on the local path. Results
+        do not depend on the cutting."""
         from dask.distributed import as_completed
 
         definition = self.to_dict()
         writer = _PartWriter(store_, frames)
-        futures = [
-            client.submit(
+        threads = max(pool[0], 1)
+        try:
+            cluster_threads = sum(client.nthreads().values())
+        except Exception:  # a client that cannot tell: assume a small cluster
+            cluster_threads = 4
+        in_flight = max(2, 2 * math.ceil(cluster_threads / threads))
+        todo = [list(ids) for ids in chunks if len(ids)]
+        per_sample = [0.0, 0]  # measured wall time (s) and samples measured
+
+        def task_size(left: int) -> int:
+            if per_sample[1] == 0:
+                return min(left, threads)
+            rate = threads * per_sample[1] / max(per_sample[0], 1e-9)  # samples/s of one task
+            # and no more than a fair share of what is left, so every slot has work
+            share = math.ceil(sum(len(c) for c in todo) / in_flight)
+            return int(min(left, max(threads, min(FLUSH_SECONDS * rate, share))))
+
+        def submit():
+            ids = todo[0][: task_size(len(todo[0]))]
+            del todo[0][: len(ids)]
+            if not todo[0]:
+                todo.pop(0)
+            return client.submit(
                 _run_rows_task,
                 definition,
                 ids,
                 inputs.loc[ids].to_dict("records"),
-                (max(pool[0], 1), pool[1]),
+                (threads, pool[1]),
                 pure=False,
             )
-            for ids in chunks
-        ]
+
+        futures = [submit() for _ in range(in_flight) if todo]
+        running = as_completed(futures)
         try:
-            for fut in as_completed(futures):
+            for fut in running:
                 frame = fut.result()
+                if len(frame):
+                    per_sample[0] += float(frame["wall_time"].sum())
+                    per_sample[1] += len(frame)
+                if todo:
+                    new = submit()
+                    futures.append(new)
+                    running.add(new)
                 writer.add(frame)
-                writer.flush()
                 bar.update_to(bar.n + len(frame))
+                writer.flush_if_due()
+            writer.flush()
         except KeyboardInterrupt:
             client.cancel(futures)
+            writer.flush()
             raise SimulationInterrupted(
                 f"study interrupted: {sum(len(f) for f in frames)} of {len(inputs)} samples finished"
+                + (f" and saved in {store_.path}" if store_ else "")
             ) from None
         except StoreError:
             client.cancel(futures)
@@ -1642,14 +1681,45 @@ class _Lock:
                 self.file.unlink()
 
 
-def _write_text(path: Path, text: str) -> None:
+def _fsync(path: Path) -> None:
+    """Flushes a file, or a folder's entries, to the disk (where the platform allows: a folder
+    cannot be opened on Windows, nor fsynced on some file systems). A file is opened for writing
+    (Windows flushes only such handles)."""
+    folder = path.is_dir()
+    try:
+        fd = os.open(path, os.O_RDONLY if folder else os.O_RDWR)
+    except OSError:
+        if folder:
+            return
+        raise
+    try:
+        os.fsync(fd)
+    except OSError:
+        if not folder:
+            raise
+    finally:
+        os.close(fd)
+
+
+def _write_whole(path: Path, write: Callable[[Path], None]) -> None:
+    """Writes a store file whole: ``write`` fills a temporary file named after this writer,
+    which is flushed to the disk and then renamed to ``path`` (and the rename flushed too).
+    Readers take no lock: they see the file whole or not at all, while the writer runs (the
+    rename is atomic) and after a crash of the machine (the data is on the disk before the name
+    points at it; without the flush a crash could leave a named but empty part)."""
     tmp = path.with_name(path.name + _tmp_suffix())
     try:
-        tmp.write_text(text)
+        write(tmp)
+        _fsync(tmp)
         os.replace(tmp, path)
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)  # e.g. Ctrl-C mid-write: leave no half-written file
         raise
+    _fsync(path.parent)
+
+
+def _write_text(path: Path, text: str) -> None:
+    _write_whole(path, lambda tmp: tmp.write_text(text))
 
 
 def _probe_write(path: Path) -> None:
@@ -1666,13 +1736,7 @@ def _probe_write(path: Path) -> None:
 
 
 def _write_parquet(frame, path: Path) -> None:
-    tmp = path.with_name(path.name + _tmp_suffix())
-    try:
-        frame.to_parquet(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)  # e.g. Ctrl-C mid-write: leave no half-written file
-        raise
+    _write_whole(path, frame.to_parquet)
 
 
 class _Progress:
@@ -1976,7 +2040,12 @@ def write_report(
 
 
 def open_store(path: Union[str, os.PathLike]) -> StudyResult:
-    """The results stored in ``path`` so far (finished or not), without running anything."""
+    """The results stored in ``path`` so far (finished or not), without running anything.
+
+    Takes no lock, so it may be called while a writer runs (to watch a long study): every file
+    of a store is written to a temporary name, flushed to the disk and renamed whole, so a read
+    sees each part whole or not at all, and each sample once (a sample in two parts with
+    different results raises :class:`StoreError`)."""
     study = load(path)
     store = _Store(Path(path), study, write=False)
     return StudyResult(study, _concat(store.read(), study), 0.0)
