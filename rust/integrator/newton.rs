@@ -45,12 +45,18 @@ const NONE: usize = usize::MAX;
 
 /// Largest relative correction (of the displacement scale) that a step may stall at and still be
 /// accepted as converged at round-off: when a Newton correction below this level is no smaller
-/// than one of the two before it, the iterates are at the floor of the system's floating-point
+/// than one of the two before it, and the residual has fallen by [`ROUNDOFF_RESIDUAL`], the
+/// iterates are at the floor of the system's floating-point
 /// arithmetic (about eps times its conditioning: 1e-13 to 2e-12 on a 200-element rod), so a
 /// tolerance finer than that floor does not fail the run; such steps are counted in
 /// [`RunStats::roundoff_steps`](crate::run::RunStats::roundoff_steps). A stall above it is a
 /// real failure to converge and ends the run (or halves the step).
 pub const ROUNDOFF_FLOOR: f64 = 1e-6;
+
+/// The other half of the round-off test: the step's residual has fallen to this fraction of its
+/// first iteration's, so what is left is the arithmetic's, not a stalled iteration's (a Newton
+/// iteration that cycles, e.g. on a contact edge, keeps a residual of the order of the forces).
+pub const ROUNDOFF_RESIDUAL: f64 = 1e-9;
 
 /// The gap element is not offered in moving frames; every other setting of [`Settings`] applies
 /// (the Newton iterations from [`Settings::newton`]).
@@ -1286,6 +1292,8 @@ impl<'a> NewtonRun<'a> {
         let mut last_corr;
         // the two corrections before the last, for the round-off floor's stall test
         let mut prev_corr = [f64::INFINITY; 2];
+        // the residual of the first iteration, for the round-off floor's progress test
+        let mut first_res = f64::NAN;
         let converged = loop {
             iters += 1;
             if iterate_contact {
@@ -1341,7 +1349,13 @@ impl<'a> NewtonRun<'a> {
             if linear || last_corr <= self.settings.newton.tol {
                 break true;
             }
-            if last_corr <= ROUNDOFF_FLOOR && last_corr >= prev_corr[0].min(prev_corr[1]) {
+            if iters == 1 {
+                first_res = last_res;
+            }
+            if last_corr <= ROUNDOFF_FLOOR
+                && last_corr >= prev_corr[0].min(prev_corr[1])
+                && last_res <= ROUNDOFF_RESIDUAL * first_res
+            {
                 // stalled: no smaller than one of the two corrections before it (round-off
                 // fluctuates; a slow but converging iteration keeps decreasing and goes on), at
                 // a level no result depends on: what is left is the system's round-off
