@@ -132,30 +132,48 @@ impl std::error::Error for Error {}
 /// Result alias for the engine.
 pub type Result<T> = std::result::Result<T, Error>;
 
-/// Checks that `value` is finite and strictly positive.
+/// Largest magnitude a model parameter may have (in SI units, whatever its unit): far beyond
+/// anything physical, and small enough that the products a run forms (a damping times a speed, a
+/// mass times a squared rate, a stiffness times a length) stay finite in double precision. A
+/// parameter of 1e300 would otherwise run and return an infinite force or energy.
+pub const MAX_MAGNITUDE: f64 = 1e75;
+
+/// Checks that `value` is finite, strictly positive and at most [`MAX_MAGNITUDE`].
 pub fn check_positive(name: &str, value: f64, unit: &str) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
+    if value.is_finite() && value > 0.0 && value <= MAX_MAGNITUDE {
         Ok(())
     } else {
-        Err(Error::param(name, value, format!("finite and > 0 {unit}")))
+        Err(Error::param(
+            name,
+            value,
+            format!("finite and > 0 {unit} (at most 1e75)"),
+        ))
     }
 }
 
-/// Checks that `value` is finite and not negative.
+/// Checks that `value` is finite, not negative and at most [`MAX_MAGNITUDE`].
 pub fn check_non_negative(name: &str, value: f64, unit: &str) -> Result<()> {
-    if value.is_finite() && value >= 0.0 {
+    if (0.0..=MAX_MAGNITUDE).contains(&value) {
         Ok(())
     } else {
-        Err(Error::param(name, value, format!("finite and >= 0 {unit}")))
+        Err(Error::param(
+            name,
+            value,
+            format!("finite and >= 0 {unit} (at most 1e75)"),
+        ))
     }
 }
 
-/// Checks that `value` is finite.
+/// Checks that `value` is finite and at most [`MAX_MAGNITUDE`] in magnitude.
 pub fn check_finite(name: &str, value: f64, unit: &str) -> Result<()> {
-    if value.is_finite() {
+    if value.is_finite() && value.abs() <= MAX_MAGNITUDE {
         Ok(())
     } else {
-        Err(Error::param(name, value, format!("finite {unit}")))
+        Err(Error::param(
+            name,
+            value,
+            format!("finite {unit} (|value| at most 1e75)"),
+        ))
     }
 }
 

@@ -898,8 +898,12 @@ class Study:
         inputs = self.inputs()
         t_end = inputs["t_end"].to_numpy(float) if "t_end" in inputs else np.full(len(inputs), self.t_end)
         dt = inputs["dt"].to_numpy(float) if "dt" in inputs else np.full(len(inputs), self.dt)
-        steps = np.maximum(np.round(t_end / dt), 1)
-        return int(np.sum(steps // self.history_every + 2) * 2 * len(self.joints) * 8)
+        # a sample with a step or length out of range runs as "invalid" and keeps nothing
+        valid = (dt > 0) & (t_end > 0) & np.isfinite(dt) & np.isfinite(t_end)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            steps = np.maximum(np.round(t_end[valid] / dt[valid]), 1)
+        total = float(np.sum(steps // self.history_every + 2)) * 2 * len(self.joints) * 8
+        return int(min(total, 2**63 - 1))
 
     def _check_memory(self, inputs) -> None:
         from .model import MEMORY_LIMIT_ENV, _fmt_bytes, _memory_limit

@@ -238,17 +238,14 @@ impl AngleTable {
                         format!("as many samples as time ({n})"),
                     ));
                 }
-                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                    return Err(Error::param(
-                        field(name, &format!("{label}[{i}]")),
-                        v[i],
-                        format!("finite values, {unit}"),
-                    ));
-                }
+                check_angle_samples(name, label, v, unit)?;
             }
         }
         let rate = rate.unwrap_or_else(|| gradient(&time, &angle));
         let accel = accel.unwrap_or_else(|| gradient(&time, &rate));
+        // derived by differences: samples too close for their angles give rates beyond range
+        check_angle_samples(name, "rate (from the angles)", &rate, "rad/s")?;
+        check_angle_samples(name, "accel (from the angles)", &accel, "rad/s^2")?;
         Ok(AngleTable {
             time,
             angle,
@@ -393,6 +390,22 @@ impl Rotation {
             )),
             _ => Ok(()),
         }
+    }
+}
+
+/// Every value of `v` finite and at most [`crate::error::MAX_MAGNITUDE`] in magnitude, else an
+/// error naming `name.label[i]`.
+fn check_angle_samples(name: &str, label: &str, v: &[f64], unit: &str) -> Result<()> {
+    match v
+        .iter()
+        .position(|x| !(x.is_finite() && x.abs() <= crate::error::MAX_MAGNITUDE))
+    {
+        None => Ok(()),
+        Some(i) => Err(Error::param(
+            field(name, &format!("{label}[{i}]")),
+            v[i],
+            format!("finite values of magnitude at most 1e75, {unit}"),
+        )),
     }
 }
 

@@ -1,6 +1,6 @@
 //! Prescribed planar motions of rigid bodies and of flexible links' frames.
 
-use crate::error::{check_finite, check_non_negative, Error, Result};
+use crate::error::{check_finite, check_non_negative, Error, Result, MAX_MAGNITUDE};
 
 /// Position, velocity and acceleration of a point, m, m/s, m/s^2.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -109,17 +109,14 @@ impl Table {
                         format!("as many samples as time ({n})"),
                     ));
                 }
-                if let Some(i) = a.iter().position(|p| !(p[0].is_finite() && p[1].is_finite())) {
-                    return Err(Error::param(
-                        format!("{name}.{label}[{i}]"),
-                        "non-finite",
-                        "finite values",
-                    ));
-                }
+                check_samples(name, label, a)?;
             }
         }
         let vel = vel.unwrap_or_else(|| gradient(&time, &pos));
         let acc = acc.unwrap_or_else(|| gradient(&time, &vel));
+        // derived by differences: samples too close for their positions give rates beyond range
+        check_samples(name, "velocity (from the positions)", &vel)?;
+        check_samples(name, "acceleration (from the positions)", &acc)?;
         Ok(Table { time, pos, vel, acc })
     }
 
@@ -217,4 +214,18 @@ pub(crate) fn segment(time: &[f64], t: f64) -> (usize, f64) {
         k => k - 1,
     };
     (i, ((t - time[i]) / (time[i + 1] - time[i])).clamp(0.0, 1.0))
+}
+
+/// Every sample of `a` finite and at most [`MAX_MAGNITUDE`] in magnitude (SI), else an error
+/// naming `name.label[i]`.
+fn check_samples(name: &str, label: &str, a: &[[f64; 2]]) -> Result<()> {
+    let ok = |x: f64| x.is_finite() && x.abs() <= MAX_MAGNITUDE;
+    match a.iter().position(|p| !(ok(p[0]) && ok(p[1]))) {
+        None => Ok(()),
+        Some(i) => Err(Error::param(
+            format!("{name}.{label}[{i}]"),
+            format!("[{}, {}]", a[i][0], a[i][1]),
+            "finite values of magnitude at most 1e75 (SI)",
+        )),
+    }
 }
