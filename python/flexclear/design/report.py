@@ -18,6 +18,21 @@ from .preload import preloaded_slider_crank
 RATIOS = (0.001, 0.003, 0.01, 0.03, 0.1)
 
 
+def _polar(fig, pred, title: str):
+    """The zero-clearance force of ``pred`` as a polar curve in the first third of ``fig``, the
+    predicted loss in red; returns the axes."""
+    ax = fig.add_subplot(1, 3, 1)
+    fx, fy = pred.force[:, 0], pred.force[:, 1]
+    lost = pred._mask()
+    ax.plot(fx, fy, color="0.6", lw=0.8)
+    ax.plot(np.where(lost, fx, np.nan), np.where(lost, fy, np.nan), "r", lw=1.5)
+    ax.plot([0], [0], "k+")
+    ax.set_xlabel("F_x [N]")
+    ax.set_ylabel("F_y [N]")
+    ax.set_title(title)
+    return ax
+
+
 def _timeline(ax, run, joint: str, pred, clearance: float) -> None:
     t = run.time
     pen = run.joint(joint).penetration
@@ -76,16 +91,9 @@ def write_report(
         say(f"c = {c:.3g} m: {a}")
         if r == 0.01 or len(ratios) == 1:
             fig = plt.figure(figsize=(13, 4.8))
-            ax1 = fig.add_subplot(1, 3, 1)
-            fx, fy = pred.force[:, 0], pred.force[:, 1]
-            lost = pred._mask()
-            ax1.plot(fx, fy, color="0.6", lw=0.8)
-            ax1.plot(np.where(lost, fx, np.nan), np.where(lost, fy, np.nan), "r", lw=2)
-            ax1.plot([0], [0], "k+")
+            ax1 = _polar(fig, pred, "zero-clearance bearing force (red: loss predicted)")
+            fy = pred.force[:, 1]
             ax1.set_xlim(-1.5 * np.abs(fy).max(), 1.5 * np.abs(fy).max())
-            ax1.set_xlabel("F_x [N]")
-            ax1.set_ylabel("F_y [N]")
-            ax1.set_title("zero-clearance bearing force (red: loss predicted)")
             ax2 = fig.add_subplot(1, 3, (2, 3))
             _timeline(ax2, run, "bearing", pred, c)
             ax3 = ax2.twinx()
@@ -192,16 +200,8 @@ def _slider_crank_section(out: Path, plt, say, quick: bool = False) -> list:
             say(f"slider-crank {w:g} rad/s, c = {c:.3g} m: {a}, {frac}")
             if (w, c) == (speeds[-1], clearances[-1]):
                 fig = plt.figure(figsize=(13, 4.8))
-                ax1 = fig.add_subplot(1, 3, 1)
-                fx, fy = pred.force[:, 0], pred.force[:, 1]
-                lost = pred._mask()
-                ax1.plot(fx, fy, color="0.6", lw=0.8)
-                ax1.plot(np.where(lost, fx, np.nan), np.where(lost, fy, np.nan), "r", lw=1.5)
-                ax1.plot([0], [0], "k+")
+                ax1 = _polar(fig, pred, "zero-clearance crank-pin force (red: loss predicted)")
                 ax1.set_aspect("equal", "datalim")
-                ax1.set_xlabel("F_x [N]")
-                ax1.set_ylabel("F_y [N]")
-                ax1.set_title("zero-clearance crank-pin force (red: loss predicted)")
                 ax2 = fig.add_subplot(1, 3, (2, 3))
                 for lo, hi in continuous:
                     ax2.axvspan(lo, hi, ymin=0.0, ymax=0.08, color="g", alpha=0.7, lw=0)
