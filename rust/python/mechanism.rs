@@ -641,6 +641,61 @@ impl PyMechanism {
         }
     }
 
+    /// The named rigid bodies the clearance and pin joints bear on, each once, in the order of
+    /// their first use: `(name, frame)`.
+    #[getter]
+    fn bodies(&self) -> Vec<(String, PyFrame)> {
+        let mut out: Vec<(String, PyFrame)> = Vec::new();
+        let ends = self.inner.joints.iter().flat_map(|j| [&j.journal, &j.bearing]);
+        let pins = self.inner.pins.iter().flat_map(|p| [&p.a, &p.b]);
+        for e in ends.chain(pins) {
+            if let Endpoint::Body { frame, name, .. } = e {
+                if !out.iter().any(|(n, _)| n == name) {
+                    out.push((name.clone(), PyFrame { inner: frame.clone() }));
+                }
+            }
+        }
+        out
+    }
+
+    /// Axial stiffness E A of each link, N.
+    #[getter]
+    fn link_axial_stiffness(&self) -> Vec<f64> {
+        self.inner.links.iter().map(|l| l.youngs_modulus * l.area).collect()
+    }
+
+    /// The link frames, in link order.
+    #[getter]
+    fn link_frames(&self) -> Vec<PyFrame> {
+        self.inner
+            .links
+            .iter()
+            .map(|l| PyFrame { inner: l.frame.clone() })
+            .collect()
+    }
+
+    /// Lowest `count` natural frequencies, Hz, of a mechanism the constant stepper runs (its
+    /// links' free vibration with every joint open, rigid-body modes left out), computed on the
+    /// translating model the plan derives; a mechanism that needs Newton is refused with the
+    /// reason (`flexclear.Model.natural_frequencies` linearizes it instead).
+    fn natural_frequencies<'py>(&self, py: Python<'py>, count: i64) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        if count < 1 {
+            return Err(err(py, Error::param("count", count, "an integer >= 1")));
+        }
+        let model = self.inner.to_translating().map_err(|reason| {
+            err(
+                py,
+                Error::InvalidModel {
+                    message: format!("natural_frequencies of the constant stepper's model: {reason}"),
+                },
+            )
+        })?;
+        let f = py
+            .detach(move || crate::modes::natural_frequencies(&model, count as usize))
+            .map_err(|e| err(py, e))?;
+        Ok(PyArray1::from_vec(py, f))
+    }
+
     #[getter]
     fn slider_names(&self) -> Vec<String> {
         self.inner.sliders.iter().map(|s| s.name.clone()).collect()
@@ -706,7 +761,8 @@ impl PyMechanism {
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
-                        impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0))]
+                        impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
+                        nodes=Vec::new()))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -737,6 +793,7 @@ impl PyMechanism {
         solver: &str,
         gap_stiffness: Option<f64>,
         gap_damping: f64,
+        nodes: Vec<(usize, usize)>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -759,10 +816,12 @@ impl PyMechanism {
         let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
         let step_halving =
             u32::try_from(step_halving).map_err(|_| err(py, Error::param("step_halving", step_halving, "0 ..= 20")))?;
-        // the coupling's own iteration at the constant stepper's defaults (1e-10, 50); the gap
-        // element is the constant stepper's: a model planned for Newton refuses it
+        // `tol` and `max_iter` are the within-step iteration of the stepper the plan picks: the
+        // contact iteration of the constant stepper, Newton's otherwise (the coupling then keeps
+        // the constant stepper's defaults, 1e-10 and 50); the gap element is the constant
+        // stepper's: a model planned for Newton refuses it
         let coupling = parse_coupling(py, method, iterate, 1e-10, 50, gap_stiffness, gap_damping)?;
-        let settings = Settings {
+        let mut settings = Settings {
             newmark: Newmark { beta, gamma },
             coupling,
             solver,
@@ -786,12 +845,15 @@ impl PyMechanism {
                 histories,
                 start,
                 impacts: impact_log,
-                nodes: Vec::new(),
+                nodes,
             },
             stepper,
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
+        if matches!(crate::plan::Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant) {
+            settings.coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
+        }
         let link_elements: Vec<usize> = mech.links.iter().map(|l| l.elements).collect();
         let (res, pending) = run_detached(py, progress, |control| crate::plan::simulate(mech, &settings, control));
         match res {

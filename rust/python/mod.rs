@@ -1,5 +1,7 @@
 //! Python bindings (`flexclear._core`), behind the `python` feature: the only code that knows
-//! about Python. Conversions, the model builder class, runs and modes; errors in `errors.rs`.
+//! about Python. Motions, the slider-yoke scene and the batch here; the one model class
+//! (`Mechanism`, its frames and runs) in `mechanism.rs`, outputs in `output.rs`, contact laws in
+//! `contact.rs`, errors in `errors.rs`.
 
 mod contact;
 mod errors;
@@ -7,10 +9,9 @@ mod mechanism;
 mod output;
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 
-use numpy::{PyArray1, PyReadonlyArray1};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -18,13 +19,13 @@ use crate::batch::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutco
 use crate::contact::{Coupling, DampingLaw};
 use crate::error::Error;
 use crate::integrator::Newmark;
-use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody, Table};
+use crate::model::{check_elements, Model, Motion, Table};
 use crate::record::RecordSpec;
-use crate::run::{simulate, Settings, SolverMode};
+use crate::run::{Settings, SolverMode};
 use crate::scenes::{SliderYoke, SliderYokeGeometry};
 
-use errors::{run_detached, to_pyerr};
-use output::{extremes_list, joint_histories, output_dict};
+use errors::to_pyerr;
+use output::{extremes_list, joint_histories};
 
 pub(crate) fn err(py: Python<'_>, e: Error) -> PyErr {
     to_pyerr(py, &e, None)
@@ -99,10 +100,6 @@ impl PyMotion {
     }
 }
 
-fn motion_or_fixed(m: Option<PyRef<'_, PyMotion>>) -> Motion {
-    m.map_or(Motion::Fixed { position: [0.0, 0.0] }, |m| m.inner.clone())
-}
-
 pub(crate) fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw> {
     match s {
         "viscous" => Ok(DampingLaw::Viscous),
@@ -116,321 +113,6 @@ pub(crate) fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw>
                 "one of \"viscous\", \"radial\", \"literal\"",
             ),
         )),
-    }
-}
-
-/// The engine's model: links, rigid bodies and clearance joints. Built through
-/// `flexclear.Model`; every parameter is validated when added.
-#[pyclass(name = "Model", module = "flexclear._core")]
-#[derive(Clone, Default)]
-struct PyModel {
-    inner: Model,
-}
-
-fn array_vec(a: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
-    a.map(|a| Ok(a.as_slice()?.to_vec())).transpose()
-}
-
-#[pymethods]
-impl PyModel {
-    #[new]
-    fn new() -> Self {
-        PyModel::default()
-    }
-
-    /// Adds a flexible link; returns its index. Units: m, Pa, kg/m^3, m^2, m^4, Pa s, rad.
-    #[pyo3(signature = (name, length, elements, youngs_modulus, density, area, inertia, damping=0.0, angle=0.0,
-                        motion=None, rotary_inertia=false, initial_displacement=None, initial_velocity=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn add_link(
-        &mut self,
-        py: Python<'_>,
-        name: String,
-        length: f64,
-        elements: i64,
-        youngs_modulus: f64,
-        density: f64,
-        area: f64,
-        inertia: f64,
-        damping: f64,
-        angle: f64,
-        motion: Option<PyRef<'_, PyMotion>>,
-        rotary_inertia: bool,
-        initial_displacement: Option<PyReadonlyArray1<'_, f64>>,
-        initial_velocity: Option<PyReadonlyArray1<'_, f64>>,
-    ) -> PyResult<usize> {
-        let elements = check_elements("elements", elements).map_err(|e| err(py, e))?;
-        let link = FlexibleLink {
-            name,
-            length,
-            elements,
-            youngs_modulus,
-            density,
-            damping,
-            area,
-            inertia,
-            rotary_inertia,
-            angle,
-            motion: motion_or_fixed(motion),
-            initial_displacement: array_vec(initial_displacement)?,
-            initial_velocity: array_vec(initial_velocity)?,
-        };
-        self.inner.links.push(link);
-        let i = self.inner.links.len() - 1;
-        if let Err(e) = self.inner.validate_link(i) {
-            self.inner.links.pop();
-            return Err(err(py, e));
-        }
-        Ok(i)
-    }
-
-    /// Adds a rigid body with prescribed motion; returns its index.
-    #[pyo3(signature = (name, motion=None))]
-    fn add_body(&mut self, py: Python<'_>, name: String, motion: Option<PyRef<'_, PyMotion>>) -> PyResult<usize> {
-        self.inner.bodies.push(RigidBody {
-            name,
-            motion: motion_or_fixed(motion),
-        });
-        let i = self.inner.bodies.len() - 1;
-        if let Err(e) = self.inner.validate_body(i) {
-            self.inner.bodies.pop();
-            return Err(err(py, e));
-        }
-        Ok(i)
-    }
-
-    /// Adds a clearance joint between node `node` of link `link` and either a point of rigid body
-    /// `body` (offset `point`, m) or node `target_node` of link `target_link`; returns its index.
-    #[pyo3(signature = (name, link, node, clearance, stiffness, damping, body=None, point=(0.0, 0.0),
-                        target_link=None, target_node=None, damping_law="viscous", no_tension=false, law=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn add_joint(
-        &mut self,
-        py: Python<'_>,
-        name: String,
-        link: i64,
-        node: i64,
-        clearance: f64,
-        stiffness: f64,
-        damping: f64,
-        body: Option<i64>,
-        point: (f64, f64),
-        target_link: Option<i64>,
-        target_node: Option<i64>,
-        damping_law: &str,
-        no_tension: bool,
-        law: Option<PyRef<'_, contact::PyNormalLaw>>,
-    ) -> PyResult<usize> {
-        let idx = |v: i64, what: &str| -> PyResult<usize> {
-            usize::try_from(v).map_err(|_| err(py, Error::param(what, v, "an index >= 0")))
-        };
-        let target = match (body, target_link, target_node) {
-            (Some(b), None, None) => JointTarget::Body {
-                body: idx(b, "body")?,
-                point: [point.0, point.1],
-            },
-            (None, Some(l), Some(n)) => JointTarget::Node {
-                link: idx(l, "target_link")?,
-                node: idx(n, "target_node")?,
-            },
-            _ => {
-                return Err(err(
-                    py,
-                    Error::InvalidModel {
-                        message: "a joint needs either `body` or both `target_link` and `target_node`".into(),
-                    },
-                ))
-            }
-        };
-        let i = self.inner.joints.len();
-        let law = contact::joint_law(
-            py,
-            &format!("joints[{i}]"),
-            law,
-            stiffness,
-            damping,
-            damping_law,
-            no_tension,
-        )?;
-        let joint = ClearanceJoint {
-            name,
-            link: idx(link, "link")?,
-            node: idx(node, "node")?,
-            target,
-            clearance,
-            law,
-        };
-        self.inner.joints.push(joint);
-        let i = self.inner.joints.len() - 1;
-        if let Err(e) = self.inner.validate_joint(i) {
-            self.inner.joints.pop();
-            return Err(err(py, e));
-        }
-        Ok(i)
-    }
-
-    /// Names of links, bodies and joints, in index order.
-    #[getter]
-    fn link_names(&self) -> Vec<String> {
-        self.inner.links.iter().map(|l| l.name.clone()).collect()
-    }
-
-    #[getter]
-    fn body_names(&self) -> Vec<String> {
-        self.inner.bodies.iter().map(|l| l.name.clone()).collect()
-    }
-
-    #[getter]
-    fn joint_names(&self) -> Vec<String> {
-        self.inner.joints.iter().map(|l| l.name.clone()).collect()
-    }
-
-    /// Number of elements of each link.
-    #[getter]
-    fn link_elements(&self) -> Vec<usize> {
-        self.inner.links.iter().map(|l| l.elements).collect()
-    }
-
-    /// Link lengths, m, in index order.
-    #[getter]
-    fn link_lengths(&self) -> Vec<f64> {
-        self.inner.links.iter().map(|l| l.length).collect()
-    }
-
-    /// Axial stiffness E A of each link, N, in index order.
-    #[getter]
-    fn link_axial_stiffness(&self) -> Vec<f64> {
-        self.inner.links.iter().map(|l| l.youngs_modulus * l.area).collect()
-    }
-
-    /// Whether a link includes rotary inertia, in index order.
-    #[getter]
-    fn link_rotary_inertia(&self) -> Vec<bool> {
-        self.inner.links.iter().map(|l| l.rotary_inertia).collect()
-    }
-
-    /// The frames of the rigid bodies as moving-frame bodies see them: angle 0, origin on the
-    /// body's motion (so a point offset in global axes is the same vector in the body frame).
-    #[getter]
-    fn body_frames(&self) -> Vec<mechanism::PyFrame> {
-        let frame = |b: &crate::model::RigidBody| Arc::new(b.frame()) as Arc<dyn crate::kinematics::FrameKinematics>;
-        self.inner
-            .bodies
-            .iter()
-            .map(|b| mechanism::PyFrame { inner: frame(b) })
-            .collect()
-    }
-
-    /// The link frames: each at its fixed angle, origin on the link's motion.
-    #[getter]
-    fn link_frames(&self) -> Vec<mechanism::PyFrame> {
-        let frame = |l: &crate::model::FlexibleLink| Arc::new(l.frame()) as Arc<dyn crate::kinematics::FrameKinematics>;
-        self.inner
-            .links
-            .iter()
-            .map(|l| mechanism::PyFrame { inner: frame(l) })
-            .collect()
-    }
-
-    /// The same model as a moving-frame mechanism (each frame at its fixed angle, translating
-    /// with its motion). Fails for a link with rotary inertia.
-    fn to_mechanism(&self, py: Python<'_>) -> PyResult<mechanism::PyMechanism> {
-        let inner = crate::model::mechanism::Mechanism::from_translating(&self.inner).map_err(|e| err(py, e))?;
-        Ok(mechanism::PyMechanism { inner })
-    }
-
-    /// Lowest `count` natural frequencies, Hz, joints open, rigid-body modes left out.
-    fn natural_frequencies<'py>(&self, py: Python<'py>, count: i64) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        if count < 1 {
-            return Err(err(py, Error::param("count", count, "an integer >= 1")));
-        }
-        let model = self.inner.clone();
-        let f = py
-            .detach(move || crate::modes::natural_frequencies(&model, count as usize))
-            .map_err(|e| err(py, e))?;
-        Ok(PyArray1::from_vec(py, f))
-    }
-
-    /// Runs the model. See `flexclear.Model.simulate` for the parameters.
-    #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-10, max_iter=50, gap_stiffness=None,
-                        gap_damping=0.0, beta=0.25, gamma=0.5, solver="woodbury", divergence_limit=None,
-                        joints=None, joint_position=false, nodes=Vec::new(), every=1, histories=true, start=0.0,
-                        progress=None, events=false, impact_log=false))]
-    #[allow(clippy::too_many_arguments)]
-    fn simulate<'py>(
-        &self,
-        py: Python<'py>,
-        t_end: f64,
-        dt: f64,
-        method: &str,
-        iterate: bool,
-        tol: f64,
-        max_iter: i64,
-        gap_stiffness: Option<f64>,
-        gap_damping: f64,
-        beta: f64,
-        gamma: f64,
-        solver: &str,
-        divergence_limit: Option<f64>,
-        joints: Option<Vec<usize>>,
-        joint_position: bool,
-        nodes: Vec<(usize, usize)>,
-        every: i64,
-        histories: bool,
-        start: f64,
-        progress: Option<Py<PyAny>>,
-        events: bool,
-        impact_log: bool,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let mut settings = build_settings(
-            py,
-            t_end,
-            dt,
-            method,
-            iterate,
-            tol,
-            max_iter,
-            gap_stiffness,
-            gap_damping,
-            beta,
-            gamma,
-            solver,
-            divergence_limit,
-            RecordSpec {
-                joints,
-                joint_position,
-                nodes,
-                every: count_at_least_1(py, "every", every)?,
-                histories,
-                start,
-                impacts: impact_log,
-                links: Default::default(),
-            },
-        )?;
-        settings.events = events;
-        let model = &self.inner;
-        let (res, pending) = run_detached(py, progress, |control| simulate(model, &settings, control));
-        match res {
-            Ok(out) => output_dict(py, out, &[]),
-            Err(fail) => {
-                if let Some(e) = pending {
-                    if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
-                        return Err(e); // the progress callback raised: propagate it as is
-                    }
-                }
-                let partial = output_dict(py, fail.output, &[])?;
-                Err(to_pyerr(py, &fail.error, Some(partial)))
-            }
-        }
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "Model(links={:?}, bodies={:?}, joints={:?})",
-            self.link_names(),
-            self.body_names(),
-            self.joint_names()
-        )
     }
 }
 
@@ -547,7 +229,7 @@ fn slider_yoke<'py>(
     no_tension: bool,
     geometry: &str,
     rotary_inertia: bool,
-) -> PyResult<(PyModel, Bound<'py, PyDict>)> {
+) -> PyResult<(mechanism::PyMechanism, Bound<'py, PyDict>)> {
     let elements = check_elements("elements", elements).map_err(|e| err(py, e))?;
     let geometry = match geometry {
         "end" => SliderYokeGeometry::End,
@@ -594,7 +276,10 @@ fn slider_yoke<'py>(
     info.set_item("eta", d.eta)?;
     info.set_item("bearing_stiffness", d.bearing_stiffness)?;
     info.set_item("bearing_damping", d.bearing_damping)?;
-    Ok((PyModel { inner: model }, info))
+    // the one user model: the mechanism (lossless; the plan derives this translating model back
+    // for the constant stepper)
+    let inner = crate::model::mechanism::Mechanism::from_translating(&model).map_err(|e| err(py, e))?;
+    Ok((mechanism::PyMechanism { inner }, info))
 }
 
 /// One sample's outcome as a dict: `status` ("ok", "diverged", "invalid", "singular",
@@ -634,17 +319,15 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     Ok(d)
 }
 
-/// The constant-stepper model of batch sample `i`: a `Model`, or a `Mechanism` that
-/// `plan::Plan::compile` would run on the constant stepper (validated first); any other object,
-/// or a mechanism that needs the Newton stepper, is refused naming `models[i]` and the reason.
+/// The constant-stepper model of batch sample `i`: the translating model `plan::Plan::compile`
+/// derives from a `Mechanism` it runs on the constant stepper (validated first); any other
+/// object, or a mechanism that needs the Newton stepper, is refused naming `models[i]` and the
+/// reason.
 fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>, t_end: f64) -> PyResult<Model> {
-    if let Ok(model) = m.extract::<PyRef<'_, PyModel>>() {
-        return Ok(model.inner.clone());
-    }
     let name = format!("models[{i}]");
     let Ok(mech) = m.extract::<PyRef<'_, mechanism::PyMechanism>>() else {
         let shown = m.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
-        return Err(err(py, Error::param(name, shown, "a Model or a Mechanism")));
+        return Err(err(py, Error::param(name, shown, "a Mechanism")));
     };
     mech.inner.validate(t_end).map_err(|e| err(py, e))?;
     mech.inner.to_translating().map_err(|reason| {
@@ -815,7 +498,6 @@ fn run_batch<'py>(
 /// The compiled core of flexclear.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_class::<PyModel>()?;
     m.add_class::<PyMotion>()?;
     m.add_class::<mechanism::PyRotation>()?;
     m.add_class::<mechanism::PyFrame>()?;
