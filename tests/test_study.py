@@ -558,14 +558,15 @@ def test_a_failed_moving_frame_sample_stays_its_own_row():
 
 
 def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkeypatch):
-    # the slider-yoke moved to moving frames (zero gravity) plans as constant: its samples run in
-    # the Rust batch (lanes, shared analysis), bitwise as the translating scene's
+    # the slider-yoke with a zero gravity set (a feature of the moving-frame formulation) plans as
+    # constant: its samples run in the Rust batch (lanes, shared analysis), bitwise as the
+    # scene's
     vary = {"clearance": Uniform(5e-5, 2e-4)}
     kw = dict(samples=6, seed=3, t_end=0.02, dt=1e-5)
     moved = Study("study_builders:slider_yoke_in_moving_frames", vary, **kw)
     plain = Study("slider_yoke", vary, **kw)
     model = moved._scene_fn(clearance=1e-4)
-    assert model.engine == "moving-frame" and model._core.stepper == "constant"
+    assert model.engine == "translating" and model._core.stepper == "constant"
     batched = []
     run_batch = flexclear._core.run_batch
 
@@ -589,5 +590,5 @@ def test_the_batch_refuses_a_model_that_needs_the_newton_stepper_by_name():
         flexclear.InvalidParameterError, match=r"models\[0\].*Newton stepper: the mechanism has a pin"
     ):
         flexclear._core.run_batch([crank._core], [0.01], [1e-5])
-    with pytest.raises(flexclear.InvalidParameterError, match=r"models\[0\].*a Model or a Mechanism"):
+    with pytest.raises(flexclear.InvalidParameterError, match=r"models\[0\].*a Mechanism"):
         flexclear._core.run_batch(["yoke"], [0.01], [1e-5])

@@ -1,12 +1,11 @@
 """Type stubs of the compiled core ``flexclear._core`` (hand-written; see rust/python/mod.rs)."""
 
-from typing import Any, Callable, Optional, Union, final
+from typing import Any, Callable, Optional, final
 
 import numpy as np
 import numpy.typing as npt
 
 __all__ = [
-    "Model",
     "Motion",
     "Rotation",
     "Frame",
@@ -41,87 +40,6 @@ class Motion:
         acceleration: Optional[list[tuple[float, float]]] = ...,
     ) -> Motion: ...
     def at(self, t: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]: ...
-
-@final
-class Model:
-    def __init__(self) -> None: ...
-    def add_link(
-        self,
-        name: str,
-        length: float,
-        elements: int,
-        youngs_modulus: float,
-        density: float,
-        area: float,
-        inertia: float,
-        damping: float = ...,
-        angle: float = ...,
-        motion: Optional[Motion] = ...,
-        rotary_inertia: bool = ...,
-        initial_displacement: Optional[npt.NDArray[np.float64]] = ...,
-        initial_velocity: Optional[npt.NDArray[np.float64]] = ...,
-    ) -> int: ...
-    def add_body(self, name: str, motion: Optional[Motion] = ...) -> int: ...
-    def add_joint(
-        self,
-        name: str,
-        link: int,
-        node: int,
-        clearance: float,
-        stiffness: float,
-        damping: float,
-        body: Optional[int] = ...,
-        point: tuple[float, float] = ...,
-        target_link: Optional[int] = ...,
-        target_node: Optional[int] = ...,
-        damping_law: str = ...,
-        no_tension: bool = ...,
-        law: Optional[NormalLaw] = ...,
-    ) -> int: ...
-    @property
-    def link_names(self) -> list[str]: ...
-    @property
-    def body_names(self) -> list[str]: ...
-    @property
-    def joint_names(self) -> list[str]: ...
-    @property
-    def link_elements(self) -> list[int]: ...
-    @property
-    def link_lengths(self) -> list[float]: ...
-    @property
-    def link_axial_stiffness(self) -> list[float]: ...
-    @property
-    def link_rotary_inertia(self) -> list[bool]: ...
-    @property
-    def body_frames(self) -> list[Frame]: ...
-    @property
-    def link_frames(self) -> list[Frame]: ...
-    def to_mechanism(self) -> Mechanism: ...
-    def natural_frequencies(self, count: int) -> npt.NDArray[np.float64]: ...
-    def simulate(
-        self,
-        t_end: float,
-        dt: float,
-        method: str = ...,
-        iterate: bool = ...,
-        tol: float = ...,
-        max_iter: int = ...,
-        gap_stiffness: Optional[float] = ...,
-        gap_damping: float = ...,
-        beta: float = ...,
-        gamma: float = ...,
-        solver: str = ...,
-        divergence_limit: Optional[float] = ...,
-        joints: Optional[list[int]] = ...,
-        joint_position: bool = ...,
-        nodes: list[tuple[int, int]] = ...,
-        every: int = ...,
-        histories: bool = ...,
-        start: float = ...,
-        progress: Optional[Callable[[float], Any]] = ...,
-        events: bool = ...,
-        impact_log: bool = ...,
-    ) -> dict[str, Any]: ...
 
 @final
 class Rotation:
@@ -245,6 +163,13 @@ class Mechanism:
     @property
     def link_lengths(self) -> list[float]: ...
     @property
+    def bodies(self) -> list[tuple[str, Frame]]: ...
+    @property
+    def link_axial_stiffness(self) -> list[float]: ...
+    @property
+    def link_frames(self) -> list[Frame]: ...
+    def natural_frequencies(self, count: int) -> npt.NDArray[np.float64]: ...
+    @property
     def slider_names(self) -> list[str]: ...
     @property
     def joint_rotating(self) -> list[bool]: ...
@@ -290,6 +215,7 @@ class Mechanism:
         solver: str = ...,
         gap_stiffness: Optional[float] = ...,
         gap_damping: float = ...,
+        nodes: list[tuple[int, int]] = ...,
     ) -> dict[str, Any]: ...
 
 def slider_yoke(
@@ -311,7 +237,7 @@ def slider_yoke(
     no_tension: bool = ...,
     geometry: str = ...,
     rotary_inertia: bool = ...,
-) -> tuple[Model, dict[str, float]]: ...
+) -> tuple[Mechanism, dict[str, float]]: ...
 def slider_crank(
     *,
     crank_length: float,
@@ -336,7 +262,7 @@ def slider_crank(
     geometric: Optional[bool],
 ) -> tuple[Mechanism, dict[str, float]]: ...
 def run_batch(
-    models: list[Union[Model, Mechanism]],
+    models: list[Mechanism],
     t_end: list[float],
     dt: list[float],
     *,

@@ -2,14 +2,15 @@
 pins, supports, clamps, point masses, loads, gravity and clearance joints; one ``simulate``; one
 :class:`~flexclear.Result`.
 
-The user never names an engine. While every link translates (a fixed angle and a prescribed
-translation) and every joint is a clearance joint to a node or a translating body, the model is
-held as the translating-frame model, whose contact-free effective matrix is constant and
-factorized once (the fast path of the slider-yoke and of its Monte Carlo studies). The first
-feature that needs the moving-frame formulation (a rotating or mechanism frame, a pin, a slider,
-a support, a mass, a load, gravity, a term switch) moves the model, with everything built so far,
-to the moving-frame formulation (Newton on the full element equation, refactorized when the
-Jacobian changes). ``Result.stats["engine"]`` says which ran.
+The user never names an engine. The model is one Rust model (``_core.Mechanism``: links in any
+frame, rigid bodies, sliders, pins, clearance joints, ...) from the first call; the plan picks the
+stepper. While every link translates (a fixed angle and a prescribed translation) and every joint
+is a clearance joint to a node or a translating body, it runs on the constant stepper (the
+contact-free effective matrix factorized once: the fast path of the slider-yoke and of its Monte
+Carlo studies; :attr:`Model.engine` is ``"translating"``); a feature that needs the moving-frame
+formulation (a rotating or mechanism frame, a pin, a slider, a support, a mass, a load, gravity, a
+term switch) makes it run on the Newton stepper (``"moving-frame"``). ``Result.stats["engine"]``
+and ``Result.stats["stepper"]`` say which ran.
 """
 
 from __future__ import annotations
@@ -257,10 +258,8 @@ class Model:
     """
 
     def __init__(self) -> None:
-        self._core: Any = _core.Model()
-        self._kind = TRANSLATING
+        self._core: Any = _core.Mechanism()
         self._link_ids: dict[str, int] = {}
-        self._body_ids: dict[str, int] = {}
         self._body_frames: dict[str, Frame] = {}
         self._slider_ids: dict[str, int] = {}
         self._connectors: set[str] = set()
@@ -272,12 +271,9 @@ class Model:
         """A model around a core one built in Rust (a scene), open to further building."""
         m = cls()
         m._core = core
-        m._kind = MOVING if isinstance(core, _core.Mechanism) else TRANSLATING
         m._link_ids = {n: i for i, n in enumerate(core.link_names)}
-        if m._kind == TRANSLATING:
-            m._body_ids = {n: i for i, n in enumerate(core.body_names)}
-        else:
-            m._slider_ids = {n: i for i, n in enumerate(core.slider_names)}
+        m._body_frames = dict(core.bodies)
+        m._slider_ids = {n: i for i, n in enumerate(core.slider_names)}
         m._connectors = set(core.joint_names)
         m.parameters = dict(parameters or {})
         return m
@@ -285,9 +281,14 @@ class Model:
     # -- what the model is ---------------------------------------------------------------------
     @property
     def engine(self) -> str:
-        """``"translating"`` (every link translates: constant effective matrix) or
-        ``"moving-frame"`` (Newton on the moving-frame equations)."""
+        """What the plan runs the model on: ``"translating"`` (every link translates: the
+        constant stepper, effective matrix factorized once) or ``"moving-frame"`` (the Newton
+        stepper on the moving-frame equations). Follows the features added so far."""
         return self._kind
+
+    @property
+    def _kind(self) -> str:
+        return TRANSLATING if self._core.stepper == "constant" else MOVING
 
     @property
     def link_names(self) -> list[str]:
@@ -302,7 +303,7 @@ class Model:
     @property
     def body_names(self) -> list[str]:
         """Rigid body names added with :meth:`add_body`, in order."""
-        return list(self._body_ids) if self._kind == TRANSLATING else list(self._body_frames)
+        return list(self._body_frames)
 
     @property
     def slider_names(self) -> list[str]:
@@ -342,20 +343,6 @@ class Model:
             raise _bad(f"{kind} name", name, "a non-empty string")
         if name in taken:
             raise ModelError(f"two {kind}s are named {name!r}")
-
-    # -- moving to the moving-frame formulation -------------------------------------------------
-    def _to_moving(self, why: str) -> None:
-        if self._kind == MOVING:
-            return
-        try:
-            mech = self._core.to_mechanism()
-        except ModelError as e:
-            raise ModelError(f"{why} needs the moving-frame formulation, but {e}") from None
-        frames = self._core.body_frames
-        self._body_frames = {n: frames[i] for n, i in self._body_ids.items()}
-        self._body_ids = {}
-        self._core = mech
-        self._kind = MOVING
 
     # -- building ------------------------------------------------------------------------------
     def add_link(
@@ -434,8 +421,6 @@ class Model:
             raise _bad(
                 "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
             )
-        if frame is not None or any(t is not None for t in terms):
-            self._to_moving(f"link {name!r} (a moving frame or a term switch)")
         integral = _is_number(elements) and float(elements).is_integer()
         if isinstance(elements, (bool, np.bool_)) or not integral or abs(elements) > _MAX_COUNT:
             raise _bad("elements", elements, "an integer in 1 ..= 1000000")
@@ -460,30 +445,18 @@ class Model:
                 raise _bad(
                     key, value, f"an array of 3 (elements + 1) = {3 * (int(elements) + 1)} numbers"
                 ) from None
-        if self._kind == TRANSLATING:
-            self._core.add_link(
-                name,
-                *args,
-                float(damping),
-                float(angle),
-                motion,
-                bool(rotary_inertia),
-                initial["initial_displacement"],
-                initial["initial_velocity"],
-            )
-        else:
-            if frame is None:
-                frame = Frame.rotating(Rotation.fixed(float(angle)), origin=motion)
-            self._core.add_link(
-                name,
-                *args,
-                frame,
-                float(damping),
-                *terms,
-                initial["initial_displacement"],
-                initial["initial_velocity"],
-                bool(rotary_inertia),
-            )
+        if frame is None:
+            frame = Frame.rotating(Rotation.fixed(float(angle)), origin=motion)
+        self._core.add_link(
+            name,
+            *args,
+            frame,
+            float(damping),
+            *terms,
+            initial["initial_displacement"],
+            initial["initial_velocity"],
+            bool(rotary_inertia),
+        )
         self._link_ids[name] = len(self._link_ids)
         return self
 
@@ -502,13 +475,9 @@ class Model:
                 raise _bad("frame", frame, "a flexclear.Frame")
             if motion is not None:
                 raise _bad("frame", frame, "either `frame` or `motion`, not both")
-            self._to_moving(f"body {name!r} (a moving frame)")
-        if self._kind == TRANSLATING:
-            self._body_ids[name] = self._core.add_body(name, motion)
-        else:
-            self._body_frames[name] = (
-                frame if frame is not None else Frame.rotating(Rotation.fixed(0.0), origin=motion)
-            )
+        self._body_frames[name] = (
+            frame if frame is not None else Frame.rotating(Rotation.fixed(0.0), origin=motion)
+        )
         return self
 
     def add_slider(self, name: str, *, mass: float, path: Frame, angle: float = 0.0) -> Model:
@@ -520,7 +489,6 @@ class Model:
             raise _bad("path", path, "a flexclear.Frame")
         mass = _num("mass", mass, "a finite number > 0, kg")
         angle = _num("angle", angle, "a finite angle, rad")
-        self._to_moving(f"slider {name!r}")
         self._core.add_slider(name, mass, angle, path)
         self._slider_ids[name] = len(self._slider_ids)
         return self
@@ -535,7 +503,6 @@ class Model:
                 "`slider` (a slider name)",
             )
         if slider is not None:
-            self._to_moving(f"a joint on slider {slider!r}")
             if slider not in self._slider_ids:
                 raise ModelError(f"unknown slider {slider!r}; the model has {self.slider_names}")
             return {"target": "slider", "slider": self._slider_ids[slider]}
@@ -546,13 +513,8 @@ class Model:
                 "target_link": self._link_index(target[0]),
                 "target_node": self._node(self._link_index(target[0]), target[1], "target[1]"),
             }
-            # the translating core knows a node target by its link and node alone
-            return side if self._kind == TRANSLATING else {"target": "node", **side}
+            return {"target": "node", **side}
         pt = _pair("point", point, "m")
-        if self._kind == TRANSLATING:
-            if body not in self._body_ids:
-                raise ModelError(f"unknown body {body!r}; the model has {self.body_names}")
-            return {"body": self._body_ids[body], "point": pt}
         return {"target": "body", "frame": self._body_frame(body), "point": pt, "body": body}
 
     def add_joint(
@@ -636,10 +598,7 @@ class Model:
                 damping=0.0,
                 law=law._core,
             )
-        if self._kind == TRANSLATING:
-            self._core.add_joint(name, link_i, int(node), **law, **side)
-        else:
-            self._core.add_clearance(name, link_i, int(node), **law, **side)
+        self._core.add_clearance(name, link_i, int(node), **law, **side)
         self._connectors.add(name)
         return self
 
@@ -658,7 +617,6 @@ class Model:
         ``link`` and a body point, another node or a slider (as for :meth:`add_joint`). The
         nominal motions must keep both sides together (checked when the model runs)."""
         self._unique("joint", name, self._connectors)
-        self._to_moving(f"pin {name!r}")
         self._core.add_pin(
             name,
             self._link_index(link),
@@ -673,7 +631,6 @@ class Model:
     ) -> Model:
         """Holds the chosen elastic DOFs of a node at zero in its link frame (a simple support by
         default: ``u`` and ``v``)."""
-        self._to_moving("a support")
         li = self._link_index(link)
         self._core.add_support(li, self._node(li, node), bool(u), bool(v), bool(theta))
         return self
@@ -685,7 +642,6 @@ class Model:
     def add_mass(self, link: str, node: int, mass: float) -> Model:
         """A point mass (kg, >= 0) at a node."""
         mass = _num("mass", mass, "a finite number >= 0, kg")
-        self._to_moving("a point mass")
         li = self._link_index(link)
         self._core.add_mass(li, self._node(li, node), mass)
         return self
@@ -697,7 +653,6 @@ class Model:
         ``moment`` (N m)."""
         fu, fv = _num("fu", fu, "a finite force, N"), _num("fv", fv, "a finite force, N")
         moment = _num("moment", moment, "a finite moment, N m")
-        self._to_moving("a load")
         li = self._link_index(link)
         self._core.add_load(li, self._node(li, node), fu, fv, moment)
         return self
@@ -707,7 +662,6 @@ class Model:
         for k, v in (("gx", gx), ("gy", gy)):
             if not (_is_number(v) and np.isfinite(v)):
                 raise _bad(k, v, "a finite acceleration, m/s^2")
-        self._to_moving("gravity")
         self._core.set_gravity(float(gx), float(gy))
         return self
 
@@ -716,20 +670,14 @@ class Model:
         the pins under the nominal motion. Raises :class:`ModelError` or
         :class:`InvalidParameterError`. (Parameters are checked when added; ``simulate`` runs
         this check itself.)"""
-        if self._kind == MOVING:
-            self._core.validate(_num("t_end", t_end, "a finite time > 0, s"))
-        elif not self._link_ids:
-            raise ModelError("the model has no flexible link")
+        self._core.validate(_num("t_end", t_end, "a finite time > 0, s"))
 
     # -- analysis ------------------------------------------------------------------------------
-    def _moving_core(self):
-        return self._core if self._kind == MOVING else self._core.to_mechanism()
-
     def dof_map(self) -> list[tuple[int, int, str]]:
         """The unknowns of the moving-frame formulation: ``(link index, node, component)``;
         components ``u, v, theta`` (link frame), ``x, y`` (global, shared by pinned nodes) or
         ``s`` (along a guide)."""
-        return self._moving_core().dof_map()
+        return self._core.dof_map()
 
     def static_state(
         self, t: float = 0.0, *, tol: float = 1e-12, max_iter: int = 50, contacts: bool = True
@@ -747,7 +695,7 @@ class Model:
         if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool) and max_iter >= 1):
             raise _bad("max_iter", max_iter, "an integer >= 1")
         contacts = bool(contacts)
-        core = self._moving_core()
+        core = self._core
         n = len(core.dof_map())
         for rcond in (None, 1e-6):
             y = np.zeros(n)
@@ -806,7 +754,7 @@ class Model:
         t = _num("t", t, "a finite time >= 0, s")
         if t < 0:
             raise _bad("t", t, "a finite time >= 0, s")
-        core = self._moving_core()
+        core = self._core
         n = len(core.dof_map())
         need = 4.0 * 8.0 * n * n  # M, C, K and the engine's working copy
         limit, source = _memory_limit()
@@ -850,10 +798,11 @@ class Model:
         refuses a run above its memory limit with :class:`~flexclear.ResourceError`."""
         rec = _as_record(record)
         check_window(rec.start, t_end, dt, "record.start")
-        return self._history_plan(float(t_end), float(dt), rec)[0]
+        return self._history_plan(float(t_end), float(dt), rec, MOVING if rec.energy else self._kind)[0]
 
-    def _history_plan(self, t_end: float, dt: float, rec: Record) -> tuple[int, int, int, dict]:
-        """``(bytes, records, channels, channels by kind)`` of the histories of a run."""
+    def _history_plan(self, t_end: float, dt: float, rec: Record, kind: str) -> tuple[int, int, int, dict]:
+        """``(bytes, records, channels, channels by kind)`` of the histories of a run on the
+        stepper of ``kind`` (``TRANSLATING``: the constant one)."""
         every = rec.every
         if not (
             isinstance(every, (int, np.integer)) and not isinstance(every, bool) and 1 <= every <= _MAX_COUNT
@@ -863,7 +812,7 @@ class Model:
         elements = list(self._core.link_elements)
         n_joints = len(self.joint_names) if rec.joints is None else len(rec.joints)
         per_joint = 2 + (2 if rec.position else 0)
-        moving = self._kind == MOVING
+        moving = kind == MOVING
         disp = moving if rec.displacements is None else bool(rec.displacements)
         if moving and rec.nodes:
             disp = True
@@ -897,8 +846,8 @@ class Model:
         channels = sum(ch.values())
         return 8 * records * channels, records, channels, ch
 
-    def _check_memory(self, t_end: float, dt: float, rec: Record, limit_arg: Any) -> None:
-        estimate, records, channels, ch = self._history_plan(t_end, dt, rec)
+    def _check_memory(self, t_end: float, dt: float, rec: Record, limit_arg: Any, kind: str) -> None:
+        estimate, records, channels, ch = self._history_plan(t_end, dt, rec, kind)
         limit, source = _memory_limit(limit_arg)
         if estimate <= limit:
             return
@@ -908,7 +857,7 @@ class Model:
         if fits >= 1:
             k = math.ceil(steps / fits)
             ways.append(f"Record(every={_count(k)}) or more (keeps every k-th step)")
-        if self._kind == MOVING:
+        if kind == MOVING:
             if "link displacements" in ch:
                 ways.append("Record(displacements=False) (or a few nodes in Record(nodes=...))")
             if rec.histories:
@@ -932,7 +881,7 @@ class Model:
         (None for a model above 1000 unknowns, where the dense estimate would cost too much, or
         when it cannot be had)."""
         try:
-            core = self._moving_core()
+            core = self._core
             n = len(core.dof_map())
             if not 0 < n <= 1000:
                 return None
@@ -968,10 +917,10 @@ class Model:
         text += "; beta >= gamma/2 (the default 1/4, 1/2) is unconditionally stable"
         warnings.warn(text, NewmarkStabilityWarning, stacklevel=3)
 
-    def _iterate_default(self, method: str) -> bool:
+    def _iterate_default(self, method: str, kind: str) -> bool:
         """Implicit contact where a clearance joint sits on a rotating link or body (the lagged
         couplings pump energy into every impact there), lagged as in the paper otherwise."""
-        if method != "modified" or self._kind == TRANSLATING:
+        if method != "modified" or kind == TRANSLATING:
             return False
         return any(self._core.joint_rotating)
 
@@ -1083,30 +1032,6 @@ class Model:
         if stepper not in (None, "constant", "newton"):
             raise _bad("stepper", stepper, 'one of None, "constant", "newton"')
         rec = _as_record(record)
-        if self._kind == TRANSLATING and (stepper == "newton" or (stepper is None and rec.energy)):
-            # the same model in moving frames (identical dynamics), on the Newton stepper (the
-            # one that records energies)
-            return Model._wrap(self._core.to_mechanism()).simulate(
-                t_end,
-                dt,
-                method,
-                iterate=iterate,
-                iter_tol=iter_tol,
-                max_iter=max_iter,
-                events=events,
-                record=rec,
-                gap_stiffness=gap_stiffness,
-                gap_damping=gap_damping,
-                beta=beta,
-                gamma=gamma,
-                solver=solver,
-                step_halving=step_halving,
-                divergence_limit=divergence_limit,
-                progress=progress,
-                raise_on_failure=raise_on_failure,
-                memory_limit=memory_limit,
-                stepper="newton",
-            )
         check_window(rec.start, t_end, dt, "record.start")
         if solver not in ("woodbury", "refactor"):
             raise _bad("solver", solver, 'one of "woodbury", "refactor"')
@@ -1120,9 +1045,10 @@ class Model:
             0 <= step_halving <= 20
         ):
             raise _bad("step_halving", step_halving, "an integer in 0 ..= 20")
-        kind = self._kind
+        # the stepper the plan picks; energies are recorded by the Newton stepper
+        kind = MOVING if stepper == "newton" or (stepper is None and rec.energy) else self._kind
         if iterate is None:
-            iterate = self._iterate_default(method)
+            iterate = self._iterate_default(method, kind)
         tol_default, iter_default = ITER_DEFAULTS[kind]
         if iter_tol is None:
             iter_tol = tol_default
@@ -1142,7 +1068,7 @@ class Model:
             displacements = True  # node histories come from the link displacements
         if (rec.midspan or rec.axial_force) and not displacements:
             raise _bad("record.displacements", rec.displacements, "True (midspan and axial_force need them)")
-        self._check_memory(float(t_end), float(dt), rec, memory_limit)
+        self._check_memory(float(t_end), float(dt), rec, memory_limit, kind)
         self._check_newmark(beta, gamma, float(dt))
         cb, bar = _progress_callback(progress)
         chosen = dict(
@@ -1166,10 +1092,11 @@ class Model:
                 elements = list(self._core.link_elements)
                 if displacements:
                     nodes = nodes + [(li, k) for li, n in enumerate(elements) for k in range(n + 1)]
+                # the link channels are made here from the node histories (_translating_links)
                 raw = self._core.simulate(
                     float(t_end),
                     float(dt),
-                    method,
+                    method=method,
                     iterate=bool(iterate),
                     tol=float(iter_tol),
                     max_iter=int(max_iter),
@@ -1179,15 +1106,13 @@ class Model:
                     gamma=float(gamma),
                     solver=solver,
                     divergence_limit=None if divergence_limit is None else float(divergence_limit),
-                    joints=joints,
-                    joint_position=bool(rec.position),
                     nodes=nodes,
                     every=int(rec.every),
-                    histories=bool(rec.histories),
-                    start=float(rec.start),
+                    displacements=False,
                     progress=cb,
                     events=bool(events),
-                    impact_log=bool(rec.impact_log),
+                    stepper=stepper,
+                    **_joint_record_kwargs(rec, joints),
                 )
             else:
                 if solver not in ("woodbury", "refactor"):
@@ -1235,7 +1160,7 @@ class Model:
         stats = {**chosen, **{k: 0 for k in _STAT_KEYS}, **raw["stats"]}
         lengths = list(self._core.link_lengths)
         elements = list(self._core.link_elements)
-        if self._kind == TRANSLATING:
+        if chosen["engine"] == TRANSLATING:
             ea = list(self._core.link_axial_stiffness)
             raw["links"] = _translating_links(self._core, raw, rec, displacements, elements, lengths, ea)
         else:

@@ -1119,7 +1119,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             records.append(rec)
             continue
         # samples the constant stepper runs go to the Rust batch (lanes, one analysis)
-        constant = model.engine == "translating" or model._core.stepper == "constant"
+        constant = model.engine == "translating"  # the plan: the constant stepper
         (batch if constant else moving).append(job)
         records.append(rec)
     hist = study.history_every is not None

@@ -3,10 +3,10 @@
 //! with prescribed translation is a body endpoint on such a frame; every clearance joint keeps its
 //! law, clearance and sides.
 //!
-//! The Python `Model` builds on the translating model as long as it can and moves to the
-//! mechanism when it meets a feature only the moving-frame engine has (a rotating frame, a pin,
-//! a slider, a support, a mass, a load, gravity). The differential test of the two engines runs
-//! the slider-yoke both ways through this conversion.
+//! The Python `Model` builds only the mechanism; [`Mechanism::to_translating`] is what
+//! `plan::Plan::compile` derives for the constant stepper where every link translates, and
+//! [`Mechanism::from_translating`] writes the Rust scenes built as translating models (the
+//! slider-yoke) as the one user model.
 
 use std::sync::Arc;
 

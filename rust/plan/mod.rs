@@ -120,11 +120,15 @@ pub fn simulate(
             .flat_map(|(l, link)| (0..=link.elements).map(move |n| (l, n)))
             .collect()
     } else {
-        Vec::new()
+        // no link channel: the node histories asked for by the caller (the Python `Model`'s
+        // `Record(nodes=...)`), as the translating run records them
+        settings.record.nodes.clone()
     };
     let with_links = |mut out: RunOutput| {
         out.record.links = link_histories(&model, &out, settings);
-        out.record.nodes.clear();
+        if link_channels {
+            out.record.nodes.clear();
+        }
         out
     };
     match simulate_translating(&model, &s, control) {

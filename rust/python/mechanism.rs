@@ -1,318 +1,26 @@
-//! Bindings of the kineto-elastodynamic part: angle drivers, frame kinematics (rotating frames,
-//! slider-crank, four-bar) and the `Mechanism` builder with its run and linearization.
-
-use std::sync::Arc;
+//! Bindings of the one user model: the `Mechanism` builder with its run and linearization, and
+//! the bundled scenes built in Rust (slider-yoke, slider-crank) that return it.
 
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt};
 
 use super::errors::{run_detached, to_pyerr};
+use super::motion::PyFrame;
 use super::output::{mat, output_dict};
-use super::{err, parse_coupling, parse_damping_law, parse_solver, PyMotion};
+use super::{err, parse_coupling, parse_damping_law, parse_solver};
 use crate::contact::DampingLaw;
 use crate::error::Error;
 use crate::integrator::newton::NewtonRun;
 use crate::integrator::Newmark;
-use crate::kinematics::{FourBar, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank, SliderCrankLink};
+use crate::model::check_elements;
 use crate::model::mechanism::{
     Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
 };
-use crate::model::{check_elements, Motion};
 use crate::plan::StepperKind;
 use crate::record::{LinkChannels, RecordSpec};
 use crate::run::{NewtonSettings, Settings};
-use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
-
-/// A real-number argument `name` (a Python int or float; bool refused), or an
-/// `InvalidParameterError` naming the parameter, the value and `allowed`.
-fn real(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<f64> {
-    if arg.is_instance_of::<PyBool>() || !(arg.is_instance_of::<PyFloat>() || arg.is_instance_of::<PyInt>()) {
-        return Err(bad_arg(arg, name, allowed));
-    }
-    arg.extract::<f64>().map_err(|_| bad_arg(arg, name, allowed))
-}
-
-/// The `InvalidParameterError` of argument `name` holding `arg`, which is not `allowed`.
-fn bad_arg(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyErr {
-    let shown = arg.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
-    err(arg.py(), Error::param(name, shown, allowed))
-}
-
-/// A sequence of real numbers `name`, each as [`real`].
-fn reals(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<Vec<f64>> {
-    if arg.is_instance_of::<pyo3::types::PyString>() {
-        return Err(bad_arg(arg, name, allowed));
-    }
-    let items = arg.try_iter().map_err(|_| bad_arg(arg, name, allowed))?;
-    let mut out = Vec::new();
-    for (i, x) in items.enumerate() {
-        let x = x.map_err(|_| bad_arg(arg, name, allowed))?;
-        out.push(real(&x, &format!("{name}[{i}]"), allowed)?);
-    }
-    Ok(out)
-}
-
-/// A `flexclear.Rotation` argument `name`.
-fn rotation_arg<'py>(arg: &Bound<'py, PyAny>, name: &str) -> PyResult<Rotation> {
-    arg.extract::<PyRef<'py, PyRotation>>()
-        .map(|r| r.inner.clone())
-        .map_err(|_| bad_arg(arg, name, "a flexclear.Rotation"))
-}
-
-/// A string argument `name`.
-fn str_arg(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<String> {
-    arg.extract::<String>().map_err(|_| bad_arg(arg, name, allowed))
-}
-
-/// A prescribed angle `phi(t)` (see `flexclear.kinematics`).
-#[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
-#[derive(Clone)]
-pub(super) struct PyRotation {
-    inner: Rotation,
-}
-
-#[pymethods]
-impl PyRotation {
-    /// A fixed angle, rad.
-    #[staticmethod]
-    fn fixed(angle: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let angle = real(angle, "angle", "a real number, rad")?;
-        Ok(PyRotation {
-            inner: Rotation::Fixed { angle },
-        })
-    }
-
-    /// Constant rate `rate` (rad/s) from `angle0` (rad).
-    #[staticmethod]
-    #[pyo3(signature = (rate, angle0=None))]
-    fn constant(rate: &Bound<'_, PyAny>, angle0: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
-        let rate = real(rate, "rate", "a real number, rad/s")?;
-        let angle0 = angle0.map_or(Ok(0.0), |a| real(a, "angle0", "a real number, rad"))?;
-        Ok(PyRotation {
-            inner: Rotation::Constant { angle0, rate },
-        })
-    }
-
-    /// Kane's smooth spin-up to `final_rate` (rad/s) over `ramp_time` (s).
-    #[staticmethod]
-    #[pyo3(signature = (final_rate, ramp_time, angle0=None))]
-    fn spin_up(
-        final_rate: &Bound<'_, PyAny>,
-        ramp_time: &Bound<'_, PyAny>,
-        angle0: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        let final_rate = real(final_rate, "final_rate", "a real number, rad/s")?;
-        let ramp_time = real(ramp_time, "ramp_time", "a real number > 0, s")?;
-        let angle0 = angle0.map_or(Ok(0.0), |a| real(a, "angle0", "a real number, rad"))?;
-        Ok(PyRotation {
-            inner: Rotation::SpinUp {
-                angle0,
-                final_rate,
-                ramp_time,
-            },
-        })
-    }
-
-    /// `mean + amplitude sin(2 pi frequency t + phase)` (rad, Hz).
-    #[staticmethod]
-    #[pyo3(signature = (amplitude, frequency, mean=None, phase=None))]
-    fn harmonic(
-        amplitude: &Bound<'_, PyAny>,
-        frequency: &Bound<'_, PyAny>,
-        mean: Option<&Bound<'_, PyAny>>,
-        phase: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        let amplitude = real(amplitude, "amplitude", "a real number, rad")?;
-        let frequency = real(frequency, "frequency", "a real number >= 0, Hz")?;
-        let mean = mean.map_or(Ok(0.0), |a| real(a, "mean", "a real number, rad"))?;
-        let phase = phase.map_or(Ok(0.0), |a| real(a, "phase", "a real number, rad"))?;
-        Ok(PyRotation {
-            inner: Rotation::Harmonic {
-                mean,
-                amplitude,
-                frequency,
-                phase,
-            },
-        })
-    }
-
-    /// Tabulated angle (rad) at increasing times (s); rate and acceleration by central
-    /// differences unless given.
-    #[staticmethod]
-    #[pyo3(signature = (time, angle, rate=None, accel=None))]
-    fn tabulated(
-        py: Python<'_>,
-        time: &Bound<'_, PyAny>,
-        angle: &Bound<'_, PyAny>,
-        rate: Option<&Bound<'_, PyAny>>,
-        accel: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        let time = reals(time, "time", "a sequence of real numbers, s")?;
-        let angle = reals(angle, "angle", "a sequence of real numbers, rad")?;
-        let rate = rate
-            .map(|r| reals(r, "rate", "a sequence of real numbers, rad/s"))
-            .transpose()?;
-        let accel = accel
-            .map(|a| reals(a, "accel", "a sequence of real numbers, rad/s^2"))
-            .transpose()?;
-        let inner = Rotation::tabulated(time, angle, rate, accel).map_err(|e| err(py, e))?;
-        Ok(PyRotation { inner })
-    }
-
-    /// `(angle, rate, accel)` at time `t` (s).
-    fn at(&self, t: f64) -> (f64, f64, f64) {
-        self.inner.at(t)
-    }
-
-    fn __repr__(&self) -> String {
-        format!("{:?}", self.inner)
-    }
-}
-
-/// The prescribed motion of a link frame or rigid body.
-#[pyclass(name = "Frame", module = "flexclear._core", frozen)]
-#[derive(Clone)]
-pub(super) struct PyFrame {
-    pub(super) inner: Arc<dyn FrameKinematics>,
-}
-
-#[pymethods]
-impl PyFrame {
-    /// A frame whose origin follows `origin` (fixed at (0, 0) when None) and whose angle follows
-    /// `rotation`.
-    #[staticmethod]
-    #[pyo3(signature = (rotation, origin=None))]
-    fn rotating(py: Python<'_>, rotation: &Bound<'_, PyAny>, origin: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
-        let rotation = rotation_arg(rotation, "rotation")?;
-        let origin = match origin {
-            None => Motion::Fixed { position: [0.0, 0.0] },
-            Some(m) => m
-                .extract::<PyRef<'_, PyMotion>>()
-                .map_err(|_| bad_arg(m, "origin", "None or a flexclear.motion.Motion"))?
-                .inner
-                .clone(),
-        };
-        origin.validate("origin").map_err(|e| err(py, e))?;
-        rotation.validate("rotation").map_err(|e| err(py, e))?;
-        Ok(PyFrame {
-            inner: Arc::new(RotatingFrame { origin, rotation }),
-        })
-    }
-
-    /// A link of a slider-crank (crank pivot at the origin, guide along x at height `offset`):
-    /// `link` is "crank", "rod" or "slider".
-    #[staticmethod]
-    #[pyo3(signature = (crank, rod, driver, link, offset=None))]
-    fn slider_crank(
-        py: Python<'_>,
-        crank: &Bound<'_, PyAny>,
-        rod: &Bound<'_, PyAny>,
-        driver: &Bound<'_, PyAny>,
-        link: &Bound<'_, PyAny>,
-        offset: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        let crank = real(crank, "crank", "a length > 0, m")?;
-        let rod = real(rod, "rod", "a length > 0, m")?;
-        let driver = rotation_arg(driver, "driver")?;
-        let link = str_arg(link, "link", "one of \"crank\", \"rod\", \"slider\"")?;
-        let offset = offset.map_or(Ok(0.0), |o| real(o, "offset", "a real number, m"))?;
-        let sc = Arc::new(SliderCrank::new(crank, rod, offset, driver).map_err(|e| err(py, e))?);
-        let which = match link.as_str() {
-            "crank" => SliderCrankLink::Crank,
-            "rod" => SliderCrankLink::Rod,
-            "slider" => SliderCrankLink::Slider,
-            other => {
-                return Err(err(
-                    py,
-                    Error::param("link", format!("{other:?}"), "one of \"crank\", \"rod\", \"slider\""),
-                ));
-            }
-        };
-        Ok(PyFrame {
-            inner: Arc::new(crate::kinematics::SliderCrankFrame {
-                mechanism: sc,
-                link: which,
-            }),
-        })
-    }
-
-    /// A link of a four-bar (pivots at (0, 0) and (ground, 0)): `link` is "crank", "coupler" or
-    /// "rocker"; `branch` +1 or -1 picks the assembly.
-    #[staticmethod]
-    #[pyo3(signature = (ground, crank, coupler, rocker, driver, link, branch=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn four_bar(
-        py: Python<'_>,
-        ground: &Bound<'_, PyAny>,
-        crank: &Bound<'_, PyAny>,
-        coupler: &Bound<'_, PyAny>,
-        rocker: &Bound<'_, PyAny>,
-        driver: &Bound<'_, PyAny>,
-        link: &Bound<'_, PyAny>,
-        branch: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        let ground = real(ground, "ground", "a length > 0, m")?;
-        let crank = real(crank, "crank", "a length > 0, m")?;
-        let coupler = real(coupler, "coupler", "a length > 0, m")?;
-        let rocker = real(rocker, "rocker", "a length > 0, m")?;
-        let driver = rotation_arg(driver, "driver")?;
-        let link = str_arg(link, "link", "one of \"crank\", \"coupler\", \"rocker\"")?;
-        let branch = branch.map_or(Ok(1.0), |b| real(b, "branch", "+1 or -1"))?;
-        let fb = Arc::new(FourBar::new(ground, crank, coupler, rocker, branch, driver).map_err(|e| err(py, e))?);
-        let which = match link.as_str() {
-            "crank" => FourBarLink::Crank,
-            "coupler" => FourBarLink::Coupler,
-            "rocker" => FourBarLink::Rocker,
-            other => {
-                return Err(err(
-                    py,
-                    Error::param(
-                        "link",
-                        format!("{other:?}"),
-                        "one of \"crank\", \"coupler\", \"rocker\"",
-                    ),
-                ));
-            }
-        };
-        Ok(PyFrame {
-            inner: Arc::new(crate::kinematics::FourBarFrame {
-                mechanism: fb,
-                link: which,
-            }),
-        })
-    }
-
-    /// `(origin, origin_velocity, origin_acceleration, angle, rate, accel)` at `t` (SI).
-    #[allow(clippy::type_complexity)]
-    fn at(&self, t: f64) -> ((f64, f64), (f64, f64), (f64, f64), f64, f64, f64) {
-        let f = self.inner.frame(t);
-        (
-            (f.origin[0], f.origin[1]),
-            (f.origin_vel[0], f.origin_vel[1]),
-            (f.origin_acc[0], f.origin_acc[1]),
-            f.angle,
-            f.rate,
-            f.accel,
-        )
-    }
-
-    /// Whether the frame's angle changes with time (a rotating frame carries Coriolis and
-    /// inertia-coupling terms, and a clearance joint on it is treated implicitly by default).
-    #[getter]
-    fn rotates(&self) -> bool {
-        self.inner.rotates()
-    }
-
-    /// Checks the motion over `[0, t_end]` (a four-bar that does not close, a short table).
-    fn check(&self, py: Python<'_>, t_end: f64) -> PyResult<()> {
-        self.inner.check("frame", t_end).map_err(|e| err(py, e))
-    }
-
-    fn __repr__(&self) -> String {
-        format!("{:?}", self.inner)
-    }
-}
+use crate::scenes::{FlexibleSliderCrank, SliderCrankPin, SliderYoke, SliderYokeGeometry};
 
 /// A kineto-elastodynamic mechanism under construction (see `flexclear.Mechanism`).
 #[pyclass(name = "Mechanism", module = "flexclear._core")]
@@ -641,6 +349,61 @@ impl PyMechanism {
         }
     }
 
+    /// The named rigid bodies the clearance and pin joints bear on, each once, in the order of
+    /// their first use: `(name, frame)`.
+    #[getter]
+    fn bodies(&self) -> Vec<(String, PyFrame)> {
+        let mut out: Vec<(String, PyFrame)> = Vec::new();
+        let ends = self.inner.joints.iter().flat_map(|j| [&j.journal, &j.bearing]);
+        let pins = self.inner.pins.iter().flat_map(|p| [&p.a, &p.b]);
+        for e in ends.chain(pins) {
+            if let Endpoint::Body { frame, name, .. } = e {
+                if !out.iter().any(|(n, _)| n == name) {
+                    out.push((name.clone(), PyFrame { inner: frame.clone() }));
+                }
+            }
+        }
+        out
+    }
+
+    /// Axial stiffness E A of each link, N.
+    #[getter]
+    fn link_axial_stiffness(&self) -> Vec<f64> {
+        self.inner.links.iter().map(|l| l.youngs_modulus * l.area).collect()
+    }
+
+    /// The link frames, in link order.
+    #[getter]
+    fn link_frames(&self) -> Vec<PyFrame> {
+        self.inner
+            .links
+            .iter()
+            .map(|l| PyFrame { inner: l.frame.clone() })
+            .collect()
+    }
+
+    /// Lowest `count` natural frequencies, Hz, of a mechanism the constant stepper runs (its
+    /// links' free vibration with every joint open, rigid-body modes left out), computed on the
+    /// translating model the plan derives; a mechanism that needs Newton is refused with the
+    /// reason (`flexclear.Model.natural_frequencies` linearizes it instead).
+    fn natural_frequencies<'py>(&self, py: Python<'py>, count: i64) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        if count < 1 {
+            return Err(err(py, Error::param("count", count, "an integer >= 1")));
+        }
+        let model = self.inner.to_translating().map_err(|reason| {
+            err(
+                py,
+                Error::InvalidModel {
+                    message: format!("natural_frequencies of the constant stepper's model: {reason}"),
+                },
+            )
+        })?;
+        let f = py
+            .detach(move || crate::modes::natural_frequencies(&model, count as usize))
+            .map_err(|e| err(py, e))?;
+        Ok(PyArray1::from_vec(py, f))
+    }
+
     #[getter]
     fn slider_names(&self) -> Vec<String> {
         self.inner.sliders.iter().map(|s| s.name.clone()).collect()
@@ -706,7 +469,8 @@ impl PyMechanism {
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
-                        impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0))]
+                        impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
+                        nodes=Vec::new()))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -737,6 +501,7 @@ impl PyMechanism {
         solver: &str,
         gap_stiffness: Option<f64>,
         gap_damping: f64,
+        nodes: Vec<(usize, usize)>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -759,10 +524,12 @@ impl PyMechanism {
         let every = usize::try_from(every).map_err(|_| err(py, Error::param("every", every, "an integer >= 1")))?;
         let step_halving =
             u32::try_from(step_halving).map_err(|_| err(py, Error::param("step_halving", step_halving, "0 ..= 20")))?;
-        // the coupling's own iteration at the constant stepper's defaults (1e-10, 50); the gap
-        // element is the constant stepper's: a model planned for Newton refuses it
+        // `tol` and `max_iter` are the within-step iteration of the stepper the plan picks: the
+        // contact iteration of the constant stepper, Newton's otherwise (the coupling then keeps
+        // the constant stepper's defaults, 1e-10 and 50); the gap element is the constant
+        // stepper's: a model planned for Newton refuses it
         let coupling = parse_coupling(py, method, iterate, 1e-10, 50, gap_stiffness, gap_damping)?;
-        let settings = Settings {
+        let mut settings = Settings {
             newmark: Newmark { beta, gamma },
             coupling,
             solver,
@@ -786,12 +553,15 @@ impl PyMechanism {
                 histories,
                 start,
                 impacts: impact_log,
-                nodes: Vec::new(),
+                nodes,
             },
             stepper,
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
+        if matches!(crate::plan::Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant) {
+            settings.coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
+        }
         let link_elements: Vec<usize> = mech.links.iter().map(|l| l.elements).collect();
         let (res, pending) = run_detached(py, progress, |control| crate::plan::simulate(mech, &settings, control));
         match res {
@@ -956,4 +726,85 @@ pub(super) fn slider_crank<'py>(
         info.set_item("effective_mass", b.effective_mass)?;
     }
     Ok((PyMechanism { inner: mech }, info))
+}
+
+/// Builds the slider-yoke scene (see `flexclear.scenes.slider_yoke`). Returns the model and the
+/// derived parameters as a dict.
+#[pyfunction]
+#[pyo3(signature = (clearance=0.0, amplitude=0.010, frequency=6.0, length=0.269, side=0.0127, density=7850.0,
+                    youngs_modulus=None, first_frequency=880.0, damping_ratio=0.01, elements=12,
+                    bearing_stiffness=None, stiffness_ratio=100.0, bearing_damping=None, bearing_damping_ratio=0.5,
+                    damping_law="viscous", no_tension=false, geometry="end", rotary_inertia=false))]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn slider_yoke<'py>(
+    py: Python<'py>,
+    clearance: f64,
+    amplitude: f64,
+    frequency: f64,
+    length: f64,
+    side: f64,
+    density: f64,
+    youngs_modulus: Option<f64>,
+    first_frequency: f64,
+    damping_ratio: f64,
+    elements: i64,
+    bearing_stiffness: Option<f64>,
+    stiffness_ratio: f64,
+    bearing_damping: Option<f64>,
+    bearing_damping_ratio: f64,
+    damping_law: &str,
+    no_tension: bool,
+    geometry: &str,
+    rotary_inertia: bool,
+) -> PyResult<(PyMechanism, Bound<'py, PyDict>)> {
+    let elements = check_elements("elements", elements).map_err(|e| err(py, e))?;
+    let geometry = match geometry {
+        "end" => SliderYokeGeometry::End,
+        "both_ends" => SliderYokeGeometry::BothEnds,
+        "mid_span" => SliderYokeGeometry::MidSpan,
+        other => {
+            return Err(err(
+                py,
+                Error::param(
+                    "geometry",
+                    format!("{other:?}"),
+                    "one of \"end\", \"both_ends\", \"mid_span\"",
+                ),
+            ))
+        }
+    };
+    let scene = SliderYoke {
+        clearance,
+        amplitude,
+        frequency,
+        length,
+        side,
+        density,
+        youngs_modulus,
+        first_frequency,
+        damping_ratio,
+        elements,
+        bearing_stiffness,
+        stiffness_ratio,
+        bearing_damping,
+        bearing_damping_ratio,
+        damping_law: parse_damping_law(py, damping_law)?,
+        no_tension,
+        geometry,
+        rotary_inertia,
+    };
+    let model = scene.build().map_err(|e| err(py, e))?;
+    let d = scene.derived().map_err(|e| err(py, e))?;
+    let info = PyDict::new(py);
+    info.set_item("area", d.area)?;
+    info.set_item("inertia", d.inertia)?;
+    info.set_item("mass", d.mass)?;
+    info.set_item("youngs_modulus", d.youngs_modulus)?;
+    info.set_item("eta", d.eta)?;
+    info.set_item("bearing_stiffness", d.bearing_stiffness)?;
+    info.set_item("bearing_damping", d.bearing_damping)?;
+    // the one user model: the mechanism (lossless; the plan derives this translating model back
+    // for the constant stepper)
+    let inner = Mechanism::from_translating(&model).map_err(|e| err(py, e))?;
+    Ok((PyMechanism { inner }, info))
 }
