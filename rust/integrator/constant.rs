@@ -45,7 +45,7 @@ use super::divergence::{self, CHECK_STRIDE};
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use crate::contact::{ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
-use crate::linalg::{solve_dense_in_place, Analysis, AnalysisCache, Cholesky};
+use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, Woodbury};
 use crate::model::Model;
 use crate::plan::assembly::{Frames, Pattern, System};
 use crate::record::Recorder;
@@ -425,8 +425,6 @@ impl StepConsts {
     /// The constants of step `dt` (s) for `sys` under Newmark `(beta, gamma)`; factorizes `A0`
     /// with `chol` (its analysis must be that of `sys.pattern`).
     fn new(sys: &System, dt: f64, beta: f64, gamma: f64, mut chol: Cholesky) -> Result<Self> {
-        let n = sys.n();
-        let m = 2 * sys.joints.len();
         let bdt2 = beta * dt * dt;
         let gdt = gamma * dt;
         let a0_values: Vec<f64> = (0..sys.pattern.nnz())
@@ -434,24 +432,7 @@ impl StepConsts {
             .collect();
         chol.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
         // Z = A0^-1 P^T, W = P Z.
-        let mut zcols = vec![0.0; n * m];
-        for (jj, j) in sys.joints.iter().enumerate() {
-            for r in 0..2 {
-                let col = &mut zcols[(2 * jj + r) * n..(2 * jj + r + 1) * n];
-                for k in 0..j.ndof {
-                    col[j.dofs[k]] += j.coef[r][k];
-                }
-                chol.solve_in_place(col);
-            }
-        }
-        let mut wmat = vec![0.0; m * m];
-        for (jr, j) in sys.joints.iter().enumerate() {
-            for c in 0..m {
-                let p = System::joint_project(j, &zcols[c * n..(c + 1) * n]);
-                wmat[(2 * jr) * m + c] = p[0];
-                wmat[(2 * jr + 1) * m + c] = p[1];
-            }
-        }
+        let (zcols, wmat) = Woodbury::new(&mut chol, sys.joints.as_slice()).into_parts();
         Ok(StepConsts {
             dt,
             c1: dt * dt * (0.5 - beta),
@@ -904,37 +885,22 @@ impl<'m> Lane<'m> {
     #[inline]
     fn woodbury_joint_solve(&mut self, wmat: &[f64], m: usize) -> bool {
         // y = yb + W h (kept in pa), cap = I + G W, s = G y
-        for r in 0..m {
-            let mut s = self.yb[r];
-            for c in 0..m {
-                s += wmat[r * m + c] * self.h[c];
-            }
-            self.pa[r] = s;
-        }
-        for jj in 0..self.sys.joints.len() {
-            let g = &self.g[jj];
-            for rr in 0..2 {
-                let row = 2 * jj + rr;
-                for c in 0..m {
-                    let gw = g[rr][0] * wmat[(2 * jj) * m + c] + g[rr][1] * wmat[(2 * jj + 1) * m + c];
-                    self.cap[row * m + c] = if row == c { 1.0 + gw } else { gw };
-                }
-                self.s[row] = g[rr][0] * self.pa[2 * jj] + g[rr][1] * self.pa[2 * jj + 1];
-            }
-        }
-        let rcond = solve_dense_in_place(&mut self.cap, &mut self.s, m);
+        let rcond = capacitance_solve(
+            wmat,
+            m,
+            &self.g,
+            &self.yb,
+            &self.h,
+            &mut self.pa,
+            &mut self.cap,
+            &mut self.s,
+        );
         if rcond.is_nan() || rcond < WOODBURY_RCOND {
             self.stats.woodbury_fallbacks += 1;
             return false;
         }
         // pa = y - W s
-        for r in 0..m {
-            let mut x = self.pa[r];
-            for c in 0..m {
-                x -= wmat[r * m + c] * self.s[c];
-            }
-            self.pa[r] = x;
-        }
+        subtract_ws(wmat, m, &self.s, &mut self.pa);
         true
     }
 

@@ -7,8 +7,12 @@
 
 mod band_lu;
 mod dense;
+mod factor;
 mod ldlt;
+mod woodbury;
 
 pub use band_lu::BandLu;
 pub use dense::solve_dense_in_place;
+pub use factor::Factor;
 pub use ldlt::{Analysis, AnalysisCache, Cholesky, BAND};
+pub use woodbury::{capacitance_solve, subtract_ws, LowRankBlocks, Woodbury, WoodburyScratch};

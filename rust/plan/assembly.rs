@@ -487,3 +487,23 @@ impl System {
         format!("dof {d}")
     }
 }
+
+/// The joints' projection `P` (2 rows per joint, `dq/dU`) as the low-rank operator of the
+/// Woodbury contact update.
+impl crate::linalg::LowRankBlocks for [JointPlan] {
+    #[inline]
+    fn blocks(&self) -> usize {
+        self.len()
+    }
+    #[inline]
+    fn scatter(&self, b: usize, r: usize, col: &mut [f64]) {
+        let j = &self[b];
+        for k in 0..j.ndof {
+            col[j.dofs[k]] += j.coef[r][k];
+        }
+    }
+    #[inline]
+    fn project(&self, b: usize, x: &[f64]) -> [f64; 2] {
+        System::joint_project(&self[b], x)
+    }
+}

@@ -1,0 +1,296 @@
+//! The Sherman-Morrison-Woodbury low-rank update, written once for every [`Factor`]
+//! (docs/method.md section 5).
+//!
+//! The matrix to solve with is `A = A0 + P^T G P`: `A0` is factorized once (contact-free), `P`
+//! (m x n, m = 2 per joint) projects the unknowns on the joints' relative coordinates, and `G`
+//! is block diagonal with one 2 x 2 block per joint (the contact's stiffness and damping scaled
+//! by the integrator). With a right-hand side `b + P^T h` (the joints' explicit forces `h`):
+//!
+//! ```text
+//! z = A0^-1 b,  Z = A0^-1 P^T,  W = P Z,  y = P z + W h,
+//! (I + G W) s = G y,  x = z + Z (h - s),  P x = y - W s.
+//! ```
+//!
+//! `Z` and `W` depend only on `A0` and `P` ([`Woodbury::new`]); a step solves the small
+//! capacitance system ([`capacitance_solve`]) and adds the columns ([`Woodbury::add_columns`]).
+
+use super::{solve_dense_in_place, Factor};
+use crate::contact::Mat2;
+
+/// The low-rank operator `P` of a Woodbury update as 2-row blocks (one per joint), each a sparse
+/// combination of the unknowns.
+pub trait LowRankBlocks {
+    /// Number of 2-row blocks (m = 2 x blocks).
+    fn blocks(&self) -> usize;
+    /// Adds row `r` (0 or 1) of block `b` of `P` to `col` (that is, column `2b + r` of `P^T`).
+    fn scatter(&self, b: usize, r: usize, col: &mut [f64]);
+    /// Block `b` of `P x`.
+    fn project(&self, b: usize, x: &[f64]) -> [f64; 2];
+}
+
+/// The Woodbury columns of a factorized `A0` and an operator `P`: `Z = A0^-1 P^T` (n x m, column
+/// by column) and `W = P Z` (m x m, row major).
+#[derive(Debug, Clone, Default)]
+pub struct Woodbury {
+    n: usize,
+    m: usize,
+    /// Column `c` of `Z` at `z[c n..(c + 1) n]`.
+    z: Vec<f64>,
+    /// `W[r][c]` at `w[r m + c]`.
+    w: Vec<f64>,
+}
+
+impl Woodbury {
+    /// Builds `Z` and `W` with `factor` (which holds `A0`): m solves of dimension n.
+    pub fn new<F: Factor, P: LowRankBlocks + ?Sized>(factor: &mut F, p: &P) -> Self {
+        let n = factor.dim();
+        let m = 2 * p.blocks();
+        let mut z = vec![0.0; n * m];
+        for b in 0..p.blocks() {
+            for r in 0..2 {
+                let col = &mut z[(2 * b + r) * n..(2 * b + r + 1) * n];
+                p.scatter(b, r, col);
+                factor.solve_in_place(col);
+            }
+        }
+        let mut w = vec![0.0; m * m];
+        for b in 0..p.blocks() {
+            for c in 0..m {
+                let pz = p.project(b, &z[c * n..(c + 1) * n]);
+                w[(2 * b) * m + c] = pz[0];
+                w[(2 * b + 1) * m + c] = pz[1];
+            }
+        }
+        Woodbury { n, m, z, w }
+    }
+
+    /// The rank `m` (2 per joint).
+    pub fn m(&self) -> usize {
+        self.m
+    }
+
+    /// The dimension `n` of `A0`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// `Z = A0^-1 P^T`, column `c` at `[c n..(c + 1) n]`.
+    pub fn z(&self) -> &[f64] {
+        &self.z
+    }
+
+    /// `W = P A0^-1 P^T`, row major.
+    pub fn w(&self) -> &[f64] {
+        &self.w
+    }
+
+    /// `(Z, W)`, taken apart (for steppers that keep them in their own layout).
+    pub fn into_parts(self) -> (Vec<f64>, Vec<f64>) {
+        (self.z, self.w)
+    }
+
+    /// `x += Z d` (`d` of length m), column by column.
+    #[inline]
+    pub fn add_columns(&self, d: &[f64], x: &mut [f64]) {
+        let n = self.n;
+        for (c, &dc) in d.iter().enumerate().take(self.m) {
+            if dc != 0.0 {
+                let col = &self.z[c * n..(c + 1) * n];
+                for (xi, zi) in x.iter_mut().zip(col) {
+                    *xi += zi * dc;
+                }
+            }
+        }
+    }
+
+    /// Solves `(A0 + P^T G P) x = b` in place (`x` holds `b` on entry) with `factor` (holding
+    /// `A0`) and these columns: the single-vector form of the update, for steppers without
+    /// lanes. `scratch` holds the small systems (resized as needed). Returns the capacitance's
+    /// pivot ratio ([`capacitance_solve`]); below a caller's threshold the result should not be
+    /// trusted (refactorize with the contact terms instead).
+    pub fn solve<F: Factor, P: LowRankBlocks + ?Sized>(
+        &self,
+        factor: &mut F,
+        p: &P,
+        g: &[Mat2],
+        x: &mut [f64],
+        scratch: &mut WoodburyScratch,
+    ) -> f64 {
+        let m = self.m;
+        scratch.resize(m);
+        factor.solve_in_place(x);
+        for b in 0..p.blocks() {
+            let pz = p.project(b, x);
+            scratch.yb[2 * b] = pz[0];
+            scratch.yb[2 * b + 1] = pz[1];
+        }
+        scratch.h.fill(0.0);
+        let WoodburyScratch { yb, h, y, cap, s } = scratch;
+        let rcond = capacitance_solve(&self.w, m, g, yb, h, y, cap, s);
+        for v in s.iter_mut() {
+            *v = -*v;
+        }
+        self.add_columns(s, x);
+        rcond
+    }
+}
+
+/// Work vectors of [`Woodbury::solve`].
+#[derive(Debug, Clone, Default)]
+pub struct WoodburyScratch {
+    yb: Vec<f64>,
+    h: Vec<f64>,
+    y: Vec<f64>,
+    cap: Vec<f64>,
+    s: Vec<f64>,
+}
+
+impl WoodburyScratch {
+    fn resize(&mut self, m: usize) {
+        self.yb.resize(m, 0.0);
+        self.h.resize(m, 0.0);
+        self.y.resize(m, 0.0);
+        self.cap.resize(m * m, 0.0);
+        self.s.resize(m, 0.0);
+    }
+}
+
+/// The capacitance step of the update: `y = yb + W h`, `cap = I + G W`, solves `cap s = G y`
+/// (`s`, length m) and returns the pivot ratio of that solve (0 when singular, NaN possible with
+/// non-finite input); `y` is left in `y`, `cap` partly eliminated. `w` is `W` (m x m, row
+/// major), `g` the 2 x 2 blocks of `G` (one per joint, m = 2 g.len()).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn capacitance_solve(
+    w: &[f64],
+    m: usize,
+    g: &[Mat2],
+    yb: &[f64],
+    h: &[f64],
+    y: &mut [f64],
+    cap: &mut [f64],
+    s: &mut [f64],
+) -> f64 {
+    for r in 0..m {
+        let mut v = yb[r];
+        for c in 0..m {
+            v += w[r * m + c] * h[c];
+        }
+        y[r] = v;
+    }
+    for (jj, g) in g.iter().enumerate() {
+        for rr in 0..2 {
+            let row = 2 * jj + rr;
+            for c in 0..m {
+                let gw = g[rr][0] * w[(2 * jj) * m + c] + g[rr][1] * w[(2 * jj + 1) * m + c];
+                cap[row * m + c] = if row == c { 1.0 + gw } else { gw };
+            }
+            s[row] = g[rr][0] * y[2 * jj] + g[rr][1] * y[2 * jj + 1];
+        }
+    }
+    solve_dense_in_place(cap, s, m)
+}
+
+/// `y -= W s`: the joints' values `P x` after the capacitance step.
+#[inline]
+pub fn subtract_ws(w: &[f64], m: usize, s: &[f64], y: &mut [f64]) {
+    for r in 0..m {
+        let mut x = y[r];
+        for c in 0..m {
+            x -= w[r * m + c] * s[c];
+        }
+        y[r] = x;
+    }
+}
+
+#[cfg(test)]
+mod woodbury_tests {
+    use super::{LowRankBlocks, Woodbury, WoodburyScratch};
+    use crate::linalg::BandLu;
+
+    /// Two joints: (dofs, coefficients of the two rows).
+    struct Joints(Vec<(Vec<usize>, [Vec<f64>; 2])>);
+
+    impl LowRankBlocks for Joints {
+        fn blocks(&self) -> usize {
+            self.0.len()
+        }
+        fn scatter(&self, b: usize, r: usize, col: &mut [f64]) {
+            let (d, c) = &self.0[b];
+            for (k, &i) in d.iter().enumerate() {
+                col[i] += c[r][k];
+            }
+        }
+        fn project(&self, b: usize, x: &[f64]) -> [f64; 2] {
+            let (d, c) = &self.0[b];
+            let mut p = [0.0; 2];
+            for (k, &i) in d.iter().enumerate() {
+                p[0] += c[0][k] * x[i];
+                p[1] += c[1][k] * x[i];
+            }
+            p
+        }
+    }
+
+    /// The update on a nonsymmetric band LU reproduces a direct factorization of
+    /// `A0 + P^T G P` (an independent computation) to rounding; the joints' DOFs lie within the
+    /// band so the updated matrix is banded too.
+    #[test]
+    fn woodbury_on_band_lu_is_the_direct_solve() {
+        let (n, bw) = (30, 3);
+        let entry = |i: usize, j: usize| {
+            if i == j {
+                8.0 + i as f64 * 0.2
+            } else {
+                ((i * 5 + j * 3) % 7) as f64 * 0.2 - 0.5 + (j as f64 - i as f64) * 0.07
+            }
+        };
+        let p = Joints(vec![
+            (vec![4, 6], [vec![1.0, -1.0], vec![0.3, 0.8]]),
+            (vec![20, 21, 22], [vec![0.5, 0.0, -0.5], vec![0.0, 1.0, 0.2]]),
+        ]);
+        let g = [[[3.0, 0.4], [-0.2, 2.5]], [[40.0, 1.0], [1.0, 15.0]]];
+        let mut a0 = BandLu::new(n, bw);
+        let mut full = BandLu::new(n, bw);
+        for i in 0..n {
+            for j in i.saturating_sub(bw)..=(i + bw).min(n - 1) {
+                a0.add(i, j, entry(i, j));
+                full.add(i, j, entry(i, j));
+            }
+        }
+        // P^T G P, block by block
+        for (b, gb) in g.iter().enumerate() {
+            let (d, c) = &p.0[b];
+            for (ki, &i) in d.iter().enumerate() {
+                for (kj, &j) in d.iter().enumerate() {
+                    let mut v = 0.0;
+                    for r in 0..2 {
+                        for s in 0..2 {
+                            v += c[r][ki] * gb[r][s] * c[s][kj];
+                        }
+                    }
+                    full.add(i, j, v);
+                }
+            }
+        }
+        a0.factorize("A0").unwrap();
+        full.factorize("A").unwrap();
+        let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.61).cos()).collect();
+        let mut x_direct = rhs.clone();
+        full.solve_in_place(&mut x_direct);
+        let wb = Woodbury::new(&mut a0, &p);
+        assert_eq!((wb.n(), wb.m()), (n, 4));
+        let mut x = rhs.clone();
+        let rcond = wb.solve(&mut a0, &p, &g, &mut x, &mut WoodburyScratch::default());
+        assert!(rcond > 1e-3, "{rcond}");
+        let scale = x_direct.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        for i in 0..n {
+            assert!(
+                (x[i] - x_direct[i]).abs() < 1e-13 * scale,
+                "{i}: {} vs {}",
+                x[i],
+                x_direct[i]
+            );
+        }
+    }
+}
