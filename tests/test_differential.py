@@ -75,16 +75,10 @@ SETTINGS = {
     "force": dict(method="force"),
 }
 
-# Known differences, measured and kept visible (strict xfail: they fail the suite once fixed, so
-# the marks go with the fix). They are semantics of the two implementations, to be unified by the
-# engine merge in commits of their own:
-# - the recorded force: the translating stepper records the force that acted in the step (for the
-#   lagged couplings, from the state at its start: zero in the step that closes the gap), the
-#   moving-frame stepper the contact law at the state reached (about one step earlier);
-#   max_force over 0.2 s: 12.87 N against 14.95 N with lagged kappa, penetrations equal to 3e-10;
-# - iterate=True is two algorithms: kappa iterated with the damping lagged (translating) against
-#   Newton on the spring with the damping from the step start (moving frames): 1.2 % apart in
-#   penetration over the first 20 ms, 1 % in max penetration over 0.2 s.
+# One contact evaluation (rust/contact/evaluation.rs, docs/contact.md): the recorded force is the
+# force applied in the step (for lagged kappa the terms of the step start at the state reached:
+# zero in the step that closes the gap), and iterate=True is one algorithm (spring and damping at
+# the iterate, Newton on the spring) on both steppers.
 ITERATED = dict(method="modified", iterate=True, iter_tol=1e-10, max_iter=50)
 
 
@@ -121,7 +115,6 @@ def test_both_ends_geometry_agrees():
         assert np.max(np.abs(pa - pb)) <= 1e-9 * np.max(np.abs(pa))
 
 
-@pytest.mark.xfail(strict=True, reason="the recorded force differs in meaning between the steppers")
 def test_recorded_forces_agree():
     a, b = both()
     kw = SETTINGS["modified, lagged kappa"]
@@ -132,7 +125,6 @@ def test_recorded_forces_agree():
     assert np.max(np.abs(fa - fb)) <= 1e-9 * np.max(fa)
 
 
-@pytest.mark.xfail(strict=True, reason="iterate=True is a different algorithm in each stepper")
 def test_iterated_contact_agrees():
     a, b = both()
     pa = a.simulate(0.02, 1e-5, **ITERATED).joint("bearing").penetration

@@ -9,6 +9,7 @@
 //! `c` into the effective matrix and keeps `f_explicit` on the right-hand side.
 
 mod coupling;
+pub mod evaluation;
 pub mod friction;
 pub mod laws;
 pub mod restitution;

@@ -43,7 +43,7 @@
 
 use super::divergence::{self, CHECK_STRIDE};
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
-use crate::contact::{ContactTerms, Coupling, Mat2};
+use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, Woodbury};
 use crate::model::Model;
@@ -478,10 +478,6 @@ struct Snapshot {
     episode: Vec<Option<f64>>,
 }
 
-/// After this many contact status switches of a joint within one step's iteration, its dashpot
-/// is left out for the rest of that step (see `Lane::update_iterated_terms`).
-const EDGE_SWITCHES: u8 = 4;
-
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
 #[derive(Default)]
 struct Events {
@@ -744,11 +740,14 @@ impl<'m> Lane<'m> {
                     f_explicit: [k * j.clearance * n[0], k * j.clearance * n[1]],
                 }
             }
-            _ if self.any_v0 && self.needs_v0[jj] => {
-                let v0 = crate::contact::approach_speed(q, qd, self.episode[jj]);
-                j.law.evaluate_episode(q, qd, j.clearance, v0)
-            }
-            _ => j.law.evaluate(q, qd, j.clearance),
+            _ => evaluation::law_terms(
+                &*j.law,
+                self.any_v0 && self.needs_v0[jj],
+                q,
+                qd,
+                j.clearance,
+                self.episode[jj],
+            ),
         }
     }
 
@@ -994,19 +993,8 @@ impl<'m> Lane<'m> {
             } else {
                 let mut t = self.contact_terms(jj, q1, qd1);
                 if t.active() {
-                    // Newton on the spring: linearized at the iterate q1 with its tangent, so
-                    // that -k_t q + (k_t - k_s) q1 = f_s(q1) - k_t (q - q1); the converged step
-                    // is the same (the force at the end state), the iteration converges
-                    // quadratically where the secant (kappa) iteration stops contracting
-                    // (stiff bearings: K_B beta dt^2 above the journal's effective mass)
                     let j = &self.sys.joints[jj];
-                    let kt = j.law.spring_tangent(q1, j.clearance);
-                    for r in 0..2 {
-                        for c in 0..2 {
-                            t.f_explicit[r] += (kt[r][c] - t.k[r][c]) * q1[c];
-                        }
-                    }
-                    t.k = kt;
+                    evaluation::linearize_spring(&mut t, j.law.spring_tangent(q1, j.clearance), q1);
                 }
                 match frozen {
                     // held open: no force whatever the end state
@@ -1019,19 +1007,9 @@ impl<'m> Lane<'m> {
                         }
                     }
                     None => {
-                        if t.active() != self.terms[jj].active() {
-                            converged = false;
-                            self.switches[jj] = self.switches[jj].saturating_add(1);
-                        }
-                        if t.active() && self.switches[jj] >= EDGE_SWITCHES {
-                            // The status keeps switching: the end state sits on the clearance
-                            // circle, where the dashpot force jumps from 0 to C_B |qdot| and the
-                            // step has no solution with either status. The spring force is
-                            // continuous there, so without the dashpot the iteration has a fixed
-                            // point (at the circle the dashpot's force is undetermined in
-                            // [0, C_B |qdot|]: this takes 0).
-                            t.c = [[0.0; 2]; 2];
-                        }
+                        let (t, changed) =
+                            evaluation::iterated_terms(t, self.terms[jj].active(), &mut self.switches[jj]);
+                        converged &= !changed;
                         self.terms[jj] = t;
                     }
                 }
@@ -1083,7 +1061,7 @@ impl<'m> Lane<'m> {
             let f = if explicit {
                 [self.h[2 * jj], self.h[2 * jj + 1]]
             } else {
-                self.terms[jj].force(q, qd)
+                evaluation::recorded_force(&self.terms[jj], q, qd)
             };
             self.q[jj] = q;
             self.qd[jj] = qd;

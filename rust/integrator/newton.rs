@@ -21,18 +21,20 @@
 //! method adds the secant `kappa K_B` and `C_B` of the step start to the Jacobian (lagged kappa).
 //! Both are explicit in the contact and add energy at every impact (of order dt over the contact
 //! time: measured on free links in an undamped bearing, and as MN forces in a slider-crank with a
-//! restitution of 0.9). With `iterate` the contact is implicit: the spring force and its tangent
-//! are evaluated at every iterate (the Jacobian refactorized when they change), the damping
-//! keeps the terms of the step start (evaluated at the iterate, its jump at the contact edge
-//! can leave a step without a solution). That conserves energy up to the cost of the contact edge
-//! within a step and converges under dt refinement; use it with clearance joints.
+//! restitution of 0.9). With `iterate` the contact is implicit: the spring force, its tangent and
+//! the damping are evaluated at every iterate (the Jacobian refactorized when they change; the
+//! dashpot left out for the rest of a step whose status keeps switching at the contact edge).
+//! That conserves energy up to the cost of the contact edge within a step and converges under dt
+//! refinement; use it with clearance joints. The terms per coupling, the iterated algorithm and
+//! the recorded force (the force applied in the step) are those of the constant stepper: one
+//! evaluation, [`crate::contact::evaluation`].
 //!
 //! Nothing allocates inside the time loop.
 
 use nalgebra::Matrix6;
 
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
-use crate::contact::{ContactTerms, Coupling, Mat2};
+use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
@@ -245,9 +247,9 @@ pub struct NewtonRun<'a> {
     /// The contact force is implicit in the step: evaluated at the current iterate, with its
     /// tangent in the Jacobian (Newton on the contact terms).
     implicit_contact: bool,
-    /// Damping terms `(c, f_explicit)` of each joint at the start of the current step
-    /// (implicit contact keeps them for the step).
-    damping_at_start: Vec<(Mat2, [f64; 2])>,
+    /// Contact status switches of each joint within the current step's iteration (implicit
+    /// contact: [`evaluation::iterated_terms`]).
+    switches: Vec<u8>,
     contact_was: Vec<bool>,
     /// Approach speed of each joint's current contact episode, m/s (`None` while open; only
     /// for laws that need it).
@@ -653,7 +655,7 @@ impl<'a> NewtonRun<'a> {
             jq: vec![[0.0; 2]; nj],
             jqd: vec![[0.0; 2]; nj],
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
-            damping_at_start: vec![([[0.0; 2]; 2], [0.0; 2]); mech.joints.len()],
+            switches: vec![0; mech.joints.len()],
             nonlinear_geometric,
             stats,
             translational,
@@ -730,7 +732,6 @@ impl<'a> NewtonRun<'a> {
         if !contacts {
             self.contact.fill(ContactTerms::default());
             self.contact_tan.fill(([[0.0; 2]; 2], [[0.0; 2]; 2]));
-            self.damping_at_start.fill(([[0.0; 2]; 2], [0.0; 2]));
         }
         let n = self.n;
         let mut lu = BandLu::new(n, self.lu.bandwidth());
@@ -1215,15 +1216,25 @@ impl<'a> NewtonRun<'a> {
     #[inline]
     fn law_terms(&self, j: usize, q: [f64; 2], qd: [f64; 2]) -> ContactTerms {
         let jt = &self.mech.joints[j];
-        if jt.law.needs_approach_speed() {
-            let v0 = crate::contact::approach_speed(q, qd, self.episode[j]);
-            jt.law.evaluate_episode(q, qd, jt.clearance, v0)
-        } else {
-            jt.law.evaluate(q, qd, jt.clearance)
-        }
+        evaluation::law_terms(
+            &*jt.law,
+            jt.law.needs_approach_speed(),
+            q,
+            qd,
+            jt.clearance,
+            self.episode[j],
+        )
     }
 
+    /// The contact terms of every joint for the step ([`crate::contact::evaluation`]): with
+    /// `from_start`, at the state of the step's start (`y_pred`, `v_pred` hold it when called:
+    /// lagged kappa, the force method, and the status the implicit contact starts from), else
+    /// at the current iterate (implicit contact: spring and damping at the iterate, the spring
+    /// by its tangent in the Jacobian, the dashpot left out after repeated status switches).
     fn evaluate_contacts(&mut self, from_start: bool) {
+        if from_start {
+            self.switches.fill(0);
+        }
         for j in 0..self.mech.joints.len() {
             let (q, qd) = if from_start {
                 self.joint_state(j, &self.y_pred, &self.v_pred)
@@ -1233,28 +1244,16 @@ impl<'a> NewtonRun<'a> {
             let jt = &self.mech.joints[j];
             let mut terms = self.law_terms(j, q, qd);
             if self.implicit_contact {
-                // The spring is implicit (kappa and the force direction at the iterate); the
-                // damping keeps the terms of the step start, as in the paper's modified method
-                // (C_B while in contact at the last state). The damping force jumps from 0 to
-                // C_B |qdot| at the contact edge; evaluated at the iterate it leaves the step
-                // without a solution whenever it throws a closing journal back out (closed, the
-                // journal leaves; open, it penetrates), and Newton cycles between the two.
-                // Lagged, it only ever opposes the velocity: it cannot add energy.
-                if from_start {
-                    self.damping_at_start[j] = (terms.c, terms.f_explicit);
+                if !from_start {
+                    let was = self.contact[j].active();
+                    (terms, _) = evaluation::iterated_terms(terms, was, &mut self.switches[j]);
                 }
-                (terms.c, terms.f_explicit) = self.damping_at_start[j];
                 let k = jt.law.spring_tangent(q, jt.clearance);
                 self.contact_tan[j] = (k, terms.c);
             }
             if let Coupling::Force = self.settings.coupling {
                 // Explicit: the whole force, frozen for the step.
-                let f = terms.force(q, qd);
-                terms = ContactTerms {
-                    penetration: terms.penetration,
-                    f_explicit: f,
-                    ..Default::default()
-                };
+                terms = evaluation::explicit_terms(&terms, q, qd);
             }
             self.contact[j] = terms;
         }
@@ -1568,10 +1567,10 @@ impl<'a> NewtonRun<'a> {
                 continue;
             };
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let terms = self.law_terms(j, q, qd);
-            let f = terms.force(q, qd);
+            let pen = self.law_terms(j, q, qd).penetration;
+            let f = evaluation::recorded_force(&self.contact[j], q, qd);
             let h = &mut self.hist_joints[slot];
-            h.penetration.push(terms.penetration);
+            h.penetration.push(pen);
             h.force.push((f[0] * f[0] + f[1] * f[1]).sqrt());
             if settings.record.joint_position {
                 h.qx.push(q[0]);
@@ -1588,7 +1587,7 @@ impl<'a> NewtonRun<'a> {
         for j in 0..self.mech.joints.len() {
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
             let terms = self.law_terms(j, q, qd);
-            let f = terms.force(q, qd);
+            let f = evaluation::recorded_force(&self.contact[j], q, qd);
             let fmag = (f[0] * f[0] + f[1] * f[1]).sqrt();
             let h = &mut self.track[j];
             let closed = terms.penetration > 0.0;
