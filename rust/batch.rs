@@ -260,12 +260,7 @@ fn lockstep<const L: usize>(
         Ok(group) => group.run(control),
         Err(error) => runs
             .iter()
-            .map(|_| {
-                Err(Box::new(RunFailure {
-                    error: error.clone(),
-                    output: RunOutput::default(),
-                }))
-            })
+            .map(|_| Err(RunFailure::before_start(error.clone())))
             .collect(),
     }
 }

@@ -138,6 +138,12 @@ pub type Result<T> = std::result::Result<T, Error>;
 /// parameter of 1e300 would otherwise run and return an infinite force or energy.
 pub const MAX_MAGNITUDE: f64 = 1e75;
 
+/// True when `value` is finite and at most [`MAX_MAGNITUDE`] in magnitude.
+#[inline]
+pub fn in_range(value: f64) -> bool {
+    value.is_finite() && value.abs() <= MAX_MAGNITUDE
+}
+
 /// Checks that `value` is finite, strictly positive and at most [`MAX_MAGNITUDE`].
 pub fn check_positive(name: &str, value: f64, unit: &str) -> Result<()> {
     if value.is_finite() && value > 0.0 && value <= MAX_MAGNITUDE {
@@ -166,7 +172,7 @@ pub fn check_non_negative(name: &str, value: f64, unit: &str) -> Result<()> {
 
 /// Checks that `value` is finite and at most [`MAX_MAGNITUDE`] in magnitude.
 pub fn check_finite(name: &str, value: f64, unit: &str) -> Result<()> {
-    if value.is_finite() && value.abs() <= MAX_MAGNITUDE {
+    if in_range(value) {
         Ok(())
     } else {
         Err(Error::param(

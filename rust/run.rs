@@ -226,6 +226,17 @@ pub struct RunFailure {
     pub output: RunOutput,
 }
 
+impl RunFailure {
+    /// A run that failed before its first step (invalid input, a singular mass matrix): nothing
+    /// recorded.
+    pub fn before_start(error: Error) -> Box<RunFailure> {
+        Box::new(RunFailure {
+            error,
+            output: RunOutput::default(),
+        })
+    }
+}
+
 /// Runs `model` with `settings`. `control(fraction_done)` is called every few thousand steps and
 /// stops the run (as [`Error::Interrupted`]) when it returns `false`.
 ///
@@ -247,12 +258,7 @@ pub fn simulate_shared(
     cache: Option<&AnalysisCache>,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
-    let fail = |error| {
-        Box::new(RunFailure {
-            error,
-            output: RunOutput::default(),
-        })
-    };
+    let fail = RunFailure::before_start;
     model.validate().map_err(fail)?;
     settings.validate(model).map_err(fail)?;
     let run = NewmarkRun::with_analysis(model, settings, cache).map_err(fail)?;

@@ -29,7 +29,9 @@ K, V0, C = 1e6, 0.1, 1e-4
 M_EFF = RHO * A * L / 4
 
 
-def bar(law, elements: int = 4) -> fc.Model:
+def bar(law=None, elements: int = 4, **joint) -> fc.Model:
+    """The free bar towards its stop, the joint with `law` or (without) the spring-dashpot of
+    `joint` (``stiffness=``, ``damping=``, ``damping_law=``)."""
     m = fc.Model().add_body("ground")
     v = np.zeros(3 * (elements + 1))
     v[1::3] = -V0  # every node towards -y: a rigid translation into the stop
@@ -37,7 +39,7 @@ def bar(law, elements: int = 4) -> fc.Model:
         "bar", length=L, elements=elements, youngs_modulus=E, density=RHO, area=A, inertia=A * A / 12,
         damping=0.0, initial_velocity=v,
     )  # fmt: skip
-    m.add_joint("stop", "bar", 0, body="ground", clearance=C, law=law)
+    m.add_joint("stop", "bar", 0, body="ground", clearance=C, law=law, **joint)
     return m
 
 
@@ -92,17 +94,7 @@ def test_a_kelvin_voigt_law_is_the_joints_own_spring_dashpot():
     for form in ("viscous", "radial", "literal"):
         law = contact.KelvinVoigt(1e5, damping=3.0, damping_law=form)
         a = bar(law).simulate(0.004, 1e-6).joint("stop")
-        m = fc.Model().add_body("ground")
-        v = np.zeros(15)
-        v[1::3] = -V0
-        m.add_link(
-            "bar", length=L, elements=4, youngs_modulus=E, density=RHO, area=A, inertia=A * A / 12,
-            damping=0.0, initial_velocity=v,
-        )  # fmt: skip
-        m.add_joint(
-            "stop", "bar", 0, body="ground", clearance=C, stiffness=1e5, damping=3.0, damping_law=form
-        )
-        b = m.simulate(0.004, 1e-6).joint("stop")
+        b = bar(stiffness=1e5, damping=3.0, damping_law=form).simulate(0.004, 1e-6).joint("stop")
         assert a.impacts >= 1
         assert np.array_equal(a.penetration, b.penetration) and np.array_equal(a.force, b.force), form
 

@@ -1284,12 +1284,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     set_lane(&mut run.a, l, &a0);
                     run.active[l] = true;
                 }
-                Err(error) => {
-                    lane.outcome = Some(Err(Box::new(RunFailure {
-                        error,
-                        output: RunOutput::default(),
-                    })))
-                }
+                Err(error) => lane.outcome = Some(Err(RunFailure::before_start(error))),
             }
             run.lanes.push(lane);
         }

@@ -1795,11 +1795,6 @@ pub fn simulate_mechanism(
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
-    let run = NewtonRun::new(mech, settings).map_err(|error| {
-        Box::new(RunFailure {
-            error,
-            output: RunOutput::default(),
-        })
-    })?;
+    let run = NewtonRun::new(mech, settings).map_err(RunFailure::before_start)?;
     run.run(control)
 }

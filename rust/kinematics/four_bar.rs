@@ -63,7 +63,7 @@ impl FourBar {
             ("coupler", coupler),
             ("rocker", rocker),
         ] {
-            check_link_length(name, l)?;
+            check_positive(name, l, "m")?;
         }
         if branch != 1.0 && branch != -1.0 {
             return Err(Error::param("branch", branch, "+1 (open) or -1 (crossed)"));

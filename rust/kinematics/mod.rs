@@ -448,19 +448,6 @@ pub trait FrameKinematics: std::fmt::Debug + Send + Sync {
     }
 }
 
-/// Largest link length of the loop kinematics, m: their closed forms take products of up to four
-/// lengths, which stay finite below this (1e75 m, far beyond any mechanism).
-pub const MAX_LINK_LENGTH: f64 = 1e75;
-
-/// A link length of a mechanism's loop: > 0 and at most [`MAX_LINK_LENGTH`].
-pub(crate) fn check_link_length(name: &str, l: f64) -> Result<()> {
-    check_positive(name, l, "m")?;
-    if l > MAX_LINK_LENGTH {
-        return Err(Error::param(name, l, format!("a length in (0, {MAX_LINK_LENGTH:e}] m")));
-    }
-    Ok(())
-}
-
 /// A frame whose origin translates by `origin` and which rotates by `rotation`, independently: for
 /// example a beam clamped to a spinning hub (origin fixed at the hub centre, or on its rim).
 #[derive(Debug, Clone, PartialEq)]

@@ -34,16 +34,11 @@ impl SliderCrank {
     /// `offset` (not finite), `rod` again when `rod <= crank + |offset|` (the rod could not reach
     /// the guide at every crank angle), or `driver.*` (see [`Rotation::validate`]).
     pub fn new(crank: f64, rod: f64, offset: f64, driver: Rotation) -> Result<Self> {
-        check_link_length("crank", crank)?;
-        check_link_length("rod", rod)?;
+        // lengths and offset at most 1e75 m (error.rs MAX_MAGNITUDE): the closed forms take
+        // products of up to four lengths, which stay finite
+        check_positive("crank", crank, "m")?;
+        check_positive("rod", rod, "m")?;
         check_finite("offset", offset, "m")?;
-        if offset.abs() > MAX_LINK_LENGTH {
-            return Err(Error::param(
-                "offset",
-                offset,
-                format!("|offset| <= {MAX_LINK_LENGTH:e} m"),
-            ));
-        }
         let reach = crank + offset.abs();
         if rod <= reach {
             return Err(Error::param(

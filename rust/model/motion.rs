@@ -1,6 +1,6 @@
 //! Prescribed planar motions of rigid bodies and of flexible links' frames.
 
-use crate::error::{check_finite, check_non_negative, Error, Result, MAX_MAGNITUDE};
+use crate::error::{check_finite, check_non_negative, in_range, Error, Result};
 
 /// Position, velocity and acceleration of a point, m, m/s, m/s^2.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -219,8 +219,7 @@ pub(crate) fn segment(time: &[f64], t: f64) -> (usize, f64) {
 /// Every sample of `a` finite and at most [`MAX_MAGNITUDE`] in magnitude (SI), else an error
 /// naming `name.label[i]`.
 fn check_samples(name: &str, label: &str, a: &[[f64; 2]]) -> Result<()> {
-    let ok = |x: f64| x.is_finite() && x.abs() <= MAX_MAGNITUDE;
-    match a.iter().position(|p| !(ok(p[0]) && ok(p[1]))) {
+    match a.iter().position(|p| !(in_range(p[0]) && in_range(p[1]))) {
         None => Ok(()),
         Some(i) => Err(Error::param(
             format!("{name}.{label}[{i}]"),

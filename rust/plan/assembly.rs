@@ -462,7 +462,7 @@ impl System {
         r
     }
 
-    /// `e` with the unknown of a [`Error::Singular`] pivot named in the user's terms.
+    /// `e` with the unknown of a [`Error::Singular`](crate::error::Error::Singular) pivot named in the user's terms.
     pub fn name_pivot(&self, model: &Model, e: crate::error::Error) -> crate::error::Error {
         use crate::error::Error;
         match e {

@@ -98,12 +98,7 @@ pub fn simulate(
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
-    let fail = |error| {
-        Box::new(RunFailure {
-            error,
-            output: RunOutput::default(),
-        })
-    };
+    let fail = RunFailure::before_start;
     let plan = Plan::compile(mech, settings).map_err(fail)?;
     let Some(model) = plan.translating else {
         return crate::integrator::newton::simulate_mechanism(mech, settings, control);
