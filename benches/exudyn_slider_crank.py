@@ -17,7 +17,7 @@ median us/step (per nominal step t_end/dt), the ratios, and, to show that both c
 thing, over the first ``--window`` s: the peak crank-pin contact force, the peak penetration,
 the first impact onsets, and the peak midspan deflection of the rod (from the chord).
 
-    python benches/exudyn_slider_crank.py [--ideal] [--clearance 5e-4] [--elements 8]
+    python benches/exudyn_slider_crank.py [--ideal] [--no-geometric] [--clearance 5e-4] [--elements 8]
         [--dt 1e-5] [--t-end 0.1] [--window 0.02] [--repeats 5] [--exudyn-python PYTHON]
         [--python PYTHON] [--baseline-python PYTHON [--baseline-path DIR]]
 
@@ -55,6 +55,8 @@ def worker_flexclear(case: dict) -> dict:
 
     at = None if case["clearance"] is None else "crank_pin"
     kw = {} if at is None else {"clearance": case["clearance"]}
+    if case.get("geometric") is not None:
+        kw["geometric"] = case["geometric"]
     model = flexclear.scenes.slider_crank(clearance_at=at, elements=case["elements"], **kw)
     res = model.simulate(case["t_end"], case["dt"])
     t = np.asarray(res.time)
@@ -85,6 +87,7 @@ def worker_exudyn(case: dict) -> dict:
     sys.path.insert(0, HERE)
     import exudyn_crank_scene  # selects exudynCPPfast before exudyn is imported
 
+    case = {k: v for k, v in case.items() if k != "geometric"}
     out = exudyn_crank_scene.run_exudyn(**case)
     out["parameters"] = {
         k: v
@@ -160,6 +163,11 @@ def max_difference(a: dict, b: dict, key: str, dt: float):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ideal", action="store_true", help="ideal pins (no clearance joint)")
+    ap.add_argument(
+        "--no-geometric",
+        action="store_true",
+        help="flexclear without the rod's geometric terms (reported apart: not the scene's default)",
+    )
     ap.add_argument("--clearance", type=float, default=5e-4, help="crank-pin clearance [m]")
     ap.add_argument("--elements", type=int, default=8, help="rod elements")
     ap.add_argument("--dt", type=float, default=1e-5, help="time step [s]")
@@ -191,11 +199,15 @@ def main(argv=None) -> int:
         "t_end": args.t_end,
         "window": min(args.window, args.t_end),
     }
+    if args.no_geometric:
+        case["geometric"] = False
     joint = "ideal pins" if args.ideal else f"clearance {args.clearance:g} m at the crank pin"
     print(
         f"slider-crank, {joint}: elements={args.elements}, dt={args.dt:g} s, t_end={args.t_end:g} s, "
         f"{args.repeats} repeats, comparison over [0, {case['window']:g}] s"
     )
+    if args.no_geometric:
+        print("!!! flexclear with geometric=False (not the scene's default: these times do not count)")
     tools = {
         "flexclear": runner(args.python, "flexclear"),
         "exudyn": runner(args.exudyn_python, "exudyn"),
