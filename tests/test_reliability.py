@@ -337,7 +337,10 @@ def test_item2_two_writers_killed_at_random_and_restarted_end_with_one_row_per_s
     # the kills landed mid-study: the store grew between kills, and most kills found it unfinished
     mid = sum(0 < n < 240 for n in progress)
     assert mid >= 15 and progress[-1] > progress[0], progress
-    assert refused > 0  # the lock was contended
+    # `refused` counts the restarts that found the lock held: usually several, but none when load
+    # staggers the writers' starts; the refusal itself is tested deterministically above
+    # (test_item2_two_writers_second_is_refused_and_a_dead_writers_lock_is_taken_over), so here
+    # it is reported, not asserted.
     took = time.monotonic() - t0
     print(f"20 kills in {took:.1f} s, {mid} mid-study; refused {refused}; {killed_at}/240 then")
 

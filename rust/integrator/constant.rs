@@ -41,8 +41,9 @@
 //! `CHECK_STRIDE` steps and at the last step the whole state is checked for finiteness and the
 //! translational DOFs against the limit.
 
-use super::divergence::{self, CHECK_STRIDE};
+use super::divergence;
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
+use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, Woodbury};
@@ -1313,42 +1314,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
 
     #[inline(always)]
     fn run_body(mut self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
-        let steps = self.sh.steps;
-        let dt = self.sh.dt;
-        let mut ev = if L == 1 && self.lanes[0].settings.events {
-            Some(Events::default())
-        } else {
-            None
-        };
-        while self.step < steps && self.active.iter().any(|&a| a) {
-            let t1 = (self.step + 1) as f64 * dt;
-            match ev.as_mut() {
-                None => self.advance(t1),
-                Some(ev) => self.advance_with_events(t1, ev),
-            }
-            self.finish(t1);
-            if self.step.is_multiple_of(CONTROL_STRIDE) && !control(self.step as f64 / steps as f64) {
-                for l in 0..self.lanes.len() {
-                    if self.active[l] {
-                        let e = Error::Interrupted {
-                            time: self.t,
-                            step: self.step,
-                        };
-                        self.retire(l, Some(e), self.step, self.t);
-                    }
-                }
-            }
-        }
-        for l in 0..self.lanes.len() {
-            if self.active[l] {
-                // the last step is checked like every CHECK_STRIDE-th one (divergence rule)
-                let mut error = None;
-                if !self.step.is_multiple_of(CHECK_STRIDE) && self.step == steps {
-                    error = self.check_lane(l, self.t, self.step).err();
-                }
-                self.retire(l, error, self.step, self.t);
-            }
-        }
+        let events = (L == 1 && self.lanes[0].settings.events).then(Events::default);
+        run_loop::run(&mut LockstepLoop { ls: &mut self, events }, control);
         self.lanes
             .into_iter()
             .map(|lane| lane.outcome.expect("every lane has finished"))
@@ -1772,22 +1739,13 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         }
     }
 
-    /// Ends the step at `t1`: advances the step counter, checks and records every active lane.
+    /// Records every active lane after the step to `t` (s).
     #[inline(always)]
-    fn finish(&mut self, t1: f64) {
-        self.step += 1;
-        self.t = t1;
+    fn record(&mut self) {
         let (step, t) = (self.step, self.t);
-        let check = step.is_multiple_of(CHECK_STRIDE);
         for l in 0..self.lanes.len() {
             if !self.active[l] {
                 continue;
-            }
-            if check {
-                if let Err(e) = self.check_lane(l, t, step) {
-                    self.retire(l, Some(e), step, t);
-                    continue;
-                }
             }
             let lane = &mut self.lanes[l];
             let dt = lane.settings.dt;
@@ -1809,6 +1767,77 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             } else {
                 lane.rec
                     .record(step, t, dt, &lane.pen, &lane.fmag, &lane.q, &lane.qd, &[]);
+            }
+        }
+    }
+}
+
+/// The lockstep in the one run loop ([`run_loop`]), with the scratch of event-aware stepping
+/// (one lane only).
+struct LockstepLoop<'a, 'm, const L: usize> {
+    ls: &'a mut Lockstep<'m, L>,
+    events: Option<Events>,
+}
+
+impl<const L: usize> Stepper for LockstepLoop<'_, '_, L> {
+    const CONTROL_STRIDE: u64 = CONTROL_STRIDE;
+
+    #[inline(always)]
+    fn steps(&self) -> u64 {
+        self.ls.sh.steps
+    }
+
+    #[inline(always)]
+    fn dt(&self) -> f64 {
+        self.ls.sh.dt
+    }
+
+    #[inline(always)]
+    fn running(&self) -> bool {
+        self.ls.active.iter().any(|&a| a)
+    }
+
+    #[inline(always)]
+    fn advance(&mut self, k: u64, t1: f64) {
+        debug_assert_eq!(k, self.ls.step + 1);
+        match self.events.as_mut() {
+            None => self.ls.advance(t1),
+            Some(ev) => self.ls.advance_with_events(t1, ev),
+        }
+        self.ls.step = k;
+        self.ls.t = t1;
+    }
+
+    #[inline(always)]
+    fn check(&mut self, k: u64, t1: f64) {
+        let ls = &mut *self.ls;
+        for l in 0..ls.lanes.len() {
+            if ls.active[l] {
+                if let Err(e) = ls.check_lane(l, t1, k) {
+                    ls.retire(l, Some(e), k, t1);
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn record(&mut self, _k: u64, _t1: f64) {
+        self.ls.record();
+    }
+
+    #[cold]
+    fn stop_all(&mut self, error: Error, k: u64, t: f64) {
+        for l in 0..self.ls.lanes.len() {
+            if self.ls.active[l] {
+                self.ls.retire(l, Some(error.clone()), k, t);
+            }
+        }
+    }
+
+    fn end(&mut self, k: u64, t: f64) {
+        for l in 0..self.ls.lanes.len() {
+            if self.ls.active[l] {
+                self.ls.retire(l, None, k, t);
             }
         }
     }

@@ -34,6 +34,7 @@
 use nalgebra::Matrix6;
 
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
+use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
@@ -1712,10 +1713,10 @@ impl<'a> NewtonRun<'a> {
         self.step(t0 + h1, h - h1, k, 0)
     }
 
-    /// Runs to `t_end`. `control(fraction)` is called every 256 steps; returning false stops
-    /// the run with [`Error::Interrupted`]. Failures carry everything recorded until then.
-    /// With [`Settings::events`] each step goes through `step_with_events`; a step
-    /// without a status change is the fixed step.
+    /// Runs to `t_end` in the one run loop ([`super::run_loop`]; `control(fraction)` every
+    /// [`NEWTON_CONTROL_STRIDE`] steps; `false` stops the run with [`Error::Interrupted`]).
+    /// Failures carry everything recorded until then. With [`Settings::events`] each step goes
+    /// through `step_with_events`; a step without a status change is the fixed step.
     pub fn run(mut self, control: &mut dyn FnMut(f64) -> bool) -> std::result::Result<RunOutput, Box<RunFailure>> {
         if let Err(e) = self.initialize() {
             return Err(self.fail(e, 0.0));
@@ -1723,44 +1724,20 @@ impl<'a> NewtonRun<'a> {
         for j in 0..self.mech.joints.len() {
             self.track[j].max_penetration = f64::NEG_INFINITY;
         }
-        let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let h = self.settings.dt;
         self.track_joints(0.0, Some((0, h)));
         self.record(0.0);
-
-        let every = self.settings.record.every as u64;
-        let mut ev = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
-        for k in 1..=steps {
-            let t0 = (k - 1) as f64 * h;
-            let r = match ev.as_mut() {
-                Some(ev) => self.step_with_events(t0, h, k, ev),
-                None => self.step(t0, h, k, 0),
-            };
-            if let Err(e) = r {
-                return Err(self.fail(e, t0));
-            }
-            self.stats.steps = k;
-            let t1 = k as f64 * h;
-            self.track_joints(t1, Some((k, h)));
-            if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
-                let e = super::divergence::joint_diverged(&self.mech.joints[j].name, self.jpen[j], self.limit, t1, k);
-                return Err(self.fail(e, t1));
-            }
-            if (k.is_multiple_of(super::divergence::CHECK_STRIDE) || k == steps)
-                && self.check_divergence(t1, k).is_err()
-            {
-                let e = self.check_divergence(t1, k).unwrap_err();
-                return Err(self.fail(e, t1));
-            }
-            if k % every == 0 || k == steps {
-                self.update_frames(t1);
-                self.record(t1);
-            }
-            if k % 256 == 0 && !control(k as f64 / steps as f64) {
-                return Err(self.fail(Error::Interrupted { time: t1, step: k }, t1));
-            }
+        let events = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
+        let mut lp = NewtonLoop {
+            run: &mut self,
+            events,
+            outcome: None,
+        };
+        run_loop::run(&mut lp, control);
+        match lp.outcome.take().expect("the run loop ends every run") {
+            Ok(t) => Ok(self.output(t)),
+            Err((error, t)) => Err(self.fail(error, t)),
         }
-        Ok(self.output(steps as f64 * h))
     }
 
     /// What the run has produced when it ends at `t` (s): the shared recorder's joint extremes
@@ -1786,6 +1763,84 @@ impl<'a> NewtonRun<'a> {
     fn fail(mut self, error: Error, t: f64) -> Box<RunFailure> {
         let output = self.output(t);
         Box::new(RunFailure { error, output })
+    }
+}
+
+/// Steps between calls of the caller's control function on the Newton stepper (its steps cost
+/// about 1-100 us, the constant stepper's well under one).
+pub const NEWTON_CONTROL_STRIDE: u64 = 256;
+
+/// A Newton run in the one run loop ([`run_loop`]): one lane, whose end is `outcome` (the end
+/// time, or the error and the time of the last completed step).
+struct NewtonLoop<'r, 'a> {
+    run: &'r mut NewtonRun<'a>,
+    events: Option<EventScratch>,
+    outcome: Option<std::result::Result<f64, (Error, f64)>>,
+}
+
+impl Stepper for NewtonLoop<'_, '_> {
+    const CONTROL_STRIDE: u64 = NEWTON_CONTROL_STRIDE;
+
+    fn steps(&self) -> u64 {
+        (self.run.settings.t_end / self.run.settings.dt).round().max(1.0) as u64
+    }
+
+    fn dt(&self) -> f64 {
+        self.run.settings.dt
+    }
+
+    fn running(&self) -> bool {
+        self.outcome.is_none()
+    }
+
+    fn advance(&mut self, k: u64, t1: f64) {
+        let r = &mut *self.run;
+        let h = r.settings.dt;
+        let t0 = (k - 1) as f64 * h;
+        let res = match self.events.as_mut() {
+            Some(ev) => r.step_with_events(t0, h, k, ev),
+            None => r.step(t0, h, k, 0),
+        };
+        if let Err(e) = res {
+            self.outcome = Some(Err((e, t0)));
+            return;
+        }
+        r.stats.steps = k;
+        r.track_joints(t1, Some((k, h)));
+        if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
+            let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
+            self.outcome = Some(Err((e, t1)));
+        }
+    }
+
+    fn check(&mut self, k: u64, t1: f64) {
+        if self.outcome.is_none() {
+            if let Err(e) = self.run.check_divergence(t1, k) {
+                self.outcome = Some(Err((e, t1)));
+            }
+        }
+    }
+
+    fn record(&mut self, k: u64, t1: f64) {
+        let last = k == self.steps();
+        let r = &mut *self.run;
+        let every = r.settings.record.every as u64;
+        if self.outcome.is_none() && (k.is_multiple_of(every) || last) {
+            r.update_frames(t1);
+            r.record(t1);
+        }
+    }
+
+    fn stop_all(&mut self, error: Error, _k: u64, t: f64) {
+        if self.outcome.is_none() {
+            self.outcome = Some(Err((error, t)));
+        }
+    }
+
+    fn end(&mut self, _k: u64, t: f64) {
+        if self.outcome.is_none() {
+            self.outcome = Some(Ok(t));
+        }
     }
 }
 
