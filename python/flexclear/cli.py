@@ -48,6 +48,14 @@ def main(argv: Optional[list] = None) -> int:
         "--local-cluster", type=int, default=0, metavar="N", help="start a local Dask cluster of N workers"
     )
     mc.add_argument("--no-progress", action="store_true", help="no progress bar")
+    mc.add_argument(
+        "--orbits",
+        type=int,
+        default=3,
+        metavar="N",
+        help="journal orbits of N samples (smallest, median, largest peak force of the first joint), "
+        "run again with the journal position recorded (default 3; 0 = none)",
+    )
     su = sub.add_parser(
         "spin-up",
         help="spin-up of a cantilever with and without geometric stiffening; in-plane frequency vs speed",
@@ -278,6 +286,12 @@ def _montecarlo(args) -> int:
         if cluster is not None:
             cluster.close()
     path = write_report(result, out, study.report_thresholds)
+    if args.orbits > 0 and study.joints and len(result.ok):
+        from .reports.orbits import orbit_section, plot_orbits
+
+        png, rows = plot_orbits(result, out, count=args.orbits)
+        with open(path, "a") as f:
+            f.write("\n".join(["", *orbit_section(png, rows, study.joints[0])]))
     print(result.summary().to_string())
     print(f"{result!r}\nreport written to {path}", file=sys.stderr)
     return 0

@@ -1,0 +1,79 @@
+"""Journal orbits of chosen study samples (the montecarlo report's orbit figure)."""
+
+from __future__ import annotations
+
+import flexclear
+import numpy as np
+import pytest
+from flexclear.reports.orbits import orbit_samples, orbit_section, plot_orbits
+from flexclear.study import Study
+
+
+@pytest.fixture(scope="module")
+def crank_study():
+    study = Study(
+        "slider_crank",
+        vary={"clearance": [1e-4, 2.5e-4, 5e-4], "crank_speed": [150.0, 120.0, 180.0]},
+        design="given",
+        fixed={"clearance_at": "crank_pin"},
+        t_end=0.01,
+        dt=1e-5,
+        outputs=["max_force", "max_penetration"],
+    )
+    return study.run(threads=1, progress=False)
+
+
+def test_orbit_samples_span_the_output(crank_study):
+    col = "crank_pin.max_force"
+    picks = orbit_samples(crank_study, 3)
+    values = crank_study.frame.loc[picks, col]
+    assert values.iloc[0] == crank_study.frame[col].min()
+    assert values.iloc[-1] == crank_study.frame[col].max()
+    assert len(set(picks)) == 3
+    assert orbit_samples(crank_study, 1) == [picks[0]]
+    assert orbit_samples(crank_study, 10) == picks  # no more than the samples that finished
+
+
+def test_orbit_rerun_is_the_sample_itself(crank_study, tmp_path):
+    path, rows = plot_orbits(crank_study, tmp_path, count=3)
+    assert path is not None and path.exists() and path.stat().st_size > 10_000
+    frame = crank_study.frame
+    for r in rows:
+        s = r["sample"]
+        # the same model, step and settings: the re-run's extremes are the study's, bitwise
+        assert r["max_force"] == frame.loc[s, "crank_pin.max_force"]
+        assert r["max_penetration"] == frame.loc[s, "crank_pin.max_penetration"]
+        # the clearance read back from |q| - penetration is the sample's input
+        assert r["clearance"] == pytest.approx(frame.loc[s, "clearance"], rel=1e-9)
+        # the orbit reaches the wall by the largest penetration, and no further
+        assert r["orbit_radius"] == pytest.approx(r["clearance"] + max(r["max_penetration"], 0.0), rel=1e-9)
+    lines = orbit_section(path, rows, "crank_pin")
+    assert lines[0] == "## Journal orbits (crank_pin)" and any("orbits.png" in x for x in lines)
+
+
+def test_orbit_arguments_are_checked(crank_study, tmp_path):
+    with pytest.raises(flexclear.InvalidParameterError, match="count"):
+        orbit_samples(crank_study, 0)
+    with pytest.raises(flexclear.InvalidParameterError, match="output"):
+        orbit_samples(crank_study, 2, output="nope")
+    with pytest.raises(flexclear.InvalidParameterError, match="joint"):
+        plot_orbits(crank_study, tmp_path, joint="nope")
+    assert np.isfinite(crank_study.frame["crank_pin.max_force"]).all()
+
+
+def test_montecarlo_cli_draws_orbits(tmp_path):
+    from pathlib import Path
+
+    from flexclear.cli import main
+
+    ref = (Path(__file__).parent.parent / "benches" / "studies" / "slider_crank_clearance.toml").read_text()
+    small = ref.replace("samples = 256", "samples = 4").replace("t_end = 0.1 ", "t_end = 0.005 ")
+    assert small != ref
+    (tmp_path / "s.toml").write_text(small)
+    out = tmp_path / "out"
+    assert (
+        main(["montecarlo", str(tmp_path / "s.toml"), "--out", str(out), "--no-progress", "--orbits", "2"])
+        == 0
+    )
+    report = (out / "report.md").read_text()
+    assert "## Journal orbits (crank_pin)" in report and (out / "orbits.png").exists()
