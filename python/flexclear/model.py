@@ -1089,58 +1089,33 @@ class Model:
                     raise _bad(
                         "record.energy", True, 'False with stepper="constant" (the Newton stepper records it)'
                     )
-                elements = list(self._core.link_elements)
-                if displacements:
-                    nodes = nodes + [(li, k) for li, n in enumerate(elements) for k in range(n + 1)]
-                # the link channels are made here from the node histories (_translating_links)
-                raw = self._core.simulate(
-                    float(t_end),
-                    float(dt),
-                    method=method,
-                    iterate=bool(iterate),
-                    tol=float(iter_tol),
-                    max_iter=int(max_iter),
-                    gap_stiffness=None if gap_stiffness is None else float(gap_stiffness),
-                    gap_damping=float(gap_damping),
-                    beta=float(beta),
-                    gamma=float(gamma),
-                    solver=solver,
-                    divergence_limit=None if divergence_limit is None else float(divergence_limit),
-                    nodes=nodes,
-                    every=int(rec.every),
-                    displacements=False,
-                    progress=cb,
-                    events=bool(events),
-                    stepper=stepper,
-                    **_joint_record_kwargs(rec, joints),
-                )
-            else:
-                if solver not in ("woodbury", "refactor"):
-                    raise _bad("solver", solver, 'one of "woodbury", "refactor"')
-                raw = self._core.simulate(
-                    float(t_end),
-                    float(dt),
-                    method=method,
-                    iterate=bool(iterate),
-                    tol=float(iter_tol),
-                    max_iter=int(max_iter),
-                    step_halving=int(step_halving),
-                    beta=float(beta),
-                    gamma=float(gamma),
-                    divergence_limit=divergence_limit,
-                    every=int(rec.every),
-                    displacements=displacements,
-                    axial_force=bool(rec.axial_force),
-                    midspan=bool(rec.midspan),
-                    energy=bool(rec.energy),
-                    progress=cb,
-                    events=bool(events),
-                    stepper=stepper,
-                    solver=solver,
-                    gap_stiffness=gap_stiffness,
-                    gap_damping=float(gap_damping),
-                    **_joint_record_kwargs(rec, joints),
-                )
+            # one call for every stepper: the plan picks it, and the run's link channels (frame,
+            # displacements, axial force, midspan) come from the Rust recorder either way
+            raw = self._core.simulate(
+                float(t_end),
+                float(dt),
+                method=method,
+                iterate=bool(iterate),
+                tol=float(iter_tol),
+                max_iter=int(max_iter),
+                step_halving=int(step_halving),
+                beta=float(beta),
+                gamma=float(gamma),
+                divergence_limit=None if divergence_limit is None else float(divergence_limit),
+                every=int(rec.every),
+                displacements=displacements,
+                axial_force=bool(rec.axial_force),
+                midspan=bool(rec.midspan),
+                energy=bool(rec.energy),
+                progress=cb,
+                events=bool(events),
+                stepper=stepper,
+                solver=solver,
+                gap_stiffness=None if gap_stiffness is None else float(gap_stiffness),
+                gap_damping=float(gap_damping),
+                nodes=nodes,
+                **_joint_record_kwargs(rec, joints),
+            )
         except FlexclearError as exc:
             partial = getattr(exc, "partial", None)
             if partial is not None:
@@ -1162,7 +1137,6 @@ class Model:
         elements = list(self._core.link_elements)
         if chosen["engine"] == TRANSLATING:
             ea = list(self._core.link_axial_stiffness)
-            raw["links"] = _translating_links(self._core, raw, rec, displacements, elements, lengths, ea)
         else:
             ea = [float("nan")] * len(lengths)
         links = list(zip(self.link_names, elements, lengths, ea))
@@ -1198,48 +1172,3 @@ def _joint_record_kwargs(rec: Record, joints) -> dict:
         start=float(rec.start),
         impact_log=bool(rec.impact_log),
     )
-
-
-def _translating_links(core, raw: dict, rec: Record, displacements: bool, elements, lengths, ea) -> list:
-    """Link channels of a translating run, from the node histories it kept: every node's
-    displacements, the frame (fixed angle, origin on the link's motion), the midspan deflection
-    (cubic Hermite shape of the middle element, as in the moving-frame recorder) and the element
-    axial forces ``E A (u_{k+1} - u_k) / l``."""
-    time = raw["time"]
-    out = []
-    empty = np.empty(0)
-    by_node = {(h["link"], h["node"]): h for h in raw.get("nodes", ())}
-    frames = core.link_frames if displacements else None
-    for li, (n_el, length, eal) in enumerate(zip(elements, lengths, ea)):
-        nn = n_el + 1
-        h = {
-            "frame": np.empty((0, 4)),
-            "displacements": np.empty((0, 3 * nn)),
-            "axial_force": np.empty((0, n_el)),
-            "midspan": empty,
-            "kinetic": empty,
-            "strain": empty,
-            "momentum": empty,
-        }
-        if displacements and all((li, k) in by_node for k in range(nn)):
-            d = np.empty((time.size, 3 * nn))
-            for k in range(nn):
-                nh = by_node[(li, k)]
-                d[:, 3 * k], d[:, 3 * k + 1], d[:, 3 * k + 2] = nh["u"], nh["v"], nh["theta"]
-            h["displacements"] = d
-            fr = frames[li]
-            h["frame"] = np.array([[*fr.at(t)[0], fr.at(t)[3], fr.at(t)[4]] for t in time]).reshape(-1, 4)
-            le = length / n_el
-            if rec.axial_force:
-                h["axial_force"] = eal / le * np.diff(d[:, 0::3], axis=1)
-            if rec.midspan:
-                xm = 0.5 * n_el
-                k = min(int(np.floor(xm)), n_el - 1)
-                xi = xm - k
-                v0, t0, v1, t1 = d[:, 3 * k + 1], d[:, 3 * k + 2], d[:, 3 * k + 4], d[:, 3 * k + 5]
-                h1, h2 = 1 - 3 * xi**2 + 2 * xi**3, le * (xi - 2 * xi**2 + xi**3)
-                h3, h4 = 3 * xi**2 - 2 * xi**3, le * (-(xi**2) + xi**3)
-                vm = h1 * v0 + h2 * t0 + h3 * v1 + h4 * t1
-                h["midspan"] = vm - 0.5 * (d[:, 1] + d[:, 3 * n_el + 1])
-        out.append(h)
-    return out

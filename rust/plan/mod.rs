@@ -120,10 +120,9 @@ pub fn simulate(
         settings.record.nodes.clone()
     };
     let with_links = |mut out: RunOutput| {
+        // the node histories the link channels are made from stay in the output (as the memory
+        // estimate of the Python `Model` counts them)
         out.record.links = link_histories(&model, &out, settings);
-        if link_channels {
-            out.record.nodes.clear();
-        }
         out
     };
     match simulate_translating(&model, &s, control) {
@@ -137,8 +136,9 @@ pub fn simulate(
     }
 }
 
-/// The link histories of a constant-stepper run in the Newton stepper's layout: the frame (origin
-/// x, y in m, fixed angle in rad, rate 0) at every recorded time, and from the node histories
+/// The link histories of a constant-stepper run in the Newton stepper's layout: with
+/// displacements, the frame (origin x, y in m, fixed angle in rad, rate 0) at every recorded
+/// time, and from the node histories
 /// (one per node, link by link, as [`simulate`] asks for them) the nodal displacements, axial
 /// forces `E A (u_{k+1} - u_k) / l` (N) and the midspan deflection relative to the chord (m),
 /// as far as `settings.record.links` asks for them.
@@ -152,7 +152,8 @@ fn link_histories(model: &Model, out: &RunOutput, settings: &Settings) -> Vec<Li
         .map(|l| {
             let nn = l.elements + 1;
             let mut h = LinkHistory::default();
-            for &t in &rec.time {
+            // the frame goes with the displacements (as the memory estimate counts it)
+            for &t in rec.time.iter().filter(|_| ch.displacements) {
                 let o = l.motion.at(t).pos;
                 h.frame.push([o[0], o[1], l.angle, 0.0]);
             }
