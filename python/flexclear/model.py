@@ -999,14 +999,18 @@ class Model:
         raise_on_failure : bool
             False returns the partial :class:`Result` of a run that diverged or did not converge
             (``complete=False``, ``error`` set) instead of raising.
-        stepper : {None, "constant", "newton"}
+        stepper : {None, "constant", "constant-rate", "newton"}
             Which stepper runs the model. None (default): chosen from the model: ``"constant"``
             (the contact-free matrix factorized once, contact by Woodbury) where every link and
             bearing body translates at a fixed angle with only clearance joints and no energy
-            recorded, ``"newton"`` (Newton on the moving-frame equations) otherwise.
-            ``"newton"`` runs any model on the Newton stepper (e.g. to compare the two);
-            ``"constant"`` raises :class:`InvalidParameterError`, saying why, where the model
-            needs Newton. ``stats["stepper"]`` says which ran.
+            recorded; else ``"constant-rate"`` (the moving-frame equations with the contact-free
+            Jacobian factorized once, contact by Woodbury) where every frame is at rest or turns
+            at a constant rate, no link carries geometric terms, no pinned or slider node sits on
+            a rotating link and both sides of each clearance joint turn at one rate;
+            ``"newton"`` (Newton on the moving-frame equations) otherwise. ``"newton"`` runs any
+            model on the Newton stepper (e.g. to compare them); ``"constant"`` and
+            ``"constant-rate"`` raise :class:`InvalidParameterError`, saying why, where the
+            model does not allow them. ``stats["stepper"]`` says which ran.
         memory_limit : float, optional
             Largest memory the recorded histories may take, bytes (see :meth:`memory_estimate`;
             ``inf``: no limit). Default: the ``FLEXCLEAR_MEMORY_LIMIT`` environment variable
@@ -1029,8 +1033,8 @@ class Model:
         """
         if method not in METHODS:
             raise _bad("method", method, f"one of {METHODS}")
-        if stepper not in (None, "constant", "newton"):
-            raise _bad("stepper", stepper, 'one of None, "constant", "newton"')
+        if stepper not in (None, "constant", "constant-rate", "newton"):
+            raise _bad("stepper", stepper, 'one of None, "constant", "constant-rate", "newton"')
         rec = _as_record(record)
         check_window(rec.start, t_end, dt, "record.start")
         if solver not in ("woodbury", "refactor"):
@@ -1045,8 +1049,10 @@ class Model:
             0 <= step_halving <= 20
         ):
             raise _bad("step_halving", step_halving, "an integer in 0 ..= 20")
-        # the stepper the plan picks; energies are recorded by the Newton stepper
-        kind = MOVING if stepper == "newton" or (stepper is None and rec.energy) else self._kind
+        # the stepper the plan picks; energies are recorded by the moving-frame steppers (Newton,
+        # constant-rate)
+        moving = stepper in ("newton", "constant-rate") or (stepper is None and rec.energy)
+        kind = MOVING if moving else self._kind
         if iterate is None:
             iterate = self._iterate_default(method, kind)
         tol_default, iter_default = ITER_DEFAULTS[kind]

@@ -276,6 +276,8 @@ class Result:
         arithmetic delivers), ``event_fallbacks`` (counters that do not apply to the engine are
         0), ``stepper``
         (``"constant"``: one factorization of a constant effective matrix, contact by Woodbury;
+        ``"constant-rate"``: moving frames at rest or turning at a constant rate without
+        geometric terms, the contact-free Jacobian factorized once, contact by Woodbury;
         ``"newton"``: the Jacobian refactorized when it changes), ``unknowns`` (number of
         unknowns), ``bandwidth`` (half-bandwidth of the Newton Jacobian, 0 for the constant
         stepper) and ``terms`` (the terms active in the equations).

@@ -29,6 +29,19 @@
 //! the recorded force (the force applied in the step) are those of the constant stepper: one
 //! evaluation, [`crate::contact::evaluation`].
 //!
+//! The constant-rate stepper ([`NewtonRun::use_constant_rate`], `stats.stepper ==
+//! "constant-rate"`) is this stepper for models whose Jacobian without the contact terms is the
+//! same at every step ([`NewtonRun::constant_rate_obstacle`]: frames at rest or turning at a
+//! constant rate, no geometric terms, no transformed node in a rotating link, both sides of each
+//! clearance joint turning at one rate). It factorizes that Jacobian once, at the run's step, and
+//! solves each iteration with the contact terms as a low-rank update `P^T G P` on it
+//! (Sherman-Morrison-Woodbury, [`crate::linalg::Woodbury`], one 2 x 2 block per joint): `P`, the
+//! derivative of the joint's relative displacement, is constant in axes turning with the joint's
+//! frame, and `G = beta h^2 k + gamma h c + beta h^2 rate c S` (the damping's frame-rotation
+//! term) is turned into those axes. The same linear system as the Newton stepper's, so the same
+//! iterates up to rounding; steps of another length (halved, cut at an event) and a capacitance
+//! too ill-conditioned to trust take the Newton path.
+//!
 //! Nothing allocates inside the time loop.
 
 use nalgebra::Matrix6;
@@ -39,7 +52,7 @@ use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
-use crate::linalg::BandLu;
+use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder};
 use crate::run::{RunFailure, RunOutput, RunStats, Settings};
@@ -60,6 +73,11 @@ pub const ROUNDOFF_FLOOR: f64 = 1e-6;
 /// first iteration's, so what is left is the arithmetic's, not a stalled iteration's (a Newton
 /// iteration that cycles, e.g. on a contact edge, keeps a residual of the order of the forces).
 pub const ROUNDOFF_RESIDUAL: f64 = 1e-9;
+
+/// The constant-rate stepper gives up the Woodbury update for an iteration whose capacitance pivot
+/// ratio is below this (the value of the constant stepper), and solves with the whole Jacobian,
+/// refactorized (counted in [`RunStats::woodbury_fallbacks`]).
+const WOODBURY_RCOND: f64 = 1e-12;
 
 /// The gap element is not offered in moving frames; every other setting of [`Settings`] applies
 /// (the Newton iterations from [`Settings::newton`]).
@@ -218,6 +236,71 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
     nt
 }
 
+/// The rows of `P` for the constant-rate stepper's Woodbury update: per clearance joint, the
+/// derivative of the relative displacement `q` (journal minus bearing, global axes turned by
+/// `-angle` of the joint's reference frame) with respect to its up to four unknowns. Constant over
+/// the run when the joint's unknowns all turn with the reference frame (the plan's rule).
+#[derive(Debug, Clone, Default)]
+struct JointRows {
+    /// Per joint: (unknown, `[d q_x / d y_i, d q_y / d y_i]`), `NONE` for an unused slot.
+    cols: Vec<[(usize, [f64; 2]); 4]>,
+    /// Per joint: the link whose frame angle the rows are expressed in (`None`: global axes, every
+    /// unknown of the joint on a frame that does not rotate).
+    axes: Vec<Option<usize>>,
+    /// Per joint: the rate (rad/s) of its unknowns' frames; the velocity of `q` has the position
+    /// dependence `rate S dq/dy`.
+    rate: Vec<f64>,
+}
+
+impl LowRankBlocks for JointRows {
+    fn blocks(&self) -> usize {
+        self.cols.len()
+    }
+    fn scatter(&self, b: usize, r: usize, col: &mut [f64]) {
+        for &(i, g) in &self.cols[b] {
+            if i != NONE {
+                col[i] += g[r];
+            }
+        }
+    }
+    #[inline]
+    fn project(&self, b: usize, x: &[f64]) -> [f64; 2] {
+        let mut p = [0.0; 2];
+        for &(i, g) in &self.cols[b] {
+            if i != NONE {
+                p[0] += g[0] * x[i];
+                p[1] += g[1] * x[i];
+            }
+        }
+        p
+    }
+}
+
+/// The constant-rate stepper's solver: the contact-free Jacobian at the run's step `h`,
+/// factorized once, with the contact terms put on it by Woodbury (`J = J0 + P^T G P`, one 2 x 2
+/// block of `G` per clearance joint, linalg/woodbury.rs).
+#[derive(Debug, Clone)]
+struct RateSolver {
+    /// The step (s) `lu0` holds the Jacobian of; other steps (halved, event substeps) take the
+    /// Newton path.
+    h: f64,
+    lu0: BandLu,
+    /// Whether `lu0`, `wb` and `rows` hold a factorized Jacobian.
+    ready: bool,
+    /// The frame signature `lu0` was assembled with (refactorized if it ever changes).
+    signature: Vec<f64>,
+    sig_new: Vec<f64>,
+    rows: JointRows,
+    wb: Woodbury,
+    /// `G`, per joint, in its reference axes.
+    g: Vec<Mat2>,
+    /// Whether some block of `G` is non-zero in this iteration.
+    any: bool,
+    scratch: WoodburyScratch,
+    /// The right-hand side kept for a fallback solve.
+    rhs: Vec<f64>,
+}
+
 /// The Newton stepper's run: DOF map, element data, Jacobian and state.
 pub struct NewtonRun<'a> {
     mech: &'a Mechanism,
@@ -282,6 +365,8 @@ pub struct NewtonRun<'a> {
     hist_joints: Vec<JointHistory>,
     hist_slot: Vec<Option<usize>>,
     limit: f64,
+    /// The constant-rate stepper's solver (`None`: the Newton stepper).
+    rate: Option<Box<RateSolver>>,
 }
 
 /// Scratch of event-aware stepping: the start-of-step state and penetrations.
@@ -666,7 +751,255 @@ impl<'a> NewtonRun<'a> {
             hist_joints,
             hist_slot,
             limit,
+            rate: None,
         })
+    }
+
+    /// The rate (rad/s) of the frame the unknowns of endpoint `e` turn with: `Some(rate of the
+    /// link frame)` for a node with local unknowns, `Some(0.0)` for global or slider unknowns
+    /// (fixed axes), `None` when it has no unknown; and the link for local unknowns.
+    fn endpoint_rate(&self, e: &Endpoint) -> Option<(f64, Option<usize>)> {
+        match e {
+            Endpoint::Node { link, node } => match self.links[*link].nodes[*node].trans {
+                Trans::Local(ix) if ix.iter().any(|&i| i != NONE) => Some((
+                    self.mech.links[*link].frame.constant_rate().unwrap_or(f64::NAN),
+                    Some(*link),
+                )),
+                Trans::Global(_) | Trans::Slider { .. } => Some((0.0, None)),
+                _ => None,
+            },
+            Endpoint::Body { .. } => None,
+            Endpoint::Slider(s) => (self.slider_dof[*s] != NONE).then_some((0.0, None)),
+        }
+    }
+
+    /// Why the constant-rate stepper cannot run this model with these settings (`None`: it can).
+    /// Its Jacobian without the contact terms must be the same at every step: every link frame at
+    /// rest or turning at a constant rate ([`crate::kinematics::FrameKinematics::constant_rate`]),
+    /// no geometric terms (their axial forces move), no node pinned or on a slider in a link that
+    /// rotates (its transform turns with the link), and, with contact terms in the Jacobian
+    /// (`method="modified"`), the unknowns of both sides of each clearance joint turning at one
+    /// rate (so that the contact block is `P^T G P` with a constant `P` in the joint's axes).
+    pub fn constant_rate_obstacle(&self) -> Option<String> {
+        for (l, ld) in self.mech.links.iter().zip(&self.links) {
+            let Some(rate) = l.frame.constant_rate() else {
+                return Some(format!("the frame of link {:?} rotates at a varying rate", l.name));
+            };
+            if ld.active.geometric {
+                return Some(format!(
+                    "link {:?} carries geometric terms (K2, K3, D2), which change with its axial force",
+                    l.name
+                ));
+            }
+            if ld.active.transformed && rate != 0.0 {
+                return Some(format!(
+                    "link {:?} rotates and has a node pinned or on a slider, whose transform turns with it",
+                    l.name
+                ));
+            }
+        }
+        if matches!(self.settings.coupling, Coupling::Force) {
+            return None;
+        }
+        for j in &self.mech.joints {
+            let a = self.endpoint_rate(&j.journal).map(|r| r.0);
+            let b = self.endpoint_rate(&j.bearing).map(|r| r.0);
+            if let (Some(a), Some(b)) = (a, b) {
+                if a != b {
+                    return Some(format!(
+                        "the two sides of clearance joint {:?} turn at different rates ({a} and {b} rad/s)",
+                        j.name
+                    ));
+                }
+            }
+        }
+        None
+    }
+
+    /// Makes this run the constant-rate stepper: the contact-free Jacobian at the step
+    /// [`Settings::dt`] factorized once, the contact terms by Woodbury on it (steps of another
+    /// length, halved or cut at an event, take the Newton path). Fails with
+    /// [`Error::InvalidParameter`] naming `stepper` when [`Self::constant_rate_obstacle`] finds
+    /// the model unfit (the message says why).
+    pub fn use_constant_rate(&mut self) -> Result<()> {
+        if let Some(why) = self.constant_rate_obstacle() {
+            return Err(Error::param(
+                "stepper",
+                "\"constant-rate\"",
+                format!("\"newton\" or None for this model ({why})"),
+            ));
+        }
+        let n = self.n;
+        self.stats.stepper = "constant-rate";
+        self.rate = Some(Box::new(RateSolver {
+            h: self.settings.dt,
+            lu0: BandLu::new(n, self.lu.bandwidth()),
+            ready: false,
+            signature: Vec::new(),
+            sig_new: Vec::new(),
+            rows: JointRows::default(),
+            wb: Woodbury::default(),
+            g: vec![[[0.0; 2]; 2]; self.mech.joints.len()],
+            any: false,
+            scratch: WoodburyScratch::default(),
+            rhs: vec![0.0; n],
+        }));
+        Ok(())
+    }
+
+    /// The rows of `P` in each joint's reference axes at the current frames (see [`JointRows`]);
+    /// no joint with the force method (its contact is not in the Jacobian).
+    fn joint_rows(&self) -> JointRows {
+        let mut rows = JointRows::default();
+        if matches!(self.settings.coupling, Coupling::Force) {
+            return rows;
+        }
+        for jt in &self.mech.joints {
+            let a = self.endpoint_rate(&jt.journal);
+            let b = self.endpoint_rate(&jt.bearing);
+            let (rate, axes) = match (a, b) {
+                (Some((r, Some(l))), _) | (_, Some((r, Some(l)))) if r != 0.0 => (r, Some(l)),
+                _ => (0.0, None),
+            };
+            let rt = axes.map(|l| rot(self.frames[l].angle));
+            let turn = |g: [f64; 2]| match rt {
+                // R^T g
+                Some(r) => [r[0][0] * g[0] + r[1][0] * g[1], r[0][1] * g[0] + r[1][1] * g[1]],
+                None => g,
+            };
+            let ja = self.endpoint_jac(&jt.journal);
+            let jb = self.endpoint_jac(&jt.bearing);
+            let mut cols = [(NONE, [0.0; 2]); 4];
+            for (k, (i, g, _)) in ja.into_iter().enumerate() {
+                cols[k] = (i, turn(g));
+            }
+            for (k, (i, g, _)) in jb.into_iter().enumerate() {
+                cols[2 + k] = (i, turn([-g[0], -g[1]]));
+            }
+            rows.cols.push(cols);
+            rows.axes.push(axes);
+            rows.rate.push(rate);
+        }
+        rows
+    }
+
+    /// Before the first iteration of a constant-rate step of length `h`: factorizes the
+    /// contact-free Jacobian (and builds the Woodbury columns) the first time, or again if the
+    /// frames' signature ever changed (a frame whose rate is not constant after all).
+    fn rate_prepare(&mut self, h: f64) -> Result<()> {
+        let mut rs = self.rate.take().expect("constant-rate run");
+        let mut sig = std::mem::take(&mut rs.sig_new);
+        self.frame_signature(h, &mut sig);
+        let res = if rs.ready && sig == rs.signature {
+            Ok(())
+        } else {
+            std::mem::swap(&mut rs.signature, &mut sig);
+            let nm = self.settings.newmark;
+            self.assemble(nm.beta * h * h, nm.gamma * h, &mut rs.lu0, true, false);
+            self.stats.factorizations += 1;
+            rs.ready = false;
+            let res = rs
+                .lu0
+                .factorize("effective matrix of the mechanism")
+                .map_err(|e| self.name_pivot(e));
+            if res.is_ok() {
+                rs.rows = self.joint_rows();
+                rs.wb = Woodbury::new(&mut rs.lu0, &rs.rows);
+                rs.scratch = WoodburyScratch::for_rank(rs.wb.m());
+                rs.ready = true;
+            }
+            res
+        };
+        rs.sig_new = sig;
+        self.rate = Some(rs);
+        res
+    }
+
+    /// The blocks of `G` for the current contact terms (the step's `bh2 = beta h^2`,
+    /// `gh = gamma h`): the contact part of the Jacobian of [`Self::assemble`] is
+    /// `P^T (bh2 k + gh c + bh2 rate c S) P`, turned into each joint's reference axes.
+    fn rate_blocks(&mut self, bh2: f64, gh: f64) {
+        let Some(rs) = self.rate.as_deref_mut() else {
+            return;
+        };
+        rs.any = false;
+        if matches!(self.settings.coupling, Coupling::Force) {
+            return;
+        }
+        for j in 0..self.mech.joints.len() {
+            let (k, c) = if self.implicit_contact {
+                self.contact_tan[j]
+            } else if self.contact[j].active() {
+                (self.contact[j].k, self.contact[j].c)
+            } else {
+                ([[0.0; 2]; 2], [[0.0; 2]; 2])
+            };
+            if k == [[0.0; 2]; 2] && c == [[0.0; 2]; 2] {
+                rs.g[j] = [[0.0; 2]; 2];
+                continue;
+            }
+            rs.any = true;
+            let w = rs.rows.rate[j] * bh2;
+            // c S, S = [[0, -1], [1, 0]]
+            let mut g = [[0.0; 2]; 2];
+            for p in 0..2 {
+                let cs = [c[p][1], -c[p][0]];
+                for q in 0..2 {
+                    g[p][q] = bh2 * k[p][q] + gh * c[p][q] + w * cs[q];
+                }
+            }
+            if let Some(l) = rs.rows.axes[j] {
+                // R^T G R
+                let r = rot(self.frames[l].angle);
+                let mut gr = [[0.0; 2]; 2];
+                for p in 0..2 {
+                    for q in 0..2 {
+                        gr[p][q] = g[p][0] * r[0][q] + g[p][1] * r[1][q];
+                    }
+                }
+                for p in 0..2 {
+                    for q in 0..2 {
+                        g[p][q] = r[0][p] * gr[0][q] + r[1][p] * gr[1][q];
+                    }
+                }
+            }
+            rs.g[j] = g;
+        }
+    }
+
+    /// Solves the constant-rate step's Newton system `J dx = r` in place: with the contact-free
+    /// factor alone while every contact is open, by Woodbury otherwise; a capacitance below
+    /// [`WOODBURY_RCOND`] falls back to the whole Jacobian, refactorized by the Newton path.
+    fn rate_solve(&mut self, h: f64, dx: &mut [f64]) -> Result<()> {
+        let mut rs = self.rate.take().expect("constant-rate run");
+        if !rs.any {
+            rs.lu0.solve_in_place(dx);
+            self.rate = Some(rs);
+            return Ok(());
+        }
+        rs.rhs.copy_from_slice(dx);
+        let RateSolver {
+            lu0,
+            rows,
+            wb,
+            g,
+            scratch,
+            ..
+        } = &mut *rs;
+        let rcond = wb.solve(lu0, rows, g, dx, scratch);
+        let fallback = rcond.is_nan() || rcond < WOODBURY_RCOND;
+        if fallback {
+            dx.copy_from_slice(&rs.rhs);
+        }
+        self.rate = Some(rs);
+        if fallback {
+            self.stats.woodbury_fallbacks += 1;
+            if self.jacobian_changed(h, false) {
+                self.factorize(h)?;
+            }
+            self.lu.solve_in_place(dx);
+        }
+        Ok(())
     }
 
     /// Number of unknowns.
@@ -737,7 +1070,7 @@ impl<'a> NewtonRun<'a> {
         let n = self.n;
         let mut lu = BandLu::new(n, self.lu.bandwidth());
         let dense = |bh2: f64, gh: f64, lu: &mut BandLu| -> Vec<f64> {
-            self.assemble(bh2, gh, lu, false);
+            self.assemble(bh2, gh, lu, false, true);
             let mut d = vec![0.0; n * n];
             for i in 0..n {
                 for j in 0..n {
@@ -1007,17 +1340,7 @@ impl<'a> NewtonRun<'a> {
     /// with every step).
     fn jacobian_changed(&mut self, h: f64, geometric: bool) -> bool {
         let mut s = std::mem::take(&mut self.sig_new);
-        s.clear();
-        s.push(h);
-        for (ld, f) in self.links.iter().zip(&self.frames) {
-            if ld.active.coriolis || ld.active.coupling || ld.active.transformed {
-                s.push(f.rate);
-                s.push(f.accel);
-            }
-            if ld.active.transformed {
-                s.push(f.angle);
-            }
-        }
+        self.frame_signature(h, &mut s);
         if self.implicit_contact {
             for (k, c) in &self.contact_tan {
                 s.extend([k[0][0], k[0][1], k[1][0], k[1][1], c[0][0], c[0][1], c[1][0], c[1][1]]);
@@ -1034,12 +1357,41 @@ impl<'a> NewtonRun<'a> {
         changed
     }
 
+    /// The part of the Jacobian's signature that does not depend on the contact (the step `h`,
+    /// s, and the frame rates, accelerations and angles the element terms use), into `s`
+    /// (cleared first).
+    fn frame_signature(&self, h: f64, s: &mut Vec<f64>) {
+        s.clear();
+        s.push(h);
+        for (ld, f) in self.links.iter().zip(&self.frames) {
+            if ld.active.coriolis || ld.active.coupling || ld.active.transformed {
+                s.push(f.rate);
+                s.push(f.accel);
+            }
+            if ld.active.transformed {
+                s.push(f.angle);
+            }
+        }
+    }
+
+    /// A singular pivot of the band LU with the unknown named (link, node and direction).
+    fn name_pivot(&self, e: Error) -> Error {
+        match e {
+            Error::Singular { what, index, .. } => Error::Singular {
+                dof: self.describe(index),
+                what,
+                index,
+            },
+            e => e,
+        }
+    }
+
     /// Assembles and factorizes the Jacobian `d r / d a` at the current iterate.
     fn factorize(&mut self, h: f64) -> Result<()> {
         std::mem::swap(&mut self.signature, &mut self.sig_new);
         let nm = self.settings.newmark;
         let mut lu = std::mem::replace(&mut self.lu, BandLu::new(0, 0));
-        self.assemble(nm.beta * h * h, nm.gamma * h, &mut lu, true);
+        self.assemble(nm.beta * h * h, nm.gamma * h, &mut lu, true, true);
         let what = if h == 0.0 {
             "mass matrix of the mechanism (with the transforms)"
         } else {
@@ -1048,14 +1400,7 @@ impl<'a> NewtonRun<'a> {
         let res = lu.factorize(what);
         self.lu = lu;
         self.stats.factorizations += 1;
-        res.map_err(|e| match e {
-            Error::Singular { what, index, .. } => Error::Singular {
-                dof: self.describe(index),
-                what,
-                index,
-            },
-            e => e,
-        })
+        res.map_err(|e| self.name_pivot(e))
     }
 
     /// Assembles `A + gh B + bh2 K` into `lu`, where the Jacobian of the residual with respect
@@ -1065,7 +1410,9 @@ impl<'a> NewtonRun<'a> {
     /// axial force in K2, K3, D2 on the axial displacements, `(K23 Q + D2 Qd) dF/dQ`, and, with
     /// implicit contact, the tangent of the contact force instead of its secant `kappa K_B`.
     /// Without (the linearization), `K` holds the secant terms at the state's axial forces.
-    fn assemble(&self, bh2: f64, gh: f64, lu: &mut BandLu, tangent: bool) {
+    /// Without `contacts`, the clearance joints' terms are left out (the constant-rate stepper's
+    /// contact-free Jacobian).
+    fn assemble(&self, bh2: f64, gh: f64, lu: &mut BandLu, tangent: bool, contacts: bool) {
         lu.clear();
         for li in 0..self.links.len() {
             let ld = &self.links[li];
@@ -1171,7 +1518,7 @@ impl<'a> NewtonRun<'a> {
                 lu.add(i, i, sl.mass);
             }
         }
-        if !matches!(self.settings.coupling, Coupling::Force) {
+        if contacts && !matches!(self.settings.coupling, Coupling::Force) {
             for j in 0..self.mech.joints.len() {
                 let mut ct = self.contact[j];
                 if tangent && self.implicit_contact {
@@ -1286,9 +1633,11 @@ impl<'a> NewtonRun<'a> {
         }
         let iterate_contact = self.implicit_contact;
         let linear = !self.nonlinear_geometric && !iterate_contact;
+        // the constant-rate stepper's step: the contact-free factor of step h and Woodbury
+        let rate_step = self.rate.as_ref().is_some_and(|r| r.h == h);
         let scale_floor = 1e-9 * self.limit / 10.0;
         let mut iters = 0usize;
-        let mut last_res;
+        let mut last_res = f64::NAN;
         let mut last_corr;
         // the two corrections before the last, for the round-off floor's stall test
         let mut prev_corr = [f64::INFINITY; 2];
@@ -1300,30 +1649,54 @@ impl<'a> NewtonRun<'a> {
                 // Implicit contact: the force and its tangent at the current iterate.
                 self.evaluate_contacts(false);
             }
-            if (iters == 1 || iterate_contact) && self.jacobian_changed(h, iters == 1) {
-                if let Err(e) = self.factorize(h) {
-                    let finite = self.y.iter().chain(&self.yd).chain(&self.a).all(|x| x.is_finite());
-                    if iters > 1 && !finite {
-                        // the iterates ran away (a step too long for the contact or the frame
-                        // motion): not converged, which step halving may mend
-                        last_res = f64::INFINITY;
-                        last_corr = f64::INFINITY;
-                        break false;
+            let prepared = if rate_step {
+                let res = if iters == 1 { self.rate_prepare(h) } else { Ok(()) };
+                if iters == 1 || iterate_contact {
+                    self.rate_blocks(bh2, gh);
+                }
+                res
+            } else if (iters == 1 || iterate_contact) && self.jacobian_changed(h, iters == 1) {
+                self.factorize(h)
+            } else {
+                Ok(())
+            };
+            let mut failure = prepared.err();
+            let mut dx = Vec::new();
+            if failure.is_none() {
+                self.residual(h, t + h);
+                last_res = self.r.iter().fold(
+                    0.0f64,
+                    |m, v| if v.is_finite() { m.max(v.abs()) } else { f64::INFINITY },
+                );
+                dx = std::mem::take(&mut self.r);
+                if rate_step {
+                    if iters == 1 && self.rate.as_ref().is_some_and(|r| r.any) {
+                        self.stats.woodbury_steps += 1;
                     }
-                    self.restore();
-                    // a state that went non-finite between two divergence checks is reported as
-                    // the divergence it is, with the unknown that went first
-                    self.check_divergence(t, step)?;
-                    return Err(e);
+                    failure = self.rate_solve(h, &mut dx).err();
+                } else {
+                    self.lu.solve_in_place(&mut dx);
                 }
             }
-            self.residual(h, t + h);
-            last_res = self.r.iter().fold(
-                0.0f64,
-                |m, v| if v.is_finite() { m.max(v.abs()) } else { f64::INFINITY },
-            );
-            let mut dx = std::mem::take(&mut self.r);
-            self.lu.solve_in_place(&mut dx);
+            if let Some(e) = failure {
+                // a factorization failed (the Jacobian, or the constant-rate stepper's fallback)
+                if !dx.is_empty() {
+                    self.r = dx;
+                }
+                let finite = self.y.iter().chain(&self.yd).chain(&self.a).all(|x| x.is_finite());
+                if iters > 1 && !finite {
+                    // the iterates ran away (a step too long for the contact or the frame
+                    // motion): not converged, which step halving may mend
+                    last_res = f64::INFINITY;
+                    last_corr = f64::INFINITY;
+                    break false;
+                }
+                self.restore();
+                // a state that went non-finite between two divergence checks is reported as
+                // the divergence it is, with the unknown that went first
+                self.check_divergence(t, step)?;
+                return Err(e);
+            }
             let mut dmax = 0.0f64;
             let mut ymax = 0.0f64;
             for i in 0..self.n {
@@ -1725,6 +2098,16 @@ impl<'a> NewtonRun<'a> {
             self.track[j].max_penetration = f64::NEG_INFINITY;
         }
         let h = self.settings.dt;
+        if self.rate.is_some() {
+            // the constant-rate stepper's one factorization (and its Woodbury columns), before
+            // the time loop: nothing is allocated there
+            self.update_frames(h);
+            let res = self.rate_prepare(h);
+            self.update_frames(0.0);
+            if let Err(e) = res {
+                return Err(self.fail(e, 0.0));
+            }
+        }
         self.track_joints(0.0, Some((0, h)));
         self.record(0.0);
         let events = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
@@ -1851,5 +2234,19 @@ pub fn simulate_mechanism(
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
     let run = NewtonRun::new(mech, settings).map_err(RunFailure::before_start)?;
+    run.run(control)
+}
+
+/// Runs a mechanism on the constant-rate stepper ([`NewtonRun::use_constant_rate`]: the
+/// contact-free Jacobian factorized once, contact by Woodbury). Fails before the first step with
+/// [`Error::InvalidParameter`] naming `stepper` where the model does not allow it, else as
+/// [`NewtonRun::run`].
+pub fn simulate_constant_rate(
+    mech: &Mechanism,
+    settings: &Settings,
+    control: &mut dyn FnMut(f64) -> bool,
+) -> std::result::Result<RunOutput, Box<RunFailure>> {
+    let mut run = NewtonRun::new(mech, settings).map_err(RunFailure::before_start)?;
+    run.use_constant_rate().map_err(RunFailure::before_start)?;
     run.run(control)
 }

@@ -402,6 +402,15 @@ impl FrameKinematics for FourBarFrame {
         !self.mechanism.driver.is_fixed()
     }
 
+    /// The crank turns with the driver ([`Rotation::constant_rate`]); the coupler's and the
+    /// rocker's rates vary unless the driver is fixed.
+    fn constant_rate(&self) -> Option<f64> {
+        match self.link {
+            FourBarLink::Crank => self.mechanism.driver.constant_rate(),
+            _ => self.mechanism.driver.is_fixed().then_some(0.0),
+        }
+    }
+
     /// Only the coupler's origin (the crank pin) moves, unless the driver is fixed; crank and
     /// rocker frames sit on the ground pivots.
     fn translates(&self) -> bool {

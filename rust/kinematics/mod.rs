@@ -342,6 +342,17 @@ impl Rotation {
         }
     }
 
+    /// The rate (rad/s) when it is the same at every time with zero angular acceleration:
+    /// `Some(rate)` for `Constant`, `Some(0.0)` for a rotation that never changes
+    /// ([`Rotation::is_fixed`]), `None` otherwise (the rate may vary).
+    pub fn constant_rate(&self) -> Option<f64> {
+        match self {
+            Rotation::Constant { rate, .. } => Some(*rate),
+            r if r.is_fixed() => Some(0.0),
+            _ => None,
+        }
+    }
+
     /// Checks the parameters: every number finite, `ramp_time > 0`, `frequency >= 0`. A table is
     /// valid by construction. `name` prefixes parameter names in errors (`name.ramp_time`).
     ///
@@ -440,6 +451,13 @@ pub trait FrameKinematics: std::fmt::Debug + Send + Sync {
         true
     }
 
+    /// The frame's rate (rad/s) when it is the same at every time with zero angular acceleration
+    /// (a frame at rest or spinning steadily: the constant-rate stepper's condition), `None` when
+    /// it may vary. The default, `None`, is conservative.
+    fn constant_rate(&self) -> Option<f64> {
+        None
+    }
+
     /// The frame as a translation at a fixed angle: the origin's prescribed motion and the angle
     /// (rad), when the frame is exactly that (a translating frame of the constant stepper);
     /// `None` otherwise (the default).
@@ -509,6 +527,11 @@ impl FrameKinematics for RotatingFrame {
     /// False when the origin is fixed ([`Motion::is_fixed`]).
     fn translates(&self) -> bool {
         !self.origin.is_fixed()
+    }
+
+    /// [`Rotation::constant_rate`] of the rotation (the origin's motion does not matter).
+    fn constant_rate(&self) -> Option<f64> {
+        self.rotation.constant_rate()
     }
 
     /// The origin's motion and the angle when the rotation is [`Rotation::Fixed`].

@@ -198,6 +198,16 @@ impl FrameKinematics for SliderCrankFrame {
         self.link != SliderCrankLink::Slider && !self.mechanism.driver.is_fixed()
     }
 
+    /// The crank turns with the driver ([`Rotation::constant_rate`]); the slider never rotates;
+    /// the rod's rate varies unless the driver is fixed.
+    fn constant_rate(&self) -> Option<f64> {
+        match self.link {
+            SliderCrankLink::Crank => self.mechanism.driver.constant_rate(),
+            SliderCrankLink::Slider => Some(0.0),
+            SliderCrankLink::Rod => self.mechanism.driver.is_fixed().then_some(0.0),
+        }
+    }
+
     /// The rod's origin (crank pin) and the slider move unless the driver is fixed; the crank's
     /// origin is the fixed pivot.
     fn translates(&self) -> bool {

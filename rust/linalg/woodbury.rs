@@ -146,6 +146,14 @@ pub struct WoodburyScratch {
 }
 
 impl WoodburyScratch {
+    /// Work vectors sized for rank `m` (2 per joint), so that [`Woodbury::solve`] allocates
+    /// nothing.
+    pub fn for_rank(m: usize) -> Self {
+        let mut s = WoodburyScratch::default();
+        s.resize(m);
+        s
+    }
+
     fn resize(&mut self, m: usize) {
         self.yb.resize(m, 0.0);
         self.h.resize(m, 0.0);

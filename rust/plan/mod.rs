@@ -4,6 +4,7 @@
 //! | the model | stepper |
 //! |---|---|
 //! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::constant`]) |
+//! | otherwise, every link frame at rest or turning at a constant rate, no geometric terms (K2, K3, D2), no node pinned or on a slider in a link that rotates, and (modified method) both sides of each clearance joint turning at one rate ([`NewtonRun::constant_rate_obstacle`]) | [`StepperKind::ConstantRate`]: the moving-frame equations with the contact-free Jacobian factorized once (band LU), contact by Woodbury on it |
 //! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::newton`]) |
 //!
 //! The constant stepper runs the mechanism's translating-frame form
@@ -14,6 +15,7 @@
 pub mod assembly;
 
 use crate::error::Error;
+use crate::integrator::newton::NewtonRun;
 use crate::model::mechanism::Mechanism;
 use crate::model::Model;
 use crate::record::LinkHistory;
@@ -24,6 +26,9 @@ use crate::run::{simulate as simulate_translating, RunFailure, RunOutput, Settin
 pub enum StepperKind {
     /// Constant effective matrix: factorized once, contact by Woodbury.
     Constant,
+    /// Moving frames whose contact-free Jacobian is constant (frames at rest or turning at a
+    /// constant rate, no geometric terms): band LU once, contact by Woodbury on it.
+    ConstantRate,
     /// Newton on the moving-frame equations, the Jacobian refactorized when it changes.
     Newton,
 }
@@ -33,6 +38,7 @@ impl StepperKind {
     pub fn name(self) -> &'static str {
         match self {
             StepperKind::Constant => "constant",
+            StepperKind::ConstantRate => "constant-rate",
             StepperKind::Newton => "newton",
         }
     }
@@ -45,46 +51,92 @@ pub struct Plan {
     pub kind: StepperKind,
     /// Why the constant stepper cannot run it (empty for [`StepperKind::Constant`]).
     pub reason: String,
+    /// Why the constant-rate stepper cannot run it (empty for [`StepperKind::ConstantRate`], and
+    /// for [`StepperKind::Constant`], where it is not examined).
+    pub rate_reason: String,
     translating: Option<Model>,
 }
 
 impl Plan {
     /// Chooses the stepper for `mech` run with `settings` (the rules of the module table), or
-    /// takes the one `settings.stepper` asks for. Fails with [`Error::InvalidParameter`] when
-    /// the constant stepper is asked for a model it cannot run (the message says why).
+    /// takes the one `settings.stepper` asks for. Fails with [`Error::InvalidParameter`] naming
+    /// `stepper` when the constant or constant-rate stepper is asked for a model it cannot run
+    /// (the message says why).
     pub fn compile(mech: &Mechanism, settings: &Settings) -> crate::error::Result<Plan> {
         let plan = Self::choose(mech, settings);
         match settings.stepper {
             Some(StepperKind::Newton) => Ok(Plan {
                 kind: StepperKind::Newton,
                 reason: "asked for".into(),
+                rate_reason: "asked for".into(),
                 translating: None,
             }),
-            Some(StepperKind::Constant) if plan.kind == StepperKind::Newton => Err(Error::param(
+            Some(StepperKind::ConstantRate) => match Self::rate_obstacle(mech, settings) {
+                None => Ok(Plan {
+                    kind: StepperKind::ConstantRate,
+                    reason: "asked for".into(),
+                    rate_reason: String::new(),
+                    translating: None,
+                }),
+                Some(why) => Err(Error::param(
+                    "stepper",
+                    "\"constant-rate\"",
+                    format!("\"newton\" or None for this model ({why})"),
+                )),
+            },
+            Some(StepperKind::Constant) if plan.kind != StepperKind::Constant => Err(Error::param(
                 "stepper",
                 "\"constant\"",
-                format!("\"newton\" or None for this model ({})", plan.reason),
+                match plan.kind {
+                    StepperKind::ConstantRate => {
+                        format!("\"constant-rate\", \"newton\" or None for this model ({})", plan.reason)
+                    }
+                    _ => format!("\"newton\" or None for this model ({})", plan.reason),
+                },
             )),
             _ => Ok(plan),
         }
     }
 
-    fn choose(mech: &Mechanism, settings: &Settings) -> Plan {
-        let newton = |reason: String| Plan {
-            kind: StepperKind::Newton,
-            reason,
-            translating: None,
-        };
-        if settings.record.links.energy {
-            return newton("the run records link energies".into());
+    /// Why the constant-rate stepper cannot run `mech` with `settings`
+    /// ([`NewtonRun::constant_rate_obstacle`]; an invalid model or settings is a reason too, and
+    /// the run then fails with that error on the Newton stepper).
+    fn rate_obstacle(mech: &Mechanism, settings: &Settings) -> Option<String> {
+        match NewtonRun::new(mech, settings) {
+            Ok(run) => run.constant_rate_obstacle(),
+            Err(e) => Some(e.to_string()),
         }
-        match mech.to_translating() {
-            Ok(model) => Plan {
-                kind: StepperKind::Constant,
-                reason: String::new(),
-                translating: Some(model),
+    }
+
+    fn choose(mech: &Mechanism, settings: &Settings) -> Plan {
+        let reason = if settings.record.links.energy {
+            "the run records link energies".into()
+        } else {
+            match mech.to_translating() {
+                Ok(model) => {
+                    return Plan {
+                        kind: StepperKind::Constant,
+                        reason: String::new(),
+                        rate_reason: String::new(),
+                        translating: Some(model),
+                    }
+                }
+                Err(reason) => reason,
+            }
+        };
+        match Self::rate_obstacle(mech, settings) {
+            None => Plan {
+                kind: StepperKind::ConstantRate,
+                reason,
+                rate_reason: String::new(),
+                translating: None,
             },
-            Err(reason) => newton(reason),
+            Some(rate_reason) => Plan {
+                kind: StepperKind::Newton,
+                reason,
+                rate_reason,
+                translating: None,
+            },
         }
     }
 }
@@ -101,7 +153,10 @@ pub fn simulate(
     let fail = RunFailure::before_start;
     let plan = Plan::compile(mech, settings).map_err(fail)?;
     let Some(model) = plan.translating else {
-        return crate::integrator::newton::simulate_mechanism(mech, settings, control);
+        return match plan.kind {
+            StepperKind::ConstantRate => crate::integrator::newton::simulate_constant_rate(mech, settings, control),
+            _ => crate::integrator::newton::simulate_mechanism(mech, settings, control),
+        };
     };
     mech.validate(settings.t_end).map_err(fail)?;
     let ch = settings.record.links;

@@ -340,7 +340,7 @@ impl PyMechanism {
     }
 
     /// The stepper `simulate` chooses for this mechanism when no energy is recorded:
-    /// "constant" or "newton" (see `flexclear.Model.simulate`, `stepper`).
+    /// "constant", "constant-rate" or "newton" (see `flexclear.Model.simulate`, `stepper`).
     #[getter]
     fn stepper(&self) -> &'static str {
         match crate::plan::Plan::compile(&self.inner, &Settings::new(1.0, 1.0)) {
@@ -507,6 +507,7 @@ impl PyMechanism {
         let stepper = match stepper {
             None => None,
             Some("constant") => Some(StepperKind::Constant),
+            Some("constant-rate") => Some(StepperKind::ConstantRate),
             Some("newton") => Some(StepperKind::Newton),
             Some(other) => {
                 return Err(err(
@@ -514,7 +515,7 @@ impl PyMechanism {
                     Error::param(
                         "stepper",
                         format!("{other:?}"),
-                        "one of \"constant\", \"newton\" or None",
+                        "one of \"constant\", \"constant-rate\", \"newton\" or None",
                     ),
                 ))
             }
