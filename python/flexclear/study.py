@@ -265,6 +265,10 @@ OUTPUTS = {
     "max_impact_velocity": "peak normal approach speed at an impact, m/s",
     "rms_penetration": "RMS of the penetration, m",
     "rms_force": "RMS of the contact force magnitude, N",
+    "free_flight_fraction": "fraction of the time open (free flight)",
+    "impact_fraction": "fraction of the time in impacts (episodes up to 5 natural contact periods)",
+    "continuous_fraction": "fraction of the time in continuous contact (longer episodes)",
+    "dissipated_energy": "energy dissipated in the joint (work balance of the contact force), J",
 }
 
 _UNITS = {
@@ -277,6 +281,10 @@ _UNITS = {
     "max_impact_velocity": "m/s",
     "rms_penetration": "m",
     "rms_force": "N",
+    "free_flight_fraction": "1",
+    "impact_fraction": "1",
+    "continuous_fraction": "1",
+    "dissipated_energy": "J",
     "clearance": "m",
     "amplitude": "m",
     "frequency": "Hz",
@@ -447,6 +455,11 @@ class Study:
     history_every : int, optional
         Also keep the joint's penetration and force histories, decimated to every k-th step
         (memory grows with the run length: off by default).
+    orbit : bool
+        Also keep the journal-centre orbit of each reported joint: columns
+        ``"<joint>.qx_history"`` and ``"<joint>.qy_history"``, the journal centre relative to the
+        bearing centre (m), decimated like the histories (needs ``history_every``; opt-in, memory
+        O(steps / history_every) per sample).
     retries : int
         Retry a diverged sample this many times with the step times ``retry_factor``; the
         retried samples are flagged (column ``retries``) and the step used is in ``dt_used``.
@@ -469,6 +482,7 @@ class Study:
         outputs: Optional[Sequence[str]] = None,
         start: float = 0.0,
         history_every: Optional[int] = None,
+        orbit: bool = False,
         retries: int = 0,
         retry_factor: float = 0.5,
         run_options: Optional[Mapping[str, Any]] = None,
@@ -575,6 +589,12 @@ class Study:
                 f"history_every = {history_every!r} is not allowed; allowed: None or an integer in 1 ..< 2^63"
             )
         self.history_every = None if history_every is None else int(history_every)
+        if not isinstance(orbit, (bool, np.bool_)) or (orbit and history_every is None):
+            raise InvalidParameterError(
+                f"orbit = {orbit!r} is not allowed; allowed: False, or True with history_every (the "
+                "orbit is a decimated history)"
+            )
+        self.orbit = bool(orbit)
         if not isinstance(retries, (int, np.integer)) or not 0 <= retries < 2**31:
             raise InvalidParameterError(
                 f"retries = {retries!r} is not allowed; allowed: an integer in 0 ..= {2**31 - 1}"
@@ -643,6 +663,7 @@ class Study:
             "outputs": self.outputs,
             "start": self.start,
             "history_every": self.history_every,
+            **({"orbit": True} if self.orbit else {}),
             "retries": self.retries,
             "retry_factor": self.retry_factor,
             "run_options": self.run_options,
@@ -892,7 +913,7 @@ class Study:
 
     def memory_estimate(self) -> int:
         """Bytes the histories of every sample would take in the result (``history_every``: two
-        channels per reported joint; 0 without histories), 8 bytes per value."""
+        channels per reported joint, four with ``orbit``; 0 without histories), 8 bytes per value."""
         if self.history_every is None:
             return 0
         inputs = self.inputs()
@@ -902,7 +923,8 @@ class Study:
         valid = (dt > 0) & (t_end > 0) & np.isfinite(dt) & np.isfinite(t_end)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             steps = np.maximum(np.round(t_end[valid] / dt[valid]), 1)
-        total = float(np.sum(steps // self.history_every + 2)) * 2 * len(self.joints) * 8
+        channels = 4 if self.orbit else 2
+        total = float(np.sum(steps // self.history_every + 2)) * channels * len(self.joints) * 8
         return int(min(total, 2**63 - 1))
 
     def _check_memory(self, inputs) -> None:
@@ -1163,6 +1185,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             joints=study._joint_indices,
             every=study.history_every or 1,
             histories=hist,
+            joint_position=study.orbit,
             start=study.start,
             progress=batch_progress if progress is not None else None,
             **batch_options,
@@ -1195,14 +1218,17 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
                 h = next((h for h in out["joints"] if h["joint"] == ji), None) if status == "ok" else None
                 rec[f"{j}.penetration_history"] = h["penetration"] if h is not None else np.empty(0)
                 rec[f"{j}.force_history"] = h["force"] if h is not None else np.empty(0)
+                if study.orbit:
+                    rec[f"{j}.qx_history"] = h["qx"] if h is not None else np.empty(0)
+                    rec[f"{j}.qy_history"] = h["qy"] if h is not None else np.empty(0)
     keep = [r for r in records if r.get("status") not in (None, "interrupted", "not_run")]
     for r in keep:
         for c in study.output_columns:
             r.setdefault(c, float("nan"))
         if hist:
             for j in study.joints:
-                r.setdefault(f"{j}.penetration_history", np.empty(0))
-                r.setdefault(f"{j}.force_history", np.empty(0))
+                for ch in _history_channels(study):
+                    r.setdefault(f"{j}.{ch}_history", np.empty(0))
     frame = pd.DataFrame.from_records(keep, columns=_columns(study))
     frame = frame.set_index("sample")
     return frame, pending
@@ -1220,6 +1246,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         histories=hist,
         every=study.history_every or 1,
         start=study.start,
+        position=study.orbit,
     )
     retries = 0
     t0 = time.perf_counter()
@@ -1252,7 +1279,10 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         if hist:
             for ji, name in zip(study._joint_indices, study.joints):
                 j = res.joint(name)
-                joints.append({"joint": ji, "penetration": j.penetration, "force": j.force})
+                h = {"joint": ji, "penetration": j.penetration, "force": j.force}
+                if study.orbit:
+                    h["qx"], h["qy"] = j.orbit()
+                joints.append(h)
         out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
         out.update(extremes=extremes, joints=joints)
         return out
@@ -1307,8 +1337,13 @@ def _columns(study: Study) -> list[str]:
     cols += study.output_columns
     if study.history_every is not None:
         for j in study.joints:
-            cols += [f"{j}.penetration_history", f"{j}.force_history"]
+            cols += [f"{j}.{ch}_history" for ch in _history_channels(study)]
     return cols
+
+
+def _history_channels(study: Study) -> tuple[str, ...]:
+    """The history columns per joint (``"<joint>.<channel>_history"``)."""
+    return ("penetration", "force", "qx", "qy") if study.orbit else ("penetration", "force")
 
 
 def _concat(frames: list, study: Study):
