@@ -16,7 +16,7 @@ import flexclear as fc
 import numpy as np
 import pytest
 from flexclear import Record, scenes
-from flexclear.study import OUTPUTS, Study, Uniform
+from flexclear.study import MODE_OUTPUTS, OUTPUTS, Study, Uniform
 
 L, AREA, RHO, E, INERTIA = 0.1, 1e-4, 1.0, 2e11, 1e-8
 MASS = 0.05  # kg, point mass at each end
@@ -82,7 +82,7 @@ def analytic_dissipation() -> float:
 def test_a_single_impact_dissipates_the_analytic_energy():
     an = analytic_dissipation()  # 1.1706e-4 J
     for dt, rel in ((1e-6, 0.02), (1e-7, 0.003)):
-        r = bar().simulate(3e-3, dt, record=Record(impact_log=True))
+        r = bar().simulate(3e-3, dt, record=Record(contact_modes=True, impact_log=True))
         for name in ("left", "right"):
             j = r.joint(name)
             assert j.impacts == 1 and np.isfinite(j.impact_log.duration[0])
@@ -102,13 +102,13 @@ def test_dissipated_energy_is_the_work_balance_of_the_run_on_both_steppers():
     # a steel bar without point masses: the impact also sets the beam vibrating, and the
     # energy the run lost (kinetic + strain, Record(energy=True)) is what the joints dissipated
     model = bar(masses=False, elements=2)
-    r = model.simulate(3e-3, 1e-6, record=Record(energy=True), stepper="newton")
+    r = model.simulate(3e-3, 1e-6, record=Record(contact_modes=True, energy=True), stepper="newton")
     lr = r.link("bar")
     lost = (lr.kinetic[0] + lr.strain[0]) - (lr.kinetic[-1] + lr.strain[-1])
     w = sum(r.joint(n).dissipated_energy for n in ("left", "right"))
     assert w == pytest.approx(lost, rel=5e-3)  # measured 0.35 %
     # the constant stepper (every link translates, clearance joints only) agrees
-    rc = bar(masses=False, elements=2).simulate(3e-3, 1e-6)
+    rc = bar(masses=False, elements=2).simulate(3e-3, 1e-6, record=Record(contact_modes=True))
     assert rc.stats["stepper"] == "constant"
     wc = sum(rc.joint(n).dissipated_energy for n in ("left", "right"))
     assert wc == pytest.approx(w, rel=5e-3)
@@ -121,7 +121,9 @@ def test_dissipated_energy_is_the_work_balance_of_the_run_on_both_steppers():
 @pytest.mark.parametrize("stepper", ["constant", "newton"])
 def test_an_ideal_joint_is_all_free_flight(stepper):
     # a clearance far wider than the motion: the joint never closes
-    r = bar(clearance=1.0, masses=False).simulate(2e-3, 1e-5, stepper=stepper)
+    r = bar(clearance=1.0, masses=False).simulate(
+        2e-3, 1e-5, stepper=stepper, record=Record(contact_modes=True)
+    )
     assert r.stats["stepper"] == stepper
     for n in ("left", "right"):
         j = r.joint(n)
@@ -131,7 +133,7 @@ def test_an_ideal_joint_is_all_free_flight(stepper):
 
 def test_an_ideal_joint_of_a_mechanism_is_all_free_flight():
     sc = scenes.slider_crank(clearance_at="crank_pin", clearance=10.0)
-    j = sc.simulate(0.01, 1e-5, record=Record(histories=False)).joint("crank_pin")
+    j = sc.simulate(0.01, 1e-5, record=Record(contact_modes=True, histories=False)).joint("crank_pin")
     assert j.impacts == 0 and j.dissipated_energy == 0.0
     assert (j.free_flight_fraction, j.impact_fraction, j.continuous_fraction) == (1.0, 0.0, 0.0)
 
@@ -141,7 +143,7 @@ def test_a_pressed_joint_is_all_continuous_contact():
     g = 9.81
     sag = MASS * g / K  # + the beam's share, negligible
     model = bar(v0=0.0, gravity=g, y0=-(CLEARANCE + sag), damping=5 * C)
-    r = model.simulate(0.02, 1e-5, record=Record(impact_log=True))
+    r = model.simulate(0.02, 1e-5, record=Record(contact_modes=True, impact_log=True))
     for n in ("left", "right"):
         j = r.joint(n)
         # no episode begins in the run (the Newton stepper's own count, `impacts`, takes the
@@ -155,7 +157,7 @@ def test_a_pressed_joint_is_all_continuous_contact():
 def test_a_journal_dropped_on_the_wall_bounces_then_stays():
     # dropped from the centre: impacts first, then continuous contact
     model = bar(v0=0.0, gravity=9.81 * 50, damping=2 * C)
-    r = model.simulate(0.05, 1e-6, record=Record(impact_log=True))
+    r = model.simulate(0.05, 1e-6, record=Record(contact_modes=True, impact_log=True))
     j = r.joint("left")
     log = j.impact_log
     assert j.impacts >= 2 and np.isnan(log.duration[-1])  # the last episode lasts to the end
@@ -168,8 +170,10 @@ def test_a_journal_dropped_on_the_wall_bounces_then_stays():
 def test_study_outputs_include_the_contact_modes_and_the_dissipation():
     for name in MODES + ("dissipated_energy",):
         assert name in OUTPUTS
+    assert not set(MODE_OUTPUTS) & set(Study("slider_yoke", samples=1).outputs)  # opt-in
     res = Study(
         "slider_yoke",
+        outputs=list(OUTPUTS),
         vary={"clearance": Uniform(1e-4, 5e-4)},
         samples=4,
         seed=3,
@@ -183,7 +187,9 @@ def test_study_outputs_include_the_contact_modes_and_the_dissipation():
     assert (f["bearing.dissipated_energy"] >= 0).all()
     # the same numbers as a single run of the first sample
     row = f.iloc[0]
-    one = scenes.slider_yoke(clearance=row["clearance"]).simulate(0.01, 1e-5, record=Record(histories=False))
+    one = scenes.slider_yoke(clearance=row["clearance"]).simulate(
+        0.01, 1e-5, record=Record(contact_modes=True, histories=False)
+    )
     j = one.joint("bearing")
     for k in MODES + ("dissipated_energy",):
         assert row[f"bearing.{k}"] == getattr(j, k)
@@ -192,6 +198,7 @@ def test_study_outputs_include_the_contact_modes_and_the_dissipation():
 def test_moving_frame_study_outputs():
     res = Study(
         "slider_crank",
+        outputs=list(MODE_OUTPUTS),
         vary={"clearance": Uniform(1e-4, 3e-4)},
         fixed={"clearance_at": "crank_pin"},
         samples=2,
@@ -206,7 +213,7 @@ def test_moving_frame_study_outputs():
 
 
 def test_orbit_is_the_journal_position_history():
-    r = bar().simulate(2e-3, 1e-6, record=Record(position=True, every=10))
+    r = bar().simulate(2e-3, 1e-6, record=Record(contact_modes=True, position=True, every=10))
     qx, qy = r.joint("left").orbit()
     assert qx.shape == qy.shape == r.time.shape == (201,)
     assert np.max(np.hypot(qx, qy)) < CLEARANCE + 2e-5  # inside the circle, but for the contact
@@ -219,7 +226,7 @@ def test_orbit_is_the_journal_position_history():
 
 def test_slider_histories_follow_the_slider_crank_kinematics():
     r_c, l_r, w = 0.15, 0.30, 150.0
-    res = scenes.slider_crank().simulate(0.02, 1e-5, record=Record(histories=False))
+    res = scenes.slider_crank().simulate(0.02, 1e-5, record=Record(contact_modes=True, histories=False))
     assert res.slider_names == ["slider"]
     s = res.slider("slider")
     t = res.time
@@ -246,7 +253,11 @@ def test_slider_histories_follow_the_slider_crank_kinematics():
 
 def test_slider_peak_counts_every_step_whatever_the_record_stride():
     every = scenes.slider_crank().simulate(0.01, 1e-5).slider("slider")
-    thin = scenes.slider_crank().simulate(0.01, 1e-5, record=Record(every=50)).slider("slider")
+    thin = (
+        scenes.slider_crank()
+        .simulate(0.01, 1e-5, record=Record(contact_modes=True, every=50))
+        .slider("slider")
+    )
     assert thin.max_acceleration == every.max_acceleration
     assert thin.position.size == 21 and every.position.size == 1001
     np.testing.assert_array_equal(thin.acceleration, every.acceleration[::50])
@@ -268,7 +279,7 @@ def test_study_orbit_is_opt_in_and_matches_a_single_run(build, fixed, joint):
     f = s.run(threads=1, progress=False).frame
     row = f.iloc[0]
     one = s._scene_fn(**s._scene_kwargs({"clearance": row["clearance"]})).simulate(
-        0.004, 1e-5, record=Record(position=True, every=10)
+        0.004, 1e-5, record=Record(contact_modes=True, position=True, every=10)
     )
     qx, qy = one.joint(joint).orbit()
     np.testing.assert_array_equal(row[f"{joint}.qx_history"], qx)
@@ -276,3 +287,13 @@ def test_study_orbit_is_opt_in_and_matches_a_single_run(build, fixed, joint):
     assert Study.from_dict(s.to_dict()).orbit and "orbit" not in plain.to_dict()
     with pytest.raises(fc.InvalidParameterError, match="orbit"):
         Study(build, orbit=True, **kw)
+
+
+def test_contact_modes_are_opt_in():
+    for stepper in ("constant", "newton"):
+        j = bar(masses=False).simulate(2e-3, 1e-5, stepper=stepper).joint("left")
+        assert not j.recorded("dissipated_energy") and j.recorded("penetration")
+        for k in MODE_OUTPUTS:
+            with pytest.raises(fc.RecordingError, match="contact_modes=True"):
+                getattr(j, k)
+        assert j.impacts == 1  # the other outputs as ever

@@ -216,6 +216,7 @@ class Mechanism:
         gap_stiffness: Optional[float] = ...,
         gap_damping: float = ...,
         nodes: list[tuple[int, int]] = ...,
+        contact_modes: bool = ...,
     ) -> dict[str, Any]:
         """Runs the model; returns the dict that `flexclear.Result` reads (rust/python/output.rs):
         `time`, `joints` (histories), `nodes`, `links` (moving frames), `sliders` (per slider:
@@ -223,7 +224,8 @@ class Mechanism:
         `max_acceleration` m/s^2), `extremes` (per joint: `max_penetration`,
         `time_of_max_penetration`, `max_force`, `impacts`, `contact_time`, `max_velocity`,
         `max_impact_velocity`, `rms_penetration`, `rms_force`, `free_flight_fraction`,
-        `impact_fraction`, `continuous_fraction`, `dissipated_energy` J), `impact_log`, `stats`,
+        `impact_fraction`, `continuous_fraction`, `dissipated_energy` J: NaN unless
+        `contact_modes`), `impact_log`, `stats`,
         `state` and `t`."""
 
 def slider_yoke(
@@ -295,6 +297,7 @@ def run_batch(
     progress: Optional[Callable[[int], Any]] = ...,
     events: bool = ...,
     joint_position: bool = ...,
+    contact_modes: bool = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
 

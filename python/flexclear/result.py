@@ -51,6 +51,11 @@ class Record:
         link translates; in moving frames the histories share the links' grid from t = 0).
     impact_log : bool
         Also keep an :class:`ImpactLog` per recorded joint: one entry per contact episode.
+    contact_modes : bool
+        Also track every joint's contact modes (the time fractions of free flight, impact and
+        continuous contact) and the energy dissipated in it (:class:`JointResult`): O(1) memory,
+        a few operations per joint and step; off by default (reading them then raises
+        :class:`~flexclear.RecordingError`).
     """
 
     joints: Optional[list[str]] = None
@@ -64,6 +69,7 @@ class Record:
     histories: bool = True
     start: float = 0.0
     impact_log: bool = False
+    contact_modes: bool = False
 
 
 @dataclasses.dataclass
@@ -158,7 +164,8 @@ class JointResult:
         as ``pi d / v`` (the duration of an undamped linear impact with that speed and depth;
         ``dt`` the step, one step of slack). An episode without approach (``v <= 0``, e.g. in
         contact from the start) is continuous contact. An episode still closed at the end is
-        classified by its duration so far. NaN before any step.
+        classified by its duration so far. NaN before any step. Need
+        ``Record(contact_modes=True)``.
     dissipated_energy : float
         Energy dissipated in the joint, J: the work balance of the normal contact force over
         the run, ``integral F_n d(delta)`` (trapezoidal rule over every step from
@@ -166,7 +173,8 @@ class JointResult:
         contact force took out of the journal's motion relative to the bearing. Over a finished
         contact episode the elastic part returns to zero and the balance is the dissipation; for
         an episode still closed at the end the elastic energy still stored, estimated as
-        ``F_n delta / 2`` (exact for a linear spring), is left out.
+        ``F_n delta / 2`` (exact for a linear spring), is left out. Needs
+        ``Record(contact_modes=True)``.
     impact_log : ImpactLog or None
         Every contact episode (when ``Record(impact_log=True)``).
     """
@@ -185,10 +193,10 @@ class JointResult:
     max_impact_velocity: float
     rms_penetration: float
     rms_force: float
-    free_flight_fraction: float = float("nan")
-    impact_fraction: float = float("nan")
-    continuous_fraction: float = float("nan")
-    dissipated_energy: float = float("nan")
+    free_flight_fraction: Any = float("nan")
+    impact_fraction: Any = float("nan")
+    continuous_fraction: Any = float("nan")
+    dissipated_energy: Any = float("nan")
     impact_log: Optional[ImpactLog] = None
 
     def __getattribute__(self, name: str) -> Any:
@@ -209,9 +217,10 @@ class JointResult:
         return self.qx, self.qy
 
     def recorded(self, channel: str) -> bool:
-        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) was
-        kept by the run's :class:`Record` (reading one that was not raises
-        :class:`~flexclear.RecordingError`)."""
+        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) or
+        contact-mode output (``"free_flight_fraction"``, ..., ``"dissipated_energy"``:
+        ``Record(contact_modes=True)``) was kept by the run's :class:`Record` (reading one that
+        was not raises :class:`~flexclear.RecordingError`)."""
         return type(object.__getattribute__(self, channel)) is not _NotRecorded
 
 
@@ -311,6 +320,8 @@ class SliderResult:
 
 
 _EMPTY = np.empty(0)
+#: The joint outputs of ``Record(contact_modes=True)``.
+_MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
 
 
 def _unknown(kind: str, name: Any, names: list) -> ModelError:
@@ -425,6 +436,13 @@ class Result:
                         f"the journal position {k} of joint {name!r} was not recorded: run with "
                         "Record(position=True)"
                     )
+        modes: dict[str, Any] = {k: ext[k] for k in _MODE_OUTPUTS}
+        if rec is not None and not rec.contact_modes:
+            gone_modes = _NotRecorded(
+                f"the contact modes and dissipated energy of joint {name!r} were not tracked: run "
+                "with Record(contact_modes=True)"
+            )
+            modes = dict.fromkeys(_MODE_OUTPUTS, gone_modes)
         return JointResult(
             name=name,
             **channels,
@@ -437,10 +455,7 @@ class Result:
             max_impact_velocity=ext["max_impact_velocity"],
             rms_penetration=ext["rms_penetration"],
             rms_force=ext["rms_force"],
-            free_flight_fraction=ext["free_flight_fraction"],
-            impact_fraction=ext["impact_fraction"],
-            continuous_fraction=ext["continuous_fraction"],
-            dissipated_energy=ext["dissipated_energy"],
+            **modes,
             impact_log=None if log is None else ImpactLog(**{k: v for k, v in log.items() if k != "joint"}),
         )
 

@@ -270,6 +270,10 @@ OUTPUTS = {
     "continuous_fraction": "fraction of the time in continuous contact (longer episodes)",
     "dissipated_energy": "energy dissipated in the joint (work balance of the contact force), J",
 }
+#: Outputs that need the runs to track the contact modes (``Record(contact_modes=True)``).
+MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
+#: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS`).
+DEFAULT_OUTPUTS = tuple(o for o in OUTPUTS if o not in MODE_OUTPUTS)
 
 _UNITS = {
     "max_penetration": "m",
@@ -449,7 +453,9 @@ class Study:
         The clearance joints whose outputs are reported (default: every clearance joint of the
         model). Output columns are named ``"<joint>.<output>"``, e.g. ``"crank_pin.max_force"``.
     outputs : sequence of str
-        Which of :data:`OUTPUTS` to keep per joint (default all).
+        Which of :data:`OUTPUTS` to keep per joint (default :data:`DEFAULT_OUTPUTS`: all but the
+        contact-mode fractions and the dissipated energy, which the runs then track, a few
+        operations per joint and step more: name them to have them).
     start : float
         Outputs are reduced from this time on, s (to skip a start-up transient).
     history_every : int, optional
@@ -565,13 +571,15 @@ class Study:
                 f"method = {method!r} is not allowed; allowed: one of ['modified', 'force', 'gap']"
             )
         self.method = method
-        outputs = list(OUTPUTS) if outputs is None else list(outputs)
+        outputs = list(DEFAULT_OUTPUTS) if outputs is None else list(outputs)
         bad = [o for o in outputs if o not in OUTPUTS]
         if bad or not outputs:
             raise InvalidParameterError(
                 f"outputs = {bad or outputs} is not allowed; allowed: a non-empty subset of {list(OUTPUTS)}"
             )
         self.outputs = outputs
+        #: Whether the runs track the contact modes (an output of :data:`MODE_OUTPUTS` is asked for).
+        self._modes = any(o in MODE_OUTPUTS for o in outputs)
         numeric = isinstance(start, (int, float, np.integer, np.floating))
         if not (numeric and math.isfinite(start) and start >= 0):
             raise InvalidParameterError(f"start = {start!r} is not allowed; allowed: finite and >= 0 s")
@@ -1186,6 +1194,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             every=study.history_every or 1,
             histories=hist,
             joint_position=study.orbit,
+            contact_modes=study._modes,
             start=study.start,
             progress=batch_progress if progress is not None else None,
             **batch_options,
@@ -1247,6 +1256,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         every=study.history_every or 1,
         start=study.start,
         position=study.orbit,
+        contact_modes=study._modes,
     )
     retries = 0
     t0 = time.perf_counter()
@@ -1274,7 +1284,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         extremes = []
         for name in model.joint_names:
             j = res.joint(name)
-            extremes.append({o: getattr(j, o) for o in OUTPUTS})
+            extremes.append({o: getattr(j, o) for o in study.outputs})
         joints = []
         if hist:
             for ji, name in zip(study._joint_indices, study.joints):
@@ -2093,6 +2103,8 @@ def open_store(path: Union[str, os.PathLike]) -> StudyResult:
 __all__ = [
     "DESIGNS",
     "OUTPUTS",
+    "DEFAULT_OUTPUTS",
+    "MODE_OUTPUTS",
     "LogNormal",
     "Normal",
     "Study",

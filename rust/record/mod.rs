@@ -25,6 +25,11 @@ pub struct RecordSpec {
     /// Link channels of moving-frame runs, at the same stride (the constant stepper records the
     /// displacements of the chosen `nodes` instead).
     pub links: LinkChannels,
+    /// Track every joint's contact modes (free flight, impact, continuous contact) and the energy
+    /// dissipated in it ([`JointExtremes::free_flight_fraction`],
+    /// [`JointExtremes::dissipated_energy`]): O(1) per joint, but a few more operations per joint
+    /// and step, so off unless asked for (the fractions and the energy are then NaN).
+    pub contact_modes: bool,
 }
 
 /// Per-link channels a moving-frame run records every `every` steps (with the frame state of
@@ -65,6 +70,7 @@ impl Default for RecordSpec {
             start: 0.0,
             impacts: false,
             links: LinkChannels::default(),
+            contact_modes: false,
         }
     }
 }
@@ -236,6 +242,9 @@ pub struct JointExtremes {
     pub sums_scaled: [bool; 2],
     /// Steps that entered the sums (from `RecordSpec::start` on).
     pub samples: u64,
+    /// Whether the contact modes and the work balance below are tracked
+    /// (`RecordSpec::contact_modes`); when not, their accessors give NaN.
+    pub modes: bool,
     /// Time covered by the recorded steps (from `RecordSpec::start` on), s: the denominator of
     /// the contact-mode fractions ([`Self::free_flight_fraction`]).
     pub recorded_time: f64,
@@ -369,17 +378,26 @@ impl JointExtremes {
     /// NaN before any step. With [`Self::impact_fraction`] and [`Self::continuous_fraction`] it
     /// sums to 1 (to rounding).
     pub fn free_flight_fraction(&self) -> f64 {
+        if !self.modes {
+            return f64::NAN;
+        }
         (self.recorded_time - self.contact_time) / self.recorded_time
     }
 
     /// Fraction of the recorded time spent in contact episodes classified as impacts
     /// ([`is_continuous`]).
     pub fn impact_fraction(&self) -> f64 {
+        if !self.modes {
+            return f64::NAN;
+        }
         self.mode_times()[0] / self.recorded_time
     }
 
     /// Fraction of the recorded time spent in continuous contact ([`is_continuous`]).
     pub fn continuous_fraction(&self) -> f64 {
+        if !self.modes {
+            return f64::NAN;
+        }
         self.mode_times()[1] / self.recorded_time
     }
 
@@ -390,6 +408,9 @@ impl JointExtremes {
     /// the energy dissipated; for an episode still closed at the end, the elastic energy still
     /// stored is estimated as `F_n delta / 2` (exact for a linear spring) and left out.
     pub fn dissipated_energy(&self) -> f64 {
+        if !self.modes {
+            return f64::NAN;
+        }
         let [f, d] = self.last_normal;
         if self.episode.is_some() && d > 0.0 {
             self.contact_work - 0.5 * f * d
@@ -452,6 +473,7 @@ impl Default for JointExtremes {
             sum_sq_force: 0.0,
             sums_scaled: [false; 2],
             samples: 0,
+            modes: false,
             recorded_time: 0.0,
             impact_time: 0.0,
             continuous_time: 0.0,
@@ -484,8 +506,10 @@ pub struct Recorder {
     /// For every joint, the slot in `impacts` when it is logged.
     impact_slot: Vec<Option<usize>>,
     was_closed: Vec<bool>,
-    /// Step length of the last recorded step, s.
+    /// Step length of the last recorded step, s (with `modes`).
     dt: f64,
+    /// `RecordSpec::contact_modes`.
+    modes: bool,
     spec_every: usize,
     spec_start: f64,
     histories: bool,
@@ -556,7 +580,14 @@ impl Recorder {
                     }
                 })
                 .collect(),
-            extremes: vec![JointExtremes::default(); joints],
+            extremes: vec![
+                JointExtremes {
+                    modes: spec.contact_modes,
+                    ..JointExtremes::default()
+                };
+                joints
+            ],
+            modes: spec.contact_modes,
             was_closed: vec![false; joints],
             dt: 0.0,
             spec_every: spec.every,
@@ -568,39 +599,28 @@ impl Recorder {
 
     /// Takes the state at an instant `t` (s) between output steps (the cut of an event-aware
     /// step, just after a contact status change; arguments as in [`Self::record`]): the force
-    /// enters the running largest force and the work balance, and a joint whose status changed
+    /// enters the running largest force (and the work balance), and a joint whose status changed
     /// there starts its impact (counted here, with the approach speed at the cut) or ends it
     /// (exact duration). Nothing enters the histories or the RMS sums.
     pub fn record_event(&mut self, t: f64, pen: &[f64], force: &[[f64; 2]], q: &[[f64; 2]], qd: &[[f64; 2]]) {
         if t < self.spec_start {
             return;
         }
-        let dt = self.dt;
+        if self.modes {
+            self.modes_at_event(t, pen, force, q, qd);
+        }
         for (j, e) in self.extremes.iter_mut().enumerate() {
             let fm = norm(force[j]);
             e.max_force = e.max_force.max(fm);
-            e.work_to(pen[j], force[j], q[j], true);
             let closed = pen[j] > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed && !self.was_closed[j] {
-                let speed = normal_speed(q[j], qd[j]);
-                enter(e, log, t, pen[j], fm, speed);
-                e.episode = Some(Episode::new(t, speed, pen[j], dt));
-            } else {
-                if let Some(last) = open_impact(log) {
-                    if closed {
-                        last.peak_force = last.peak_force.max(fm);
-                    } else if self.was_closed[j] {
-                        last.duration = t - last.time;
-                    }
-                }
-                if let Some(ep) = &mut e.episode {
-                    ep.last = t;
-                    if closed {
-                        ep.peak = ep.peak.max(pen[j]);
-                    } else if self.was_closed[j] {
-                        e.end_episode();
-                    }
+                enter(e, log, t, pen[j], fm, q[j], qd[j]);
+            } else if let Some(last) = open_impact(log) {
+                if closed {
+                    last.peak_force = last.peak_force.max(fm);
+                } else if self.was_closed[j] {
+                    last.duration = t - last.time;
                 }
             }
             self.was_closed[j] = closed;
@@ -623,10 +643,12 @@ impl Recorder {
         qd: &[[f64; 2]],
         u: &[f64],
     ) {
-        self.dt = dt;
         if t < self.spec_start {
             self.before_start(t, dt, pen, force, q, qd);
             return;
+        }
+        if self.modes {
+            self.modes_at_step(step, t, dt, pen, force, q, qd);
         }
         for (j, e) in self.extremes.iter_mut().enumerate() {
             let p = pen[j];
@@ -647,41 +669,20 @@ impl Recorder {
             let closed = p > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed {
-                if !self.was_closed[j] {
-                    let speed = normal_speed(q[j], qd[j]);
-                    if step > 0 {
-                        enter(e, log, t, p, f, speed);
-                    }
-                    e.episode = Some(Episode::new(t, speed, p, dt));
-                } else {
-                    if let Some(last) = open_impact(log) {
-                        last.peak_force = last.peak_force.max(f);
-                        last.peak_penetration = last.peak_penetration.max(p);
-                    }
-                    if let Some(ep) = &mut e.episode {
-                        ep.peak = ep.peak.max(p);
-                        ep.last = t;
-                    }
+                if !self.was_closed[j] && step > 0 {
+                    enter(e, log, t, p, f, q[j], qd[j]);
+                } else if let Some(last) = open_impact(log) {
+                    last.peak_force = last.peak_force.max(f);
+                    last.peak_penetration = last.peak_penetration.max(p);
                 }
                 if step > 0 {
                     e.contact_time += dt;
-                    if let Some(ep) = &mut e.episode {
-                        ep.time += dt;
-                    }
                 }
             } else if self.was_closed[j] {
                 if let Some(last) = open_impact(log) {
                     last.duration = t - last.time;
                 }
-                if let Some(ep) = &mut e.episode {
-                    ep.last = t;
-                }
-                e.end_episode();
             }
-            if step > 0 {
-                e.recorded_time += dt;
-            }
-            e.work_to(p, force[j], q[j], true);
             self.was_closed[j] = closed;
         }
         if !self.histories || !step.is_multiple_of(self.spec_every as u64) {
@@ -705,27 +706,95 @@ impl Recorder {
 }
 
 impl Recorder {
-    /// A state before `RecordSpec::start`: nothing is counted, but the contact status, the
-    /// episode going on (its entry, approach speed and peak classify it once counted) and the
-    /// last node of the work integral follow the run.
+    /// A state before `RecordSpec::start`: nothing is counted, but the contact status and, with
+    /// `RecordSpec::contact_modes`, the episode going on (its entry, approach speed and peak
+    /// classify it once counted) and the last node of the work integral follow the run.
     #[cold]
     fn before_start(&mut self, t: f64, dt: f64, pen: &[f64], force: &[[f64; 2]], q: &[[f64; 2]], qd: &[[f64; 2]]) {
+        self.dt = dt;
         for (j, e) in self.extremes.iter_mut().enumerate() {
             let p = pen[j];
             let closed = p > 0.0;
-            if closed {
-                match &mut e.episode {
-                    Some(ep) if self.was_closed[j] => {
-                        ep.peak = ep.peak.max(p);
-                        ep.last = t;
+            if self.modes {
+                if closed {
+                    match &mut e.episode {
+                        Some(ep) if self.was_closed[j] => {
+                            ep.peak = ep.peak.max(p);
+                            ep.last = t;
+                        }
+                        _ => e.episode = Some(Episode::new(t, normal_speed(q[j], qd[j]), p, dt)),
                     }
-                    _ => e.episode = Some(Episode::new(t, normal_speed(q[j], qd[j]), p, dt)),
+                } else {
+                    e.episode = None;
                 }
-            } else {
-                e.episode = None;
+                e.work_to(p, force[j], q[j], false);
             }
-            e.work_to(p, force[j], q[j], false);
             self.was_closed[j] = closed;
+        }
+    }
+
+    /// The contact modes and the work balance at step `step` (arguments of [`Self::record`]),
+    /// before the contact status moves on; only with `RecordSpec::contact_modes`.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn modes_at_step(
+        &mut self,
+        step: u64,
+        t: f64,
+        dt: f64,
+        pen: &[f64],
+        force: &[[f64; 2]],
+        q: &[[f64; 2]],
+        qd: &[[f64; 2]],
+    ) {
+        self.dt = dt;
+        for (j, e) in self.extremes.iter_mut().enumerate() {
+            let p = pen[j];
+            let (closed, was) = (p > 0.0, self.was_closed[j]);
+            if closed {
+                if !was {
+                    e.episode = Some(Episode::new(t, normal_speed(q[j], qd[j]), p, dt));
+                } else if let Some(ep) = &mut e.episode {
+                    ep.peak = ep.peak.max(p);
+                    ep.last = t;
+                }
+                if step > 0 {
+                    if let Some(ep) = &mut e.episode {
+                        ep.time += dt;
+                    }
+                }
+            } else if was {
+                if let Some(ep) = &mut e.episode {
+                    ep.last = t;
+                }
+                e.end_episode();
+            }
+            if step > 0 {
+                e.recorded_time += dt;
+            }
+            e.work_to(p, force[j], q[j], true);
+        }
+    }
+
+    /// The contact modes and the work balance at an event cut at `t` (s; arguments of
+    /// [`Self::record_event`]), before the contact status moves on.
+    #[inline(never)]
+    fn modes_at_event(&mut self, t: f64, pen: &[f64], force: &[[f64; 2]], q: &[[f64; 2]], qd: &[[f64; 2]]) {
+        let dt = self.dt;
+        for (j, e) in self.extremes.iter_mut().enumerate() {
+            let p = pen[j];
+            let (closed, was) = (p > 0.0, self.was_closed[j]);
+            e.work_to(p, force[j], q[j], true);
+            if closed && !was {
+                e.episode = Some(Episode::new(t, normal_speed(q[j], qd[j]), p, dt));
+            } else if let Some(ep) = &mut e.episode {
+                ep.last = t;
+                if closed {
+                    ep.peak = ep.peak.max(p);
+                } else if was {
+                    e.end_episode();
+                }
+            }
         }
     }
 }
@@ -753,9 +822,17 @@ fn norm(f: [f64; 2]) -> f64 {
 }
 
 /// An impact of a joint at time `t` (s): counted in its extremes `e` with its normal approach
-/// speed `speed` (m/s), and started in its impact log (if kept) with penetration `pen` (m) and
-/// force `force` (N).
-fn enter(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, t: f64, pen: f64, force: f64, speed: f64) {
+/// speed, and started in its impact log (if kept) with penetration `pen` (m) and force `force` (N).
+fn enter(
+    e: &mut JointExtremes,
+    log: Option<&mut Vec<Impact>>,
+    t: f64,
+    pen: f64,
+    force: f64,
+    q: [f64; 2],
+    qd: [f64; 2],
+) {
+    let speed = normal_speed(q, qd);
     e.impacts += 1;
     e.max_impact_velocity = e.max_impact_velocity.max(speed);
     if let Some(log) = log {
@@ -816,6 +893,7 @@ mod tests {
     fn run(states: &[(f64, f64, f64)], dt: f64, start: f64) -> JointExtremes {
         let spec = RecordSpec {
             histories: false,
+            contact_modes: true,
             start,
             ..RecordSpec::default()
         };
