@@ -36,7 +36,7 @@ from .errors import (
 )
 from .frames import Frame, Rotation
 from .model import Model
-from .result import ImpactLog, JointResult, LinkResult, NodeResult, Record, Result
+from .result import ImpactLog, JointResult, LinkResult, NodeResult, Record, Result, SliderResult
 
 __all__ = [
     "ConvergenceError",
@@ -58,6 +58,7 @@ __all__ = [
     "SimulationDivergedError",
     "SimulationInterrupted",
     "SingularMatrixError",
+    "SliderResult",
     "StoreError",
     "StoreLockedError",
     "__version__",

@@ -216,7 +216,17 @@ class Mechanism:
         gap_stiffness: Optional[float] = ...,
         gap_damping: float = ...,
         nodes: list[tuple[int, int]] = ...,
-    ) -> dict[str, Any]: ...
+        contact_modes: bool = ...,
+    ) -> dict[str, Any]:
+        """Runs the model; returns the dict that `flexclear.Result` reads (rust/python/output.rs):
+        `time`, `joints` (histories), `nodes`, `links` (moving frames), `sliders` (per slider:
+        `name`, `position` m, `velocity` m/s, `acceleration` m/s^2 along the guide, and
+        `max_acceleration` m/s^2), `extremes` (per joint: `max_penetration`,
+        `time_of_max_penetration`, `max_force`, `impacts`, `contact_time`, `max_velocity`,
+        `max_impact_velocity`, `rms_penetration`, `rms_force`, `free_flight_fraction`,
+        `impact_fraction`, `continuous_fraction`, `dissipated_energy` J: NaN unless
+        `contact_modes`), `impact_log`, `stats`,
+        `state` and `t`."""
 
 def slider_yoke(
     clearance: float = ...,
@@ -286,13 +296,17 @@ def run_batch(
     start: float = ...,
     progress: Optional[Callable[[int], Any]] = ...,
     events: bool = ...,
+    joint_position: bool = ...,
+    contact_modes: bool = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
 
-    Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes,
-    time, joints), the batch counters (analyses, threads, lockstep_groups, lockstep_samples) and
-    the exception that stopped the batch (KeyboardInterrupt, or one raised by `progress(done)`),
-    else None. `lanes` is the largest lockstep group (0 = default 8, 1 = none, at most 8).
+    Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes
+    (the keys of `Mechanism.simulate`'s extremes), time, joints), the batch counters (analyses,
+    threads, lockstep_groups, lockstep_samples) and the exception that stopped the batch
+    (KeyboardInterrupt, or one raised by `progress(done)`), else None. `lanes` is the largest
+    lockstep group (0 = default 8, 1 = none, at most 8). `joint_position` also keeps the
+    journal positions `qx`, `qy` (m) in the joint histories (the orbit; with `histories`).
     """
 
 # Contact laws (rust/python/contact.rs); the public API is flexclear.contact. Array arguments are

@@ -1177,4 +1177,5 @@ def _joint_record_kwargs(rec: Record, joints) -> dict:
         histories=bool(rec.histories),
         start=float(rec.start),
         impact_log=bool(rec.impact_log),
+        contact_modes=bool(rec.contact_modes),
     )

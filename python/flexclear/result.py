@@ -1,5 +1,6 @@
 """What a run keeps and what it gives back: :class:`Record`, :class:`Result` and its parts
-(:class:`JointResult`, :class:`LinkResult`, :class:`NodeResult`, :class:`ImpactLog`).
+(:class:`JointResult`, :class:`LinkResult`, :class:`NodeResult`, :class:`SliderResult`,
+:class:`ImpactLog`).
 
 One result type serves every model, whichever stepper ran it. Results hold plain numpy arrays
 and names (no reference to the model or the engine), so they pickle and travel to Dask workers.
@@ -50,6 +51,11 @@ class Record:
         link translates; in moving frames the histories share the links' grid from t = 0).
     impact_log : bool
         Also keep an :class:`ImpactLog` per recorded joint: one entry per contact episode.
+    contact_modes : bool
+        Also track every joint's contact modes (the time fractions of free flight, impact and
+        continuous contact) and the energy dissipated in it (:class:`JointResult`): O(1) memory,
+        a few operations per joint and step; off by default (reading them then raises
+        :class:`~flexclear.RecordingError`).
     """
 
     joints: Optional[list[str]] = None
@@ -63,6 +69,7 @@ class Record:
     histories: bool = True
     start: float = 0.0
     impact_log: bool = False
+    contact_modes: bool = False
 
 
 @dataclasses.dataclass
@@ -147,6 +154,27 @@ class JointResult:
     rms_penetration, rms_force : float
         Root mean square of the penetration (m) and of the force magnitude (N) over every step
         from ``Record.start`` (whatever ``Record.every``).
+    free_flight_fraction, impact_fraction, continuous_fraction : float
+        Fractions (dimensionless, summing to 1) of the time from ``Record.start`` that the joint
+        spent open (free flight), in contact episodes classified as impacts, and in continuous
+        contact. The rule (docs/contact.md, "Contact modes"): an episode of duration ``T``
+        (s) entered at normal approach speed ``v`` (m/s) that reaches penetration ``d`` (m) is
+        continuous contact when ``(T - dt) v > 5 pi d``, i.e. when it lasts longer than five
+        natural contact periods ``T_n = pi sqrt(m_eff / k)``, estimated from the episode itself
+        as ``pi d / v`` (the duration of an undamped linear impact with that speed and depth;
+        ``dt`` the step, one step of slack). An episode without approach (``v <= 0``, e.g. in
+        contact from the start) is continuous contact. An episode still closed at the end is
+        classified by its duration so far. NaN before any step. Need
+        ``Record(contact_modes=True)``.
+    dissipated_energy : float
+        Energy dissipated in the joint, J: the work balance of the normal contact force over
+        the run, ``integral F_n d(delta)`` (trapezoidal rule over every step from
+        ``Record.start``, whatever ``Record.every``; event cuts included), i.e. the energy the
+        contact force took out of the journal's motion relative to the bearing. Over a finished
+        contact episode the elastic part returns to zero and the balance is the dissipation; for
+        an episode still closed at the end the elastic energy still stored, estimated as
+        ``F_n delta / 2`` (exact for a linear spring), is left out. Needs
+        ``Record(contact_modes=True)``.
     impact_log : ImpactLog or None
         Every contact episode (when ``Record(impact_log=True)``).
     """
@@ -165,6 +193,10 @@ class JointResult:
     max_impact_velocity: float
     rms_penetration: float
     rms_force: float
+    free_flight_fraction: Any = float("nan")
+    impact_fraction: Any = float("nan")
+    continuous_fraction: Any = float("nan")
+    dissipated_energy: Any = float("nan")
     impact_log: Optional[ImpactLog] = None
 
     def __getattribute__(self, name: str) -> Any:
@@ -177,10 +209,18 @@ class JointResult:
         fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
         return f"JointResult({', '.join(fields)})"
 
+    def orbit(self) -> tuple[np.ndarray, np.ndarray]:
+        """The journal-centre orbit: ``(qx, qy)``, the journal centre relative to the bearing
+        centre at the recorded times, m (inside the clearance circle of radius ``delta_c`` while
+        the joint is open). Opt-in: needs ``Record(position=True)``; ``Record(every=k)``
+        decimates it. Raises :class:`~flexclear.RecordingError` when it was not recorded."""
+        return self.qx, self.qy
+
     def recorded(self, channel: str) -> bool:
-        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) was
-        kept by the run's :class:`Record` (reading one that was not raises
-        :class:`~flexclear.RecordingError`)."""
+        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) or
+        contact-mode output (``"free_flight_fraction"``, ..., ``"dissipated_energy"``:
+        ``Record(contact_modes=True)``) was kept by the run's :class:`Record` (reading one that
+        was not raises :class:`~flexclear.RecordingError`)."""
         return type(object.__getattribute__(self, channel)) is not _NotRecorded
 
 
@@ -251,7 +291,37 @@ class LinkResult:
         return ox + c * lx - s * ly, oy + s * lx + c * ly
 
 
+@dataclasses.dataclass
+class SliderResult:
+    """Motion of one slider along its guide (a model in moving frames): the nominal path of its
+    pin plus its elastic travel, projected on the guide direction.
+
+    Attributes
+    ----------
+    name : str
+        Slider name.
+    position : ndarray
+        Position along the guide at the recorded times (:attr:`Result.time`), m (the guide
+        direction from the global origin).
+    velocity : ndarray
+        Velocity along the guide, m/s.
+    acceleration : ndarray
+        Acceleration along the guide, m/s^2.
+    max_acceleration : float
+        Largest magnitude of the acceleration along the guide over every step from
+        ``Record.start`` (whatever ``Record.every``), m/s^2.
+    """
+
+    name: str
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    max_acceleration: float
+
+
 _EMPTY = np.empty(0)
+#: The joint outputs of ``Record(contact_modes=True)``.
+_MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
 
 
 def _unknown(kind: str, name: Any, names: list) -> ModelError:
@@ -368,6 +438,13 @@ class Result:
                         f"the journal position {k} of joint {name!r} was not recorded: run with "
                         "Record(position=True)"
                     )
+        modes: dict[str, Any] = {k: ext[k] for k in _MODE_OUTPUTS}
+        if rec is not None and not rec.contact_modes:
+            gone_modes = _NotRecorded(
+                f"the contact modes and dissipated energy of joint {name!r} were not tracked: run "
+                "with Record(contact_modes=True)"
+            )
+            modes = dict.fromkeys(_MODE_OUTPUTS, gone_modes)
         return JointResult(
             name=name,
             **channels,
@@ -380,8 +457,28 @@ class Result:
             max_impact_velocity=ext["max_impact_velocity"],
             rms_penetration=ext["rms_penetration"],
             rms_force=ext["rms_force"],
+            **modes,
             impact_log=None if log is None else ImpactLog(**{k: v for k, v in log.items() if k != "joint"}),
         )
+
+    @property
+    def slider_names(self) -> list[str]:
+        """Names of the model's sliders (see :meth:`slider`)."""
+        return [h["name"] for h in self._raw.get("sliders", ())]
+
+    def slider(self, name: str) -> SliderResult:
+        """Position, velocity and acceleration of slider ``name`` along its guide (histories on
+        the output grid, :attr:`time`) and its peak acceleration."""
+        for h in self._raw.get("sliders", ()):
+            if h["name"] == name:
+                return SliderResult(
+                    name=name,
+                    position=h["position"],
+                    velocity=h["velocity"],
+                    acceleration=h["acceleration"],
+                    max_acceleration=h["max_acceleration"],
+                )
+        raise _unknown("slider", name, self.slider_names)
 
     def link(self, name: str) -> LinkResult:
         """Histories of flexible link ``name`` (see :class:`Record` for what is kept)."""

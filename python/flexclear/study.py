@@ -265,7 +265,15 @@ OUTPUTS = {
     "max_impact_velocity": "peak normal approach speed at an impact, m/s",
     "rms_penetration": "RMS of the penetration, m",
     "rms_force": "RMS of the contact force magnitude, N",
+    "free_flight_fraction": "fraction of the time open (free flight)",
+    "impact_fraction": "fraction of the time in impacts (episodes up to 5 natural contact periods)",
+    "continuous_fraction": "fraction of the time in continuous contact (longer episodes)",
+    "dissipated_energy": "energy dissipated in the joint (work balance of the contact force), J",
 }
+#: Outputs that need the runs to track the contact modes (``Record(contact_modes=True)``).
+MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
+#: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS`).
+DEFAULT_OUTPUTS = tuple(o for o in OUTPUTS if o not in MODE_OUTPUTS)
 
 _UNITS = {
     "max_penetration": "m",
@@ -277,6 +285,10 @@ _UNITS = {
     "max_impact_velocity": "m/s",
     "rms_penetration": "m",
     "rms_force": "N",
+    "free_flight_fraction": "1",
+    "impact_fraction": "1",
+    "continuous_fraction": "1",
+    "dissipated_energy": "J",
     "clearance": "m",
     "amplitude": "m",
     "frequency": "Hz",
@@ -441,12 +453,19 @@ class Study:
         The clearance joints whose outputs are reported (default: every clearance joint of the
         model). Output columns are named ``"<joint>.<output>"``, e.g. ``"crank_pin.max_force"``.
     outputs : sequence of str
-        Which of :data:`OUTPUTS` to keep per joint (default all).
+        Which of :data:`OUTPUTS` to keep per joint (default :data:`DEFAULT_OUTPUTS`: all but the
+        contact-mode fractions and the dissipated energy, which the runs then track, a few
+        operations per joint and step more: name them to have them).
     start : float
         Outputs are reduced from this time on, s (to skip a start-up transient).
     history_every : int, optional
         Also keep the joint's penetration and force histories, decimated to every k-th step
         (memory grows with the run length: off by default).
+    orbit : bool
+        Also keep the journal-centre orbit of each reported joint: columns
+        ``"<joint>.qx_history"`` and ``"<joint>.qy_history"``, the journal centre relative to the
+        bearing centre (m), decimated like the histories (needs ``history_every``; opt-in, memory
+        O(steps / history_every) per sample).
     retries : int
         Retry a diverged sample this many times with the step times ``retry_factor``; the
         retried samples are flagged (column ``retries``) and the step used is in ``dt_used``.
@@ -469,6 +488,7 @@ class Study:
         outputs: Optional[Sequence[str]] = None,
         start: float = 0.0,
         history_every: Optional[int] = None,
+        orbit: bool = False,
         retries: int = 0,
         retry_factor: float = 0.5,
         run_options: Optional[Mapping[str, Any]] = None,
@@ -551,13 +571,15 @@ class Study:
                 f"method = {method!r} is not allowed; allowed: one of ['modified', 'force', 'gap']"
             )
         self.method = method
-        outputs = list(OUTPUTS) if outputs is None else list(outputs)
+        outputs = list(DEFAULT_OUTPUTS) if outputs is None else list(outputs)
         bad = [o for o in outputs if o not in OUTPUTS]
         if bad or not outputs:
             raise InvalidParameterError(
                 f"outputs = {bad or outputs} is not allowed; allowed: a non-empty subset of {list(OUTPUTS)}"
             )
         self.outputs = outputs
+        #: Whether the runs track the contact modes (an output of :data:`MODE_OUTPUTS` is asked for).
+        self._modes = any(o in MODE_OUTPUTS for o in outputs)
         numeric = isinstance(start, (int, float, np.integer, np.floating))
         if not (numeric and math.isfinite(start) and start >= 0):
             raise InvalidParameterError(f"start = {start!r} is not allowed; allowed: finite and >= 0 s")
@@ -575,6 +597,12 @@ class Study:
                 f"history_every = {history_every!r} is not allowed; allowed: None or an integer in 1 ..< 2^63"
             )
         self.history_every = None if history_every is None else int(history_every)
+        if not isinstance(orbit, (bool, np.bool_)) or (orbit and history_every is None):
+            raise InvalidParameterError(
+                f"orbit = {orbit!r} is not allowed; allowed: False, or True with history_every (the "
+                "orbit is a decimated history)"
+            )
+        self.orbit = bool(orbit)
         if not isinstance(retries, (int, np.integer)) or not 0 <= retries < 2**31:
             raise InvalidParameterError(
                 f"retries = {retries!r} is not allowed; allowed: an integer in 0 ..= {2**31 - 1}"
@@ -643,6 +671,7 @@ class Study:
             "outputs": self.outputs,
             "start": self.start,
             "history_every": self.history_every,
+            **({"orbit": True} if self.orbit else {}),
             "retries": self.retries,
             "retry_factor": self.retry_factor,
             "run_options": self.run_options,
@@ -892,7 +921,7 @@ class Study:
 
     def memory_estimate(self) -> int:
         """Bytes the histories of every sample would take in the result (``history_every``: two
-        channels per reported joint; 0 without histories), 8 bytes per value."""
+        channels per reported joint, four with ``orbit``; 0 without histories), 8 bytes per value."""
         if self.history_every is None:
             return 0
         inputs = self.inputs()
@@ -902,7 +931,8 @@ class Study:
         valid = (dt > 0) & (t_end > 0) & np.isfinite(dt) & np.isfinite(t_end)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             steps = np.maximum(np.round(t_end[valid] / dt[valid]), 1)
-        total = float(np.sum(steps // self.history_every + 2)) * 2 * len(self.joints) * 8
+        channels = 4 if self.orbit else 2
+        total = float(np.sum(steps // self.history_every + 2)) * channels * len(self.joints) * 8
         return int(min(total, 2**63 - 1))
 
     def _check_memory(self, inputs) -> None:
@@ -1163,6 +1193,8 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             joints=study._joint_indices,
             every=study.history_every or 1,
             histories=hist,
+            joint_position=study.orbit,
+            contact_modes=study._modes,
             start=study.start,
             progress=batch_progress if progress is not None else None,
             **batch_options,
@@ -1195,14 +1227,17 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
                 h = next((h for h in out["joints"] if h["joint"] == ji), None) if status == "ok" else None
                 rec[f"{j}.penetration_history"] = h["penetration"] if h is not None else np.empty(0)
                 rec[f"{j}.force_history"] = h["force"] if h is not None else np.empty(0)
+                if study.orbit:
+                    rec[f"{j}.qx_history"] = h["qx"] if h is not None else np.empty(0)
+                    rec[f"{j}.qy_history"] = h["qy"] if h is not None else np.empty(0)
     keep = [r for r in records if r.get("status") not in (None, "interrupted", "not_run")]
     for r in keep:
         for c in study.output_columns:
             r.setdefault(c, float("nan"))
         if hist:
             for j in study.joints:
-                r.setdefault(f"{j}.penetration_history", np.empty(0))
-                r.setdefault(f"{j}.force_history", np.empty(0))
+                for ch in _history_channels(study):
+                    r.setdefault(f"{j}.{ch}_history", np.empty(0))
     frame = pd.DataFrame.from_records(keep, columns=_columns(study))
     frame = frame.set_index("sample")
     return frame, pending
@@ -1220,6 +1255,8 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         histories=hist,
         every=study.history_every or 1,
         start=study.start,
+        position=study.orbit,
+        contact_modes=study._modes,
     )
     retries = 0
     t0 = time.perf_counter()
@@ -1247,12 +1284,15 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         extremes = []
         for name in model.joint_names:
             j = res.joint(name)
-            extremes.append({o: getattr(j, o) for o in OUTPUTS})
+            extremes.append({o: getattr(j, o) for o in study.outputs})
         joints = []
         if hist:
             for ji, name in zip(study._joint_indices, study.joints):
                 j = res.joint(name)
-                joints.append({"joint": ji, "penetration": j.penetration, "force": j.force})
+                h = {"joint": ji, "penetration": j.penetration, "force": j.force}
+                if study.orbit:
+                    h["qx"], h["qy"] = j.orbit()
+                joints.append(h)
         out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
         out.update(extremes=extremes, joints=joints)
         return out
@@ -1307,8 +1347,13 @@ def _columns(study: Study) -> list[str]:
     cols += study.output_columns
     if study.history_every is not None:
         for j in study.joints:
-            cols += [f"{j}.penetration_history", f"{j}.force_history"]
+            cols += [f"{j}.{ch}_history" for ch in _history_channels(study)]
     return cols
+
+
+def _history_channels(study: Study) -> tuple[str, ...]:
+    """The history columns per joint (``"<joint>.<channel>_history"``)."""
+    return ("penetration", "force", "qx", "qy") if study.orbit else ("penetration", "force")
 
 
 def _concat(frames: list, study: Study):
@@ -2058,6 +2103,8 @@ def open_store(path: Union[str, os.PathLike]) -> StudyResult:
 __all__ = [
     "DESIGNS",
     "OUTPUTS",
+    "DEFAULT_OUTPUTS",
+    "MODE_OUTPUTS",
     "LogNormal",
     "Normal",
     "Study",

@@ -472,7 +472,7 @@ struct Snapshot {
     q: Vec<[f64; 2]>,
     qd: Vec<[f64; 2]>,
     pen: Vec<f64>,
-    fmag: Vec<f64>,
+    force: Vec<[f64; 2]>,
     gap_closed: Vec<bool>,
     gap_normal: Vec<[f64; 2]>,
     pa_old: Vec<f64>,
@@ -515,7 +515,7 @@ struct Lane<'m> {
     qt: Vec<[f64; 2]>,
     qdt: Vec<[f64; 2]>,
     pen: Vec<f64>,
-    fmag: Vec<f64>,
+    force: Vec<[f64; 2]>,
     gap_closed: Vec<bool>,
     gap_normal: Vec<[f64; 2]>,
     gap_k: Vec<f64>,
@@ -629,7 +629,7 @@ impl<'m> Lane<'m> {
             qt: vec![[0.0; 2]; nj],
             qdt: vec![[0.0; 2]; nj],
             pen: vec![0.0; nj],
-            fmag: vec![0.0; nj],
+            force: vec![[0.0; 2]; nj],
             gap_closed: vec![false; nj],
             gap_normal: vec![[1.0, 0.0]; nj],
             gap_k,
@@ -701,7 +701,7 @@ impl<'m> Lane<'m> {
             }
             let terms = self.contact_terms(jj, q, self.qd[jj]);
             let f = terms.force(q, self.qd[jj]);
-            self.fmag[jj] = norm2(f);
+            self.force[jj] = f;
             let j = &self.sys.joints[jj];
             for k in 0..j.ndof {
                 r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
@@ -710,7 +710,8 @@ impl<'m> Lane<'m> {
         mchol.solve_in_place(r);
         self.check_state(&*u, &*v, translational, 0.0, 0)?;
         let dt = self.settings.dt;
-        self.rec.record(0, 0.0, dt, &self.pen, &self.fmag, &self.q, &self.qd, u);
+        self.rec
+            .record(0, 0.0, dt, &self.pen, &self.force, &self.q, &self.qd, u);
         Ok(())
     }
 
@@ -1067,7 +1068,7 @@ impl<'m> Lane<'m> {
             self.q[jj] = q;
             self.qd[jj] = qd;
             self.pen[jj] = norm2(q) - j.clearance;
-            self.fmag[jj] = norm2(f);
+            self.force[jj] = f;
             // one comparison per joint and step: false for NaN, so it is also the finite check
             // the penetration itself: an open gap wider than the limit is no divergence
             if !(self.pen[jj] <= self.limit) {
@@ -1573,7 +1574,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             snap.q.clone_from(&lane.q);
             snap.qd.clone_from(&lane.qd);
             snap.pen.clone_from(&lane.pen);
-            snap.fmag.clone_from(&lane.fmag);
+            snap.force.clone_from(&lane.force);
             snap.gap_closed.clone_from(&lane.gap_closed);
             snap.gap_normal.clone_from(&lane.gap_normal);
             snap.episode.clone_from(&lane.episode);
@@ -1655,7 +1656,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         lane.q.clone_from(&snap.q);
         lane.qd.clone_from(&snap.qd);
         lane.pen.clone_from(&snap.pen);
-        lane.fmag.clone_from(&snap.fmag);
+        lane.force.clone_from(&snap.force);
         lane.gap_closed.clone_from(&snap.gap_closed);
         lane.gap_normal.clone_from(&snap.gap_normal);
         lane.episode.clone_from(&snap.episode);
@@ -1710,14 +1711,14 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         for jj in 0..lane.sys.joints.len() {
             let (q, qd) = (lane.q[jj], lane.qd[jj]);
             let f = lane.contact_terms(jj, q, qd).force(q, qd);
-            lane.fmag[jj] = norm2(f);
+            lane.force[jj] = f;
             let j = &lane.sys.joints[jj];
             for k in 0..j.ndof {
                 r[j.dofs[k]] += j.coef[0][k] * f[0] + j.coef[1][k] * f[1];
             }
         }
         // the right-limit force at the cut (the dashpot spike at entry) lies between output steps
-        lane.rec.record_event(t, &lane.pen, &lane.fmag, &lane.q, &lane.qd);
+        lane.rec.record_event(t, &lane.pen, &lane.force, &lane.q, &lane.qd);
         sh.mchol.solve_in_place(&mut r);
         set_lane(&mut self.a, 0, &r);
     }
@@ -1755,7 +1756,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     t,
                     dt,
                     &lane.pen,
-                    &lane.fmag,
+                    &lane.force,
                     &lane.q,
                     &lane.qd,
                     self.u.as_flattened(),
@@ -1763,10 +1764,10 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             } else if lane.reads_u {
                 get_lane(&self.u, l, &mut lane.col);
                 lane.rec
-                    .record(step, t, dt, &lane.pen, &lane.fmag, &lane.q, &lane.qd, &lane.col);
+                    .record(step, t, dt, &lane.pen, &lane.force, &lane.q, &lane.qd, &lane.col);
             } else {
                 lane.rec
-                    .record(step, t, dt, &lane.pen, &lane.fmag, &lane.q, &lane.qd, &[]);
+                    .record(step, t, dt, &lane.pen, &lane.force, &lane.q, &lane.qd, &[]);
             }
         }
     }

@@ -54,7 +54,7 @@ use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
-use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder};
+use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
 use crate::run::{RunFailure, RunOutput, RunStats, Settings};
 
 const NONE: usize = usize::MAX;
@@ -346,7 +346,7 @@ pub struct NewtonRun<'a> {
     /// The joint recorder shared with the translating engine, and its per-step inputs.
     rec: Recorder,
     jpen: Vec<f64>,
-    jforce: Vec<f64>,
+    jforce: Vec<[f64; 2]>,
     jq: Vec<[f64; 2]>,
     jqd: Vec<[f64; 2]>,
     /// Scratch for recording: local states of a link's nodes (reused, no allocation per record).
@@ -362,6 +362,8 @@ pub struct NewtonRun<'a> {
     /// times, per link, per recorded joint (in joint order), and each joint's slot there.
     hist_time: Vec<f64>,
     hist_links: Vec<LinkHistory>,
+    /// Slider histories and peak accelerations (outside `rec`: an event step clones `rec`).
+    hist_sliders: Vec<SliderHistory>,
     hist_joints: Vec<JointHistory>,
     hist_slot: Vec<Option<usize>>,
     limit: f64,
@@ -737,7 +739,7 @@ impl<'a> NewtonRun<'a> {
             t_frames: 0.0,
             rec: Recorder::new(&joint_spec(&settings.record), nj, |_, _| 0, 0),
             jpen: vec![0.0; nj],
-            jforce: vec![0.0; nj],
+            jforce: vec![[0.0; 2]; nj],
             jq: vec![[0.0; 2]; nj],
             jqd: vec![[0.0; 2]; nj],
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
@@ -748,6 +750,7 @@ impl<'a> NewtonRun<'a> {
             track,
             hist_time: Vec::new(),
             hist_links: vec![LinkHistory::default(); mech.links.len()],
+            hist_sliders: Vec::new(),
             hist_joints,
             hist_slot,
             limit,
@@ -1976,13 +1979,37 @@ impl<'a> NewtonRun<'a> {
             if self.mech.joints[j].law.needs_approach_speed() {
                 self.episode[j] = crate::contact::next_episode(q, qd, terms.penetration, self.episode[j]);
             }
-            (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, fmag, q, qd);
+            (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, f, q, qd);
         }
         match step {
             Some((k, dt)) => self
                 .rec
                 .record(k, t, dt, &self.jpen, &self.jforce, &self.jq, &self.jqd, &[]),
             None => self.rec.record_event(t, &self.jpen, &self.jforce, &self.jq, &self.jqd),
+        }
+    }
+
+    /// The sliders' motion along their guides at `t` (s), nominal path plus elastic unknown, into
+    /// the recorder: the peak acceleration (from [`RecordSpec::start`] on), and the histories
+    /// when `keep` (an output step).
+    fn track_sliders(&mut self, t: f64, keep: bool) {
+        let counted = t >= self.settings.record.start;
+        for (s, sl) in self.mech.sliders.iter().enumerate() {
+            let fs = sl.path.frame(t);
+            let e = [sl.angle.cos(), sl.angle.sin()];
+            let along = |v: [f64; 2]| e[0] * v[0] + e[1] * v[1];
+            let i = self.slider_dof[s];
+            let own = if i == NONE {
+                [0.0; 3]
+            } else {
+                [self.y[i], self.yd[i], self.ydd[i]]
+            };
+            let state = [
+                along(fs.origin) + own[0],
+                along(fs.origin_vel) + own[1],
+                along(fs.origin_acc) + own[2],
+            ];
+            self.hist_sliders[s].take(state, counted, keep);
         }
     }
 
@@ -2109,6 +2136,13 @@ impl<'a> NewtonRun<'a> {
             }
         }
         self.track_joints(0.0, Some((0, h)));
+        self.hist_sliders = (self.mech.sliders.iter())
+            .map(|s| SliderHistory {
+                name: s.name.clone(),
+                ..Default::default()
+            })
+            .collect();
+        self.track_sliders(0.0, true);
         self.record(0.0);
         let events = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
         let mut lp = NewtonLoop {
@@ -2132,6 +2166,7 @@ impl<'a> NewtonRun<'a> {
         record.time = std::mem::take(&mut self.hist_time);
         record.links = std::mem::take(&mut self.hist_links);
         record.joints = std::mem::take(&mut self.hist_joints);
+        record.sliders = std::mem::take(&mut self.hist_sliders);
         for (e, j) in record.extremes.iter_mut().zip(&self.track) {
             (e.max_penetration, e.max_force, e.impacts) = (j.max_penetration, j.max_force, j.impacts);
         }
@@ -2177,6 +2212,7 @@ impl Stepper for NewtonLoop<'_, '_> {
     }
 
     fn advance(&mut self, k: u64, t1: f64) {
+        let last = k == self.steps();
         let r = &mut *self.run;
         let h = r.settings.dt;
         let t0 = (k - 1) as f64 * h;
@@ -2190,6 +2226,7 @@ impl Stepper for NewtonLoop<'_, '_> {
         }
         r.stats.steps = k;
         r.track_joints(t1, Some((k, h)));
+        r.track_sliders(t1, k.is_multiple_of(r.settings.record.every as u64) || last);
         if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
             let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
             self.outcome = Some(Err((e, t1)));

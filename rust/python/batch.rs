@@ -123,12 +123,15 @@ fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>, t_end: f64) -> Py
 /// step `dt[i]`; the other settings are shared. Returns `(outcomes, stats, pending)`: one dict
 /// per sample in input order, the batch counters, and the exception that stopped the batch
 /// (KeyboardInterrupt or one raised by `progress`), else None. The GIL is released throughout;
-/// `progress(done)` is called from the calling thread as samples finish.
+/// `progress(done)` is called from the calling thread as samples finish. `joint_position` also
+/// keeps the journal positions (`qx`, `qy`, m) in the joint histories (the orbit of a study);
+/// `contact_modes` tracks the contact-mode fractions and the dissipated energy.
 #[pyfunction]
 #[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=false,
                     tol=1e-10, max_iter=50, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
-                    progress=None, events=false))]
+                    progress=None, events=false, joint_position=false,
+                    contact_modes=false))]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run_batch<'py>(
     py: Python<'py>,
@@ -155,6 +158,8 @@ pub(super) fn run_batch<'py>(
     start: f64,
     progress: Option<Py<PyAny>>,
     events: bool,
+    joint_position: bool,
+    contact_modes: bool,
 ) -> PyResult<(Bound<'py, PyList>, Bound<'py, PyDict>, Option<PyErr>)> {
     let n = models.len();
     if t_end.len() != n || dt.len() != n {
@@ -182,13 +187,14 @@ pub(super) fn run_batch<'py>(
     let attempts = u32::try_from(retries).map_err(|_| err(py, Error::param("retries", retries, "an integer >= 0")))?;
     let record = RecordSpec {
         joints,
-        joint_position: false,
+        joint_position,
         nodes: Vec::new(),
         every: count_at_least_1(py, "every", every)?,
         histories,
         start,
         impacts: false,
         links: Default::default(),
+        contact_modes,
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {

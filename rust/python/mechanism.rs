@@ -470,7 +470,7 @@ impl PyMechanism {
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
-                        nodes=Vec::new()))]
+                        nodes=Vec::new(), contact_modes=false))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -502,6 +502,7 @@ impl PyMechanism {
         gap_stiffness: Option<f64>,
         gap_damping: f64,
         nodes: Vec<(usize, usize)>,
+        contact_modes: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -555,6 +556,7 @@ impl PyMechanism {
                 start,
                 impacts: impact_log,
                 nodes,
+                contact_modes,
             },
             stepper,
             ..Settings::new(t_end, dt)

@@ -42,6 +42,10 @@ pub(super) fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) ->
         x.set_item("max_impact_velocity", e.max_impact_velocity)?;
         x.set_item("rms_penetration", e.rms_penetration())?;
         x.set_item("rms_force", e.rms_force())?;
+        x.set_item("free_flight_fraction", e.free_flight_fraction())?;
+        x.set_item("impact_fraction", e.impact_fraction())?;
+        x.set_item("continuous_fraction", e.continuous_fraction())?;
+        x.set_item("dissipated_energy", e.dissipated_energy())?;
         ext.append(x)?;
     }
     Ok(ext)
@@ -94,8 +98,8 @@ pub(super) fn mat<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -
     Ok(a.to_pyarray(py))
 }
 
-/// The output of any run (its extremes, histories, counters and final state) as the dict that
-/// `flexclear.Result` reads; `link_elements` (elements per link) shapes the link histories of a
+/// The output of any run (its extremes, histories, slider histories, counters and final state)
+/// as the dict that `flexclear.Result` reads; `link_elements` (elements per link) shapes the link histories of a
 /// moving-frame run.
 pub(super) fn output_dict<'py>(
     py: Python<'py>,
@@ -120,6 +124,17 @@ pub(super) fn output_dict<'py>(
     if !rec.links.is_empty() {
         d.set_item("links", links_list(py, rec.links, link_elements)?)?;
     }
+    let sliders = PyList::empty(py);
+    for h in rec.sliders {
+        let x = PyDict::new(py);
+        x.set_item("name", h.name)?;
+        x.set_item("position", PyArray1::from_vec(py, h.position))?;
+        x.set_item("velocity", PyArray1::from_vec(py, h.velocity))?;
+        x.set_item("acceleration", PyArray1::from_vec(py, h.acceleration))?;
+        x.set_item("max_acceleration", h.max_acceleration)?;
+        sliders.append(x)?;
+    }
+    d.set_item("sliders", sliders)?;
     d.set_item("extremes", extremes_list(py, &rec.extremes)?)?;
     d.set_item("impact_log", impact_logs(py, rec.impacts)?)?;
     let s = out.stats;

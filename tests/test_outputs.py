@@ -1,0 +1,299 @@
+"""Outputs of clearance studies (issue 14, item 3) against cases with known answers: the contact
+modes (free flight, impact, continuous contact) and the energy dissipated in a joint, on both
+steppers and as study outputs.
+
+The bar of these tests is a stiff, nearly massless beam between two point masses ``m`` at its end
+nodes, each the journal of a clearance joint to a fixed bearing: moving transversely, the two
+joints close together and each sees one journal of mass ``m`` (the beam's own mass adds half of
+it), the single-degree-of-freedom impact of the closed forms (docs/contact.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import flexclear as fc
+import numpy as np
+import pytest
+from flexclear import Record, scenes
+from flexclear.study import MODE_OUTPUTS, OUTPUTS, Study, Uniform
+
+L, AREA, RHO, E, INERTIA = 0.1, 1e-4, 1.0, 2e11, 1e-8
+MASS = 0.05  # kg, point mass at each end
+M_EFF = MASS + RHO * AREA * L / 2  # kg, per joint
+K = 1e6  # N/m
+ZETA = 0.1
+C = 2 * ZETA * math.sqrt(K * M_EFF)  # N s/m
+V0 = 0.1  # m/s, approach speed
+CLEARANCE = 1.0537e-4  # m (the crossing falls between steps)
+MODES = ("free_flight_fraction", "impact_fraction", "continuous_fraction")
+
+
+def bar(*, clearance=CLEARANCE, v0=V0, gravity=0.0, y0=0.0, masses=True, damping=C, elements=1):
+    """The bar of the module docstring, moving at ``-v0`` (m/s) along y from ``y = y0`` (m)."""
+    m = fc.Model()
+    n = 3 * (elements + 1)
+    iv, iu = np.zeros(n), np.zeros(n)
+    iv[1::3], iu[1::3] = -v0, y0
+    m.add_link(
+        "bar",
+        length=L,
+        elements=elements,
+        youngs_modulus=E,
+        density=RHO if masses else 7800.0,
+        area=AREA,
+        inertia=INERTIA,
+        initial_velocity=iv,
+        initial_displacement=iu,
+    )
+    if masses:
+        m.add_mass("bar", 0, MASS)
+        m.add_mass("bar", elements, MASS)
+    m.add_body("ground")
+    for name, node, x in (("left", 0, 0.0), ("right", elements, L)):
+        m.add_joint(
+            name,
+            "bar",
+            node,
+            clearance=clearance,
+            stiffness=K,
+            damping=damping,
+            body="ground",
+            point=(x, 0.0),
+        )
+    if gravity:
+        m.add_gravity(0.0, -gravity)
+    return m
+
+
+def check_fractions(j) -> None:
+    f = [getattr(j, k) for k in MODES]
+    assert all(0.0 <= x <= 1.0 for x in f), f
+    assert sum(f) == pytest.approx(1.0, abs=1e-12)
+
+
+def analytic_dissipation() -> float:
+    """One Kelvin-Voigt impact: 1/2 m (v_in^2 - v_out^2), v_out = e v_in,
+    e = exp(-zeta pi / sqrt(1 - zeta^2))."""
+    e = math.exp(-ZETA * math.pi / math.sqrt(1 - ZETA**2))
+    return 0.5 * M_EFF * V0**2 * (1 - e**2)
+
+
+def test_a_single_impact_dissipates_the_analytic_energy():
+    an = analytic_dissipation()  # 1.1706e-4 J
+    for dt, rel in ((1e-6, 0.02), (1e-7, 0.003)):
+        r = bar().simulate(3e-3, dt, record=Record(contact_modes=True, impact_log=True))
+        for name in ("left", "right"):
+            j = r.joint(name)
+            assert j.impacts == 1 and np.isfinite(j.impact_log.duration[0])
+            # measured at dt 1e-6: -1.74 %, at 1e-7: -0.19 % (first order in the step)
+            assert j.dissipated_energy == pytest.approx(an, rel=rel)
+            assert j.continuous_fraction == 0.0 and j.impact_fraction > 0.0
+            check_fractions(j)
+            # the time in contact is the impact's: pi / omega_d (0.706 ms) of 3 ms
+            assert j.impact_fraction == pytest.approx(j.contact_time / 3e-3, rel=1e-9)
+        # the run's own balance: what the journals lost is what the joints dissipated
+        v_out = r.state[1][1]
+        lost = 0.5 * M_EFF * (V0**2 - v_out**2)
+        assert 2 * j.dissipated_energy / (2 * lost) == pytest.approx(1.0, abs=3e-3)
+
+
+def test_dissipated_energy_is_the_work_balance_of_the_run_on_both_steppers():
+    # a steel bar without point masses: the impact also sets the beam vibrating, and the
+    # energy the run lost (kinetic + strain, Record(energy=True)) is what the joints dissipated
+    model = bar(masses=False, elements=2)
+    r = model.simulate(3e-3, 1e-6, record=Record(contact_modes=True, energy=True), stepper="newton")
+    lr = r.link("bar")
+    lost = (lr.kinetic[0] + lr.strain[0]) - (lr.kinetic[-1] + lr.strain[-1])
+    w = sum(r.joint(n).dissipated_energy for n in ("left", "right"))
+    assert w == pytest.approx(lost, rel=5e-3)  # measured 0.35 %
+    # the constant stepper (every link translates, clearance joints only) agrees
+    rc = bar(masses=False, elements=2).simulate(3e-3, 1e-6, record=Record(contact_modes=True))
+    assert rc.stats["stepper"] == "constant"
+    wc = sum(rc.joint(n).dissipated_energy for n in ("left", "right"))
+    assert wc == pytest.approx(w, rel=5e-3)
+    for res in (r, rc):
+        for n in ("left", "right"):
+            check_fractions(res.joint(n))
+            assert res.joint(n).impacts == 1 and res.joint(n).continuous_fraction == 0.0
+
+
+@pytest.mark.parametrize("stepper", ["constant", "newton"])
+def test_an_ideal_joint_is_all_free_flight(stepper):
+    # a clearance far wider than the motion: the joint never closes
+    r = bar(clearance=1.0, masses=False).simulate(
+        2e-3, 1e-5, stepper=stepper, record=Record(contact_modes=True)
+    )
+    assert r.stats["stepper"] == stepper
+    for n in ("left", "right"):
+        j = r.joint(n)
+        assert j.impacts == 0 and j.max_force == 0.0 and j.dissipated_energy == 0.0
+        assert (j.free_flight_fraction, j.impact_fraction, j.continuous_fraction) == (1.0, 0.0, 0.0)
+
+
+def test_an_ideal_joint_of_a_mechanism_is_all_free_flight():
+    sc = scenes.slider_crank(clearance_at="crank_pin", clearance=10.0)
+    j = sc.simulate(0.01, 1e-5, record=Record(contact_modes=True, histories=False)).joint("crank_pin")
+    assert j.impacts == 0 and j.dissipated_energy == 0.0
+    assert (j.free_flight_fraction, j.impact_fraction, j.continuous_fraction) == (1.0, 0.0, 0.0)
+
+
+def test_a_pressed_joint_is_all_continuous_contact():
+    # gravity holds the bar on the bearings: started at rest in its static deflection
+    g = 9.81
+    sag = MASS * g / K  # + the beam's share, negligible
+    model = bar(v0=0.0, gravity=g, y0=-(CLEARANCE + sag), damping=5 * C)
+    r = model.simulate(0.02, 1e-5, record=Record(contact_modes=True, impact_log=True))
+    for n in ("left", "right"):
+        j = r.joint(n)
+        # no episode begins in the run (the Newton stepper's own count, `impacts`, takes the
+        # contact at t = 0 for an impact: 1 here; the log does not)
+        assert len(j.impact_log) == 0 and j.contact_time == pytest.approx(0.02, rel=1e-9)
+        assert (j.free_flight_fraction, j.impact_fraction, j.continuous_fraction) == (0.0, 0.0, 1.0)
+        # at rest on the wall: no dissipation beyond round-off, the stored spring energy left out
+        assert abs(j.dissipated_energy) < 1e-6 * 0.5 * K * sag**2
+
+
+def test_a_journal_dropped_on_the_wall_bounces_then_stays():
+    # dropped from the centre: impacts first, then continuous contact
+    model = bar(v0=0.0, gravity=9.81 * 50, damping=2 * C)
+    r = model.simulate(0.05, 1e-6, record=Record(contact_modes=True, impact_log=True))
+    j = r.joint("left")
+    log = j.impact_log
+    assert j.impacts >= 2 and np.isnan(log.duration[-1])  # the last episode lasts to the end
+    assert j.impact_fraction > 0.0 and j.continuous_fraction > 0.5
+    check_fractions(j)
+    # the last, open-ended episode is the continuous contact, the earlier ones are impacts
+    assert j.continuous_fraction * 0.05 == pytest.approx(0.05 - log.time[-1], rel=1e-3)
+
+
+def test_study_outputs_include_the_contact_modes_and_the_dissipation():
+    for name in MODES + ("dissipated_energy",):
+        assert name in OUTPUTS
+    assert not set(MODE_OUTPUTS) & set(Study("slider_yoke", samples=1).outputs)  # opt-in
+    res = Study(
+        "slider_yoke",
+        outputs=list(OUTPUTS),
+        vary={"clearance": Uniform(1e-4, 5e-4)},
+        samples=4,
+        seed=3,
+        t_end=0.01,
+        dt=1e-5,
+    ).run(threads=1, progress=False)
+    f = res.frame
+    assert (f["status"] == "ok").all()
+    total = sum(f[f"bearing.{k}"] for k in MODES)
+    np.testing.assert_allclose(total, 1.0, atol=1e-12)
+    assert (f["bearing.dissipated_energy"] >= 0).all()
+    # the same numbers as a single run of the first sample
+    row = f.iloc[0]
+    one = scenes.slider_yoke(clearance=row["clearance"]).simulate(
+        0.01, 1e-5, record=Record(contact_modes=True, histories=False)
+    )
+    j = one.joint("bearing")
+    for k in MODES + ("dissipated_energy",):
+        assert row[f"bearing.{k}"] == getattr(j, k)
+
+
+def test_moving_frame_study_outputs():
+    res = Study(
+        "slider_crank",
+        outputs=list(MODE_OUTPUTS),
+        vary={"clearance": Uniform(1e-4, 3e-4)},
+        fixed={"clearance_at": "crank_pin"},
+        samples=2,
+        seed=1,
+        t_end=0.005,
+        dt=1e-5,
+    ).run(threads=1, progress=False)
+    f = res.frame
+    assert (f["status"] == "ok").all()
+    np.testing.assert_allclose(sum(f[f"crank_pin.{k}"] for k in MODES), 1.0, atol=1e-12)
+    assert (f["crank_pin.dissipated_energy"] > 0).all()
+
+
+def test_orbit_is_the_journal_position_history():
+    r = bar().simulate(2e-3, 1e-6, record=Record(contact_modes=True, position=True, every=10))
+    qx, qy = r.joint("left").orbit()
+    assert qx.shape == qy.shape == r.time.shape == (201,)
+    assert np.max(np.hypot(qx, qy)) < CLEARANCE + 2e-5  # inside the circle, but for the contact
+    with pytest.raises(fc.RecordingError):
+        bar().simulate(1e-4, 1e-6).joint("left").orbit()
+
+
+# -- sliders ------------------------------------------------------------------------------------
+
+
+def test_slider_histories_follow_the_slider_crank_kinematics():
+    r_c, l_r, w = 0.15, 0.30, 150.0
+    res = scenes.slider_crank().simulate(0.02, 1e-5, record=Record(contact_modes=True, histories=False))
+    assert res.slider_names == ["slider"]
+    s = res.slider("slider")
+    t = res.time
+    assert s.position.shape == s.velocity.shape == s.acceleration.shape == t.shape
+    # the rigid slider-crank: x = r cos(wt) + sqrt(l^2 - r^2 sin^2(wt)); the flexible rod moves
+    # the slider by micrometres
+    th = w * t
+    x = r_c * np.cos(th) + np.sqrt(l_r**2 - (r_c * np.sin(th)) ** 2)
+    assert np.max(np.abs(s.position - x)) < 1e-4
+    # velocity and acceleration are the derivatives of the position (central differences)
+    dt = t[1] - t[0]
+    v_fd = np.gradient(s.position, dt)
+    np.testing.assert_allclose(s.velocity[1:-1], v_fd[1:-1], atol=1e-3 * np.max(np.abs(s.velocity)))
+    a_fd = np.gradient(s.velocity, dt)
+    assert np.median(np.abs(s.acceleration[1:-1] - a_fd[1:-1])) < 1e-2 * np.max(np.abs(s.acceleration))
+    # the peak over every step: here every step is recorded
+    assert s.max_acceleration == np.max(np.abs(s.acceleration))
+    # at least the rigid-body peak r w^2 (1 + r / l) at the top dead centre (5062 m/s^2); the
+    # rod's vibration (it starts undeformed at full crank speed) adds to it (11596 m/s^2)
+    assert s.max_acceleration > r_c * w**2 * (1 + r_c / l_r)
+    with pytest.raises(fc.ModelError, match="unknown slider"):
+        res.slider("piston")
+
+
+def test_slider_peak_counts_every_step_whatever_the_record_stride():
+    every = scenes.slider_crank().simulate(0.01, 1e-5).slider("slider")
+    thin = (
+        scenes.slider_crank()
+        .simulate(0.01, 1e-5, record=Record(contact_modes=True, every=50))
+        .slider("slider")
+    )
+    assert thin.max_acceleration == every.max_acceleration
+    assert thin.position.size == 21 and every.position.size == 1001
+    np.testing.assert_array_equal(thin.acceleration, every.acceleration[::50])
+
+
+# -- the orbit in studies -----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "build,fixed,joint",
+    [("slider_yoke", {}, "bearing"), ("slider_crank", {"clearance_at": "crank_pin"}, "crank_pin")],
+)
+def test_study_orbit_is_opt_in_and_matches_a_single_run(build, fixed, joint):
+    kw = dict(vary={"clearance": Uniform(1e-4, 3e-4)}, fixed=fixed, samples=2, seed=5, t_end=0.004, dt=1e-5)
+    plain = Study(build, history_every=10, **kw)
+    assert f"{joint}.qx_history" not in plain.run(threads=1, progress=False).frame.columns
+    s = Study(build, history_every=10, orbit=True, **kw)
+    assert s.memory_estimate() == 2 * plain.memory_estimate()
+    f = s.run(threads=1, progress=False).frame
+    row = f.iloc[0]
+    one = s._scene_fn(**s._scene_kwargs({"clearance": row["clearance"]})).simulate(
+        0.004, 1e-5, record=Record(contact_modes=True, position=True, every=10)
+    )
+    qx, qy = one.joint(joint).orbit()
+    np.testing.assert_array_equal(row[f"{joint}.qx_history"], qx)
+    np.testing.assert_array_equal(row[f"{joint}.qy_history"], qy)
+    assert Study.from_dict(s.to_dict()).orbit and "orbit" not in plain.to_dict()
+    with pytest.raises(fc.InvalidParameterError, match="orbit"):
+        Study(build, orbit=True, **kw)
+
+
+def test_contact_modes_are_opt_in():
+    for stepper in ("constant", "newton"):
+        j = bar(masses=False).simulate(2e-3, 1e-5, stepper=stepper).joint("left")
+        assert not j.recorded("dissipated_energy") and j.recorded("penetration")
+        for k in MODE_OUTPUTS:
+            with pytest.raises(fc.RecordingError, match="contact_modes=True"):
+                getattr(j, k)
+        assert j.impacts == 1  # the other outputs as ever
