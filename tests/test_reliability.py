@@ -499,9 +499,10 @@ def test_item4_exceedance_over_no_completed_sample_is_refused():
 def _history_bytes(res: flexclear.Result) -> int:
     raw = res._raw
     n = res.time.nbytes
-    n += sum(h[k].nbytes for h in raw["joints"] for k in ("penetration", "force", "qx", "qy"))
-    n += sum(h[k].nbytes for h in raw.get("nodes", ()) for k in ("u", "v", "theta"))
-    n += sum(a.nbytes for lk in raw["links"] for a in lk.values())
+    n += sum(getattr(h, k).nbytes for h in raw.joints for k in ("penetration", "force", "qx", "qy"))
+    n += sum(getattr(h, k).nbytes for h in raw.nodes for k in ("u", "v", "theta"))
+    channels = ("frame", "displacements", "axial_force", "midspan", "kinetic", "strain", "momentum")
+    n += sum(getattr(lk, k).nbytes for lk in raw.links for k in channels)
     return n
 
 

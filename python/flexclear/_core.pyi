@@ -10,6 +10,13 @@ __all__ = [
     "Rotation",
     "Frame",
     "Mechanism",
+    "RunOutput",
+    "JointExtremes",
+    "JointHistory",
+    "ImpactLog",
+    "NodeHistory",
+    "LinkHistory",
+    "SliderHistory",
     "slider_yoke",
     "slider_crank",
     "run_batch",
@@ -217,16 +224,145 @@ class Mechanism:
         gap_damping: float = ...,
         nodes: list[tuple[int, int]] = ...,
         contact_modes: bool = ...,
-    ) -> dict[str, Any]:
-        """Runs the model; returns the dict that `flexclear.Result` reads (rust/python/output.rs):
-        `time`, `joints` (histories), `nodes`, `links` (moving frames), `sliders` (per slider:
-        `name`, `position` m, `velocity` m/s, `acceleration` m/s^2 along the guide, and
-        `max_acceleration` m/s^2), `extremes` (per joint: `max_penetration`,
-        `time_of_max_penetration`, `max_force`, `impacts`, `contact_time`, `max_velocity`,
-        `max_impact_velocity`, `rms_penetration`, `rms_force`, `free_flight_fraction`,
-        `impact_fraction`, `continuous_fraction`, `dissipated_energy` J: NaN unless
-        `contact_modes`), `impact_log`, `stats`,
-        `state` and `t`."""
+    ) -> RunOutput:
+        """Runs the model; returns its output (what `flexclear.Result` reads). A failed run raises
+        the matching `flexclear` exception with what it recorded as `exc.partial` (a
+        `RunOutput`)."""
+
+@final
+class JointExtremes:
+    """Running extremes of one clearance joint (SI units; the contact-mode fractions and
+    `dissipated_energy` (J) are NaN unless the run tracked contact modes)."""
+    @property
+    def max_penetration(self) -> float: ...
+    @property
+    def time_of_max_penetration(self) -> float: ...
+    @property
+    def max_force(self) -> float: ...
+    @property
+    def impacts(self) -> int: ...
+    @property
+    def contact_time(self) -> float: ...
+    @property
+    def max_velocity(self) -> float: ...
+    @property
+    def max_impact_velocity(self) -> float: ...
+    @property
+    def rms_penetration(self) -> float: ...
+    @property
+    def rms_force(self) -> float: ...
+    @property
+    def free_flight_fraction(self) -> float: ...
+    @property
+    def impact_fraction(self) -> float: ...
+    @property
+    def continuous_fraction(self) -> float: ...
+    @property
+    def dissipated_energy(self) -> float: ...
+
+@final
+class JointHistory:
+    """Histories of one recorded joint: penetration (m), force (N), journal centre relative to
+    the bearing `qx`, `qy` (m, empty unless recorded)."""
+    @property
+    def joint(self) -> int: ...
+    @property
+    def penetration(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def force(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def qx(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def qy(self) -> npt.NDArray[np.float64]: ...
+
+@final
+class ImpactLog:
+    """Per impact of one joint: entry `time` (s), approach `speed` (m/s), `peak_force` (N),
+    `peak_penetration` (m), `duration` (s)."""
+    @property
+    def joint(self) -> int: ...
+    @property
+    def time(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def speed(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def peak_force(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def peak_penetration(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def duration(self) -> npt.NDArray[np.float64]: ...
+
+@final
+class NodeHistory:
+    """Displacements of one node in its link frame: `u`, `v` (m), `theta` (rad)."""
+    @property
+    def link(self) -> int: ...
+    @property
+    def node(self) -> int: ...
+    @property
+    def u(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def v(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def theta(self) -> npt.NDArray[np.float64]: ...
+
+@final
+class LinkHistory:
+    """Histories of one link: `frame` (records x 4), `displacements` (records x 3 (N + 1)),
+    `axial_force` (records x N, N), `midspan` (m), `kinetic`, `strain` (J), `momentum`."""
+    @property
+    def frame(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def displacements(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def axial_force(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def midspan(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def kinetic(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def strain(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def momentum(self) -> npt.NDArray[np.float64]: ...
+
+@final
+class SliderHistory:
+    """One slider along its guide: `position` (m), `velocity` (m/s), `acceleration` (m/s^2) on the
+    output grid, `max_acceleration` (m/s^2, every step)."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def position(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def velocity(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def acceleration(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def max_acceleration(self) -> float: ...
+
+@final
+class RunOutput:
+    """The output of one run (rust/python/output.rs)."""
+    @property
+    def time(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def joints(self) -> list[JointHistory]: ...
+    @property
+    def nodes(self) -> list[NodeHistory]: ...
+    @property
+    def links(self) -> list[LinkHistory]: ...
+    @property
+    def sliders(self) -> list[SliderHistory]: ...
+    @property
+    def extremes(self) -> list[JointExtremes]: ...
+    @property
+    def impact_log(self) -> list[ImpactLog]: ...
+    @property
+    def stats(self) -> dict[str, Any]: ...
+    @property
+    def state(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    @property
+    def t(self) -> float: ...
 
 def slider_yoke(
     clearance: float = ...,

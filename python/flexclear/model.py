@@ -1138,7 +1138,7 @@ class Model:
         self, raw: dict, chosen: dict, rec: Record, displacements: bool, dt, t0, error=None
     ) -> Result:
         wall = _time.perf_counter() - t0
-        stats = {**chosen, **{k: 0 for k in _STAT_KEYS}, **raw["stats"]}
+        stats = {**chosen, **{k: 0 for k in _STAT_KEYS}, **raw.stats}
         lengths = list(self._core.link_lengths)
         elements = list(self._core.link_elements)
         if chosen["engine"] == TRANSLATING:

@@ -321,6 +321,7 @@ class SliderResult:
 
 _EMPTY = np.empty(0)
 #: The joint outputs of ``Record(contact_modes=True)``.
+_IMPACT_FIELDS = ("time", "speed", "peak_force", "peak_penetration", "duration")
 _MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
 
 
@@ -378,18 +379,18 @@ class Result:
         error: Optional[FlexclearError] = None,
         record: Optional[Record] = None,
     ) -> None:
-        self.time: np.ndarray = raw["time"]
+        self.time: np.ndarray = raw.time
         self.stats: dict = stats
         self.method = method
         self.dt = dt
         self.wall_time = wall_time
         self.error = error
         self.complete = error is None
-        self.end_time: float = raw["t"]
+        self.end_time: float = raw.t
         #: ``(u, v, a)`` at the end (m or rad, per s, per s^2): the global DOF vectors where every
         #: link translates, else the moving-frame unknowns in the order of
         #: :meth:`flexclear.Model.dof_map`.
-        self.state: Optional[tuple[np.ndarray, np.ndarray, np.ndarray]] = raw.get("state")
+        self.state: Optional[tuple[np.ndarray, np.ndarray, np.ndarray]] = raw.state
         self.joint_names = list(joint_names)
         self.link_names = [name for name, *_ in links]
         self._links_info = links
@@ -400,6 +401,7 @@ class Result:
     # -- pickling: the error may hold this result; keep its message and class only ---------------
     def __getstate__(self) -> dict:
         d = dict(self.__dict__)
+        d["_raw"] = _plain(d["_raw"])  # the engine's output objects, as plain attribute objects
         if d["error"] is not None:
             d["error"] = (type(d["error"]), str(d["error"]))
         return d
@@ -416,9 +418,9 @@ class Result:
             raise _unknown("joint", name, self.joint_names)
         idx = self.joint_names.index(name)
         raw = self._raw
-        ext = raw["extremes"][idx]
-        hist = next((h for h in raw["joints"] if h["joint"] == idx), None)
-        log = next((lg for lg in raw.get("impact_log", ()) if lg["joint"] == idx), None)
+        ext = raw.extremes[idx]
+        hist = next((h for h in raw.joints if h.joint == idx), None)
+        log = next((lg for lg in raw.impact_log if lg.joint == idx), None)
         rec = self.record
         if hist is None:
             if rec is not None and not rec.histories:
@@ -431,14 +433,14 @@ class Result:
             )
             channels = dict(penetration=gone, force=gone, qx=gone, qy=gone)
         else:
-            channels = {k: hist[k] for k in ("penetration", "force", "qx", "qy")}
+            channels = {k: getattr(hist, k) for k in ("penetration", "force", "qx", "qy")}
             if rec is not None and not rec.position:
                 for k in ("qx", "qy"):
                     channels[k] = _NotRecorded(
                         f"the journal position {k} of joint {name!r} was not recorded: run with "
                         "Record(position=True)"
                     )
-        modes: dict[str, Any] = {k: ext[k] for k in _MODE_OUTPUTS}
+        modes: dict[str, Any] = {k: getattr(ext, k) for k in _MODE_OUTPUTS}
         if rec is not None and not rec.contact_modes:
             gone_modes = _NotRecorded(
                 f"the contact modes and dissipated energy of joint {name!r} were not tracked: run "
@@ -448,35 +450,35 @@ class Result:
         return JointResult(
             name=name,
             **channels,
-            max_penetration=ext["max_penetration"],
-            time_of_max_penetration=ext["time_of_max_penetration"],
-            max_force=ext["max_force"],
-            impacts=ext["impacts"],
-            contact_time=ext["contact_time"],
-            max_velocity=ext["max_velocity"],
-            max_impact_velocity=ext["max_impact_velocity"],
-            rms_penetration=ext["rms_penetration"],
-            rms_force=ext["rms_force"],
+            max_penetration=ext.max_penetration,
+            time_of_max_penetration=ext.time_of_max_penetration,
+            max_force=ext.max_force,
+            impacts=ext.impacts,
+            contact_time=ext.contact_time,
+            max_velocity=ext.max_velocity,
+            max_impact_velocity=ext.max_impact_velocity,
+            rms_penetration=ext.rms_penetration,
+            rms_force=ext.rms_force,
             **modes,
-            impact_log=None if log is None else ImpactLog(**{k: v for k, v in log.items() if k != "joint"}),
+            impact_log=None if log is None else ImpactLog(**{k: getattr(log, k) for k in _IMPACT_FIELDS}),
         )
 
     @property
     def slider_names(self) -> list[str]:
         """Names of the model's sliders (see :meth:`slider`)."""
-        return [h["name"] for h in self._raw.get("sliders", ())]
+        return [h.name for h in self._raw.sliders]
 
     def slider(self, name: str) -> SliderResult:
         """Position, velocity and acceleration of slider ``name`` along its guide (histories on
         the output grid, :attr:`time`) and its peak acceleration."""
-        for h in self._raw.get("sliders", ()):
-            if h["name"] == name:
+        for h in self._raw.sliders:
+            if h.name == name:
                 return SliderResult(
                     name=name,
-                    position=h["position"],
-                    velocity=h["velocity"],
-                    acceleration=h["acceleration"],
-                    max_acceleration=h["max_acceleration"],
+                    position=h.position,
+                    velocity=h.velocity,
+                    acceleration=h.acceleration,
+                    max_acceleration=h.max_acceleration,
                 )
         raise _unknown("slider", name, self.slider_names)
 
@@ -486,22 +488,22 @@ class Result:
             raise _unknown("link", name, self.link_names)
         idx = self.link_names.index(name)
         _, elements, length, ea = self._links_info[idx]
-        h = self._raw["links"][idx]
+        h = self._raw.links[idx]
         nodes = elements + 1
-        d = h["displacements"]
+        d = h.displacements
         empty = np.empty((0, nodes))
         return LinkResult(
             name=name,
             x=np.linspace(0.0, length, nodes),
-            frame=h["frame"],
+            frame=h.frame,
             u=d[:, 0::3] if d.size else empty,
             v=d[:, 1::3] if d.size else empty,
             theta=d[:, 2::3] if d.size else empty,
-            axial_force=h["axial_force"],
-            midspan=h["midspan"],
-            kinetic=h["kinetic"],
-            strain=h["strain"],
-            momentum=h["momentum"],
+            axial_force=h.axial_force,
+            midspan=h.midspan,
+            kinetic=h.kinetic,
+            strain=h.strain,
+            momentum=h.momentum,
         )
 
     def node(self, link: str, node: int) -> NodeResult:
@@ -520,9 +522,9 @@ class Result:
             e.parameter, e.value, e.allowed = "node", repr(node), "a node index, an integer >= 0"
             raise e
         node = int(node)  # an integral float, as Record.nodes accepts it
-        for h in self._raw.get("nodes", ()):
-            if h["link"] == li and h["node"] == node:
-                return NodeResult(link, node, h["u"], h["v"], h["theta"])
+        for h in self._raw.nodes:
+            if h.link == li and h.node == node:
+                return NodeResult(link, node, h.u, h.v, h.theta)
         lr = self.link(link)
         if lr.u.size and 0 <= node < lr.u.shape[1]:
             return NodeResult(link, node, lr.u[:, node], lr.v[:, node], lr.theta[:, node])
@@ -548,10 +550,10 @@ class Result:
                 a = getattr(j, ch)
                 if a.size == n and n:
                     cols[f"{name}.{ch}"] = a
-        for h in self._raw.get("nodes", ()):
-            ln = self.link_names[h["link"]]
+        for h in self._raw.nodes:
+            ln = self.link_names[h.link]
             for ch in ("u", "v", "theta"):
-                cols[f"{ln}[{h['node']}].{ch}"] = h[ch]
+                cols[f"{ln}[{h.node}].{ch}"] = getattr(h, ch)
         for ln in self.link_names:
             lr = self.link(ln)
             if lr.midspan.size == n and n:
@@ -565,3 +567,16 @@ class Result:
             f"Result(engine={self.stats.get('engine')!r}, method={self.method!r}, dt={self.dt:g} s, "
             f"t_end={self.end_time:g} s, steps={self.stats.get('steps')}, samples={self.time.size}, {status})"
         )
+
+
+def _plain(x: Any) -> Any:
+    """The engine's output objects (``flexclear._core.RunOutput`` and its parts) as
+    :class:`types.SimpleNamespace` trees with the same attributes (for pickling)."""
+    if isinstance(x, (list, tuple)):
+        return type(x)(_plain(v) for v in x)
+    if type(x).__module__ == "flexclear._core":
+        from types import SimpleNamespace
+
+        names = [k for k in dir(x) if not k.startswith("_") and not callable(getattr(x, k))]
+        return SimpleNamespace(**{k: _plain(getattr(x, k)) for k in names})
+    return x

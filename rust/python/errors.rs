@@ -6,7 +6,6 @@
 //! `KeyboardInterrupt`); here they are looked up and given structured attributes.
 
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 
 use crate::error::Error;
 
@@ -15,8 +14,8 @@ fn class<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
 }
 
 /// Converts an engine error into the matching `flexclear` exception. `partial` (the output
-/// recorded until the failure, as a dict) is attached as `exc.partial` when given.
-pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyDict>>) -> PyErr {
+/// recorded until the failure, a `RunOutput`) is attached as `exc.partial` when given.
+pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyAny>>) -> PyErr {
     let build = || -> PyResult<PyErr> {
         let msg = e.to_string();
         let (cls, attrs): (&str, Vec<(&str, Py<PyAny>)>) = match e {
@@ -79,7 +78,7 @@ pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyDict>>) -
         for (k, v) in attrs {
             exc.setattr(k, v)?;
         }
-        exc.setattr("partial", partial.map_or_else(|| py.None(), |p| p.into_any().unbind()))?;
+        exc.setattr("partial", partial.map_or_else(|| py.None(), |p| p.unbind()))?;
         Ok(PyErr::from_value(exc))
     };
     build().unwrap_or_else(|err| err)

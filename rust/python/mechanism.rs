@@ -7,7 +7,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt};
 
 use super::errors::{run_detached, to_pyerr};
 use super::motion::PyFrame;
-use super::output::{mat, output_dict};
+use super::output::{mat, run_output};
 use super::{err, parse_coupling, parse_damping_law, parse_solver};
 use crate::contact::DampingLaw;
 use crate::error::Error;
@@ -503,7 +503,7 @@ impl PyMechanism {
         gap_damping: f64,
         nodes: Vec<(usize, usize)>,
         contact_modes: bool,
-    ) -> PyResult<Bound<'py, PyDict>> {
+    ) -> PyResult<Py<super::output::PyRunOutput>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
             None => None,
@@ -568,14 +568,14 @@ impl PyMechanism {
         let link_elements: Vec<usize> = mech.links.iter().map(|l| l.elements).collect();
         let (res, pending) = run_detached(py, progress, |control| crate::plan::simulate(mech, &settings, control));
         match res {
-            Ok(out) => output_dict(py, out, &link_elements),
+            Ok(out) => run_output(py, out, &link_elements),
             Err(fail) => {
                 if let Some(e) = pending {
                     if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
                         return Err(e);
                     }
                 }
-                let partial = output_dict(py, fail.output, &link_elements)?;
+                let partial = run_output(py, fail.output, &link_elements)?.into_bound(py).into_any();
                 Err(to_pyerr(py, &fail.error, Some(partial)))
             }
         }

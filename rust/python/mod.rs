@@ -89,6 +89,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<motion::PyRotation>()?;
     m.add_class::<motion::PyFrame>()?;
     m.add_class::<mechanism::PyMechanism>()?;
+    m.add_class::<output::PyRunOutput>()?;
+    m.add_class::<output::PyJointExtremes>()?;
+    m.add_class::<output::PyJointHistory>()?;
+    m.add_class::<output::PyImpactLog>()?;
+    m.add_class::<output::PyNodeHistory>()?;
+    m.add_class::<output::PyLinkHistory>()?;
+    m.add_class::<output::PySliderHistory>()?;
     m.add_function(wrap_pyfunction!(mechanism::slider_yoke, m)?)?;
     m.add_function(wrap_pyfunction!(mechanism::slider_crank, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;

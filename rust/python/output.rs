@@ -1,58 +1,170 @@
-//! A run's output as Python objects: one layout for every stepper (the dict that
-//! `flexclear.Result` reads), the joints' extremes and impact logs.
+//! A run's output as Python objects: one [`PyRunOutput`] (`flexclear._core.RunOutput`) for every
+//! stepper, whose parts are objects too (`JointExtremes`, `JointHistory`, `ImpactLog`,
+//! `NodeHistory`, `LinkHistory`, `SliderHistory`), with numpy arrays for the series;
+//! `flexclear.Result` reads their attributes. The per-sample rows of a study batch
+//! ([`extremes_list`], [`joint_histories`]) are dicts, the rows of the study's table.
 
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::record::{JointExtremes, JointHistory, LinkHistory};
-use crate::run::RunOutput;
+use crate::record::{Impact, JointExtremes, JointHistory};
+use crate::run::{RunOutput, RunStats};
 
-/// The impact logs of a recorder as a list of dicts of arrays (`joint`, `time`, `speed`,
-/// `peak_force`, `peak_penetration`, `duration`).
-fn impact_logs(py: Python<'_>, impacts: Vec<(usize, Vec<crate::record::Impact>)>) -> PyResult<Bound<'_, PyList>> {
-    let logs = PyList::empty(py);
-    for (joint, log) in impacts {
-        let x = PyDict::new(py);
-        x.set_item("joint", joint)?;
-        let col = |f: fn(&crate::record::Impact) -> f64| PyArray1::from_vec(py, log.iter().map(f).collect());
-        x.set_item("time", col(|i| i.time))?;
-        x.set_item("speed", col(|i| i.speed))?;
-        x.set_item("peak_force", col(|i| i.peak_force))?;
-        x.set_item("peak_penetration", col(|i| i.peak_penetration))?;
-        x.set_item("duration", col(|i| i.duration))?;
-        logs.append(x)?;
-    }
-    Ok(logs)
+/// The running extremes of one clearance joint (`flexclear.JointResult` takes its values from
+/// these): SI units as in [`JointExtremes`]; the contact-mode fractions and the dissipated energy
+/// are NaN unless the run tracked them (`Record(contact_modes=True)`).
+#[pyclass(module = "flexclear._core", name = "JointExtremes", frozen, get_all)]
+pub struct PyJointExtremes {
+    max_penetration: f64,
+    time_of_max_penetration: f64,
+    max_force: f64,
+    impacts: u64,
+    contact_time: f64,
+    max_velocity: f64,
+    max_impact_velocity: f64,
+    rms_penetration: f64,
+    rms_force: f64,
+    free_flight_fraction: f64,
+    impact_fraction: f64,
+    continuous_fraction: f64,
+    dissipated_energy: f64,
 }
 
-/// The running extremes of every joint as a list of dicts (the keys of `flexclear.JointResult`);
-/// also the per-sample extremes of a study batch.
+impl From<&JointExtremes> for PyJointExtremes {
+    fn from(e: &JointExtremes) -> Self {
+        PyJointExtremes {
+            max_penetration: e.max_penetration,
+            time_of_max_penetration: e.time_of_max_penetration,
+            max_force: e.max_force,
+            impacts: e.impacts,
+            contact_time: e.contact_time,
+            max_velocity: e.max_velocity,
+            max_impact_velocity: e.max_impact_velocity,
+            rms_penetration: e.rms_penetration(),
+            rms_force: e.rms_force(),
+            free_flight_fraction: e.free_flight_fraction(),
+            impact_fraction: e.impact_fraction(),
+            continuous_fraction: e.continuous_fraction(),
+            dissipated_energy: e.dissipated_energy(),
+        }
+    }
+}
+
+/// The histories of one recorded clearance joint: `joint` (its index), `penetration` (m),
+/// `force` (N), `qx`, `qy` (journal centre relative to the bearing centre, m; empty unless
+/// recorded).
+#[pyclass(module = "flexclear._core", name = "JointHistory", frozen, get_all)]
+pub struct PyJointHistory {
+    joint: usize,
+    penetration: Py<PyArray1<f64>>,
+    force: Py<PyArray1<f64>>,
+    qx: Py<PyArray1<f64>>,
+    qy: Py<PyArray1<f64>>,
+}
+
+/// The impact log of one joint: per impact its `time` (s), approach `speed` (m/s), `peak_force`
+/// (N), `peak_penetration` (m) and `duration` (s).
+#[pyclass(module = "flexclear._core", name = "ImpactLog", frozen, get_all)]
+pub struct PyImpactLog {
+    joint: usize,
+    time: Py<PyArray1<f64>>,
+    speed: Py<PyArray1<f64>>,
+    peak_force: Py<PyArray1<f64>>,
+    peak_penetration: Py<PyArray1<f64>>,
+    duration: Py<PyArray1<f64>>,
+}
+
+/// The displacement histories of one node: `link`, `node` (indices), `u`, `v` (m) and `theta`
+/// (rad) in the link frame.
+#[pyclass(module = "flexclear._core", name = "NodeHistory", frozen, get_all)]
+pub struct PyNodeHistory {
+    link: usize,
+    node: usize,
+    u: Py<PyArray1<f64>>,
+    v: Py<PyArray1<f64>>,
+    theta: Py<PyArray1<f64>>,
+}
+
+/// The histories of one link: `frame` (records x 4: origin x, y in m, angle in rad, rate in
+/// rad/s), `displacements` (records x 3 (N + 1): u, v, theta of every node), `axial_force`
+/// (records x N, N), `midspan` (m), `kinetic` and `strain` energy (J), `momentum`; an empty array
+/// for a channel not recorded.
+#[pyclass(module = "flexclear._core", name = "LinkHistory", frozen, get_all)]
+pub struct PyLinkHistory {
+    frame: Py<PyArray2<f64>>,
+    displacements: Py<PyArray2<f64>>,
+    axial_force: Py<PyArray2<f64>>,
+    midspan: Py<PyArray1<f64>>,
+    kinetic: Py<PyArray1<f64>>,
+    strain: Py<PyArray1<f64>>,
+    momentum: Py<PyArray1<f64>>,
+}
+
+/// The histories of one slider along its guide: `name`, `position` (m), `velocity` (m/s),
+/// `acceleration` (m/s^2) on the output grid, and `max_acceleration` (m/s^2, every step).
+#[pyclass(module = "flexclear._core", name = "SliderHistory", frozen, get_all)]
+pub struct PySliderHistory {
+    name: String,
+    position: Py<PyArray1<f64>>,
+    velocity: Py<PyArray1<f64>>,
+    acceleration: Py<PyArray1<f64>>,
+    max_acceleration: f64,
+}
+
+/// The output of any run: `time` (s, the output grid), `joints` (the recorded joints'
+/// histories), `nodes`, `links` (one per link), `sliders`, `extremes` (one per clearance joint,
+/// in model order), `impact_log`, `stats` (the run's counters by name), `state` (`(u, v, a)` at the
+/// end) and `t` (the time reached, s).
+#[pyclass(module = "flexclear._core", name = "RunOutput", frozen, get_all)]
+pub struct PyRunOutput {
+    time: Py<PyArray1<f64>>,
+    joints: Vec<Py<PyJointHistory>>,
+    nodes: Vec<Py<PyNodeHistory>>,
+    links: Vec<Py<PyLinkHistory>>,
+    sliders: Vec<Py<PySliderHistory>>,
+    extremes: Vec<Py<PyJointExtremes>>,
+    impact_log: Vec<Py<PyImpactLog>>,
+    stats: Py<PyDict>,
+    state: State,
+    t: f64,
+}
+
+/// `(u, v, a)` at the end of a run.
+type State = (Py<PyArray1<f64>>, Py<PyArray1<f64>>, Py<PyArray1<f64>>);
+
+fn arr(py: Python<'_>, v: Vec<f64>) -> Py<PyArray1<f64>> {
+    PyArray1::from_vec(py, v).unbind()
+}
+
+/// The running extremes of every joint as a list of dicts (the keys of `flexclear.JointResult`):
+/// the per-sample extremes of a study batch.
 pub(super) fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {
     let ext = PyList::empty(py);
     for e in extremes {
         let x = PyDict::new(py);
-        x.set_item("max_penetration", e.max_penetration)?;
-        x.set_item("time_of_max_penetration", e.time_of_max_penetration)?;
-        x.set_item("max_force", e.max_force)?;
-        x.set_item("impacts", e.impacts)?;
-        x.set_item("contact_time", e.contact_time)?;
-        x.set_item("max_velocity", e.max_velocity)?;
-        x.set_item("max_impact_velocity", e.max_impact_velocity)?;
-        x.set_item("rms_penetration", e.rms_penetration())?;
-        x.set_item("rms_force", e.rms_force())?;
-        x.set_item("free_flight_fraction", e.free_flight_fraction())?;
-        x.set_item("impact_fraction", e.impact_fraction())?;
-        x.set_item("continuous_fraction", e.continuous_fraction())?;
-        x.set_item("dissipated_energy", e.dissipated_energy())?;
+        let p = PyJointExtremes::from(e);
+        x.set_item("max_penetration", p.max_penetration)?;
+        x.set_item("time_of_max_penetration", p.time_of_max_penetration)?;
+        x.set_item("max_force", p.max_force)?;
+        x.set_item("impacts", p.impacts)?;
+        x.set_item("contact_time", p.contact_time)?;
+        x.set_item("max_velocity", p.max_velocity)?;
+        x.set_item("max_impact_velocity", p.max_impact_velocity)?;
+        x.set_item("rms_penetration", p.rms_penetration)?;
+        x.set_item("rms_force", p.rms_force)?;
+        x.set_item("free_flight_fraction", p.free_flight_fraction)?;
+        x.set_item("impact_fraction", p.impact_fraction)?;
+        x.set_item("continuous_fraction", p.continuous_fraction)?;
+        x.set_item("dissipated_energy", p.dissipated_energy)?;
         ext.append(x)?;
     }
     Ok(ext)
 }
 
 /// Joint histories as a list of dicts (`joint`, `penetration` m, `force` N, `qx`, `qy` m; the
-/// journal position empty unless recorded); also the per-sample histories of a study batch.
+/// journal position empty unless recorded): the per-sample histories of a study batch.
 pub(super) fn joint_histories(py: Python<'_>, joints: Vec<JointHistory>) -> PyResult<Bound<'_, PyList>> {
     let list = PyList::empty(py);
     for h in joints {
@@ -67,30 +179,6 @@ pub(super) fn joint_histories(py: Python<'_>, joints: Vec<JointHistory>) -> PyRe
     Ok(list)
 }
 
-/// Link histories of a moving-frame run: per link a dict of the frame state (records x 4), the
-/// nodal displacements (records x 3 (N + 1)), the axial forces (records x N) and the midspan,
-/// energy and momentum series; `link_elements` gives N per link.
-fn links_list<'py>(py: Python<'py>, links: Vec<LinkHistory>, link_elements: &[usize]) -> PyResult<Bound<'py, PyList>> {
-    let list = PyList::empty(py);
-    for (h, &ne) in links.into_iter().zip(link_elements) {
-        let ld = PyDict::new(py);
-        let fr_rows = h.frame.len();
-        let fr: Vec<f64> = h.frame.into_iter().flatten().collect();
-        ld.set_item("frame", mat(py, fr, fr_rows, 4)?)?;
-        let nn = ne + 1;
-        let drows = h.displacements.len() / (3 * nn);
-        ld.set_item("displacements", mat(py, h.displacements, drows, 3 * nn)?)?;
-        let arows = h.axial_force.len() / ne;
-        ld.set_item("axial_force", mat(py, h.axial_force, arows, ne)?)?;
-        ld.set_item("midspan", PyArray1::from_vec(py, h.midspan))?;
-        ld.set_item("kinetic", PyArray1::from_vec(py, h.kinetic))?;
-        ld.set_item("strain", PyArray1::from_vec(py, h.strain))?;
-        ld.set_item("momentum", PyArray1::from_vec(py, h.momentum))?;
-        list.append(ld)?;
-    }
-    Ok(list)
-}
-
 /// A row-major matrix as a numpy array.
 pub(super) fn mat<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let a = Array2::from_shape_vec((rows, cols), v)
@@ -98,46 +186,9 @@ pub(super) fn mat<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -
     Ok(a.to_pyarray(py))
 }
 
-/// The output of any run (its extremes, histories, slider histories, counters and final state)
-/// as the dict that `flexclear.Result` reads; `link_elements` (elements per link) shapes the link histories of a
-/// moving-frame run.
-pub(super) fn output_dict<'py>(
-    py: Python<'py>,
-    out: RunOutput,
-    link_elements: &[usize],
-) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let rec = out.record;
-    d.set_item("time", PyArray1::from_vec(py, rec.time))?;
-    d.set_item("joints", joint_histories(py, rec.joints)?)?;
-    let nodes = PyList::empty(py);
-    for h in rec.nodes {
-        let n = PyDict::new(py);
-        n.set_item("link", h.link)?;
-        n.set_item("node", h.node)?;
-        n.set_item("u", PyArray1::from_vec(py, h.u))?;
-        n.set_item("v", PyArray1::from_vec(py, h.v))?;
-        n.set_item("theta", PyArray1::from_vec(py, h.theta))?;
-        nodes.append(n)?;
-    }
-    d.set_item("nodes", nodes)?;
-    if !rec.links.is_empty() {
-        d.set_item("links", links_list(py, rec.links, link_elements)?)?;
-    }
-    let sliders = PyList::empty(py);
-    for h in rec.sliders {
-        let x = PyDict::new(py);
-        x.set_item("name", h.name)?;
-        x.set_item("position", PyArray1::from_vec(py, h.position))?;
-        x.set_item("velocity", PyArray1::from_vec(py, h.velocity))?;
-        x.set_item("acceleration", PyArray1::from_vec(py, h.acceleration))?;
-        x.set_item("max_acceleration", h.max_acceleration)?;
-        sliders.append(x)?;
-    }
-    d.set_item("sliders", sliders)?;
-    d.set_item("extremes", extremes_list(py, &rec.extremes)?)?;
-    d.set_item("impact_log", impact_logs(py, rec.impacts)?)?;
-    let s = out.stats;
+/// The run's counters by name (`steps`, `factorizations`, ..., `stepper`), as `Result.stats`
+/// shows them.
+fn stats_dict(py: Python<'_>, s: RunStats) -> PyResult<Bound<'_, PyDict>> {
     let st = PyDict::new(py);
     st.set_item("steps", s.steps)?;
     st.set_item("factorizations", s.factorizations)?;
@@ -154,16 +205,96 @@ pub(super) fn output_dict<'py>(
     st.set_item("event_fallbacks", s.event_fallbacks)?;
     st.set_item("unknowns", s.unknowns)?;
     st.set_item("bandwidth", s.bandwidth)?;
-    d.set_item("stats", st)?;
+    Ok(st)
+}
+
+/// The output of any run as a [`PyRunOutput`]; `link_elements` (elements per link) shapes the
+/// link histories.
+pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]) -> PyResult<Py<PyRunOutput>> {
+    let rec = out.record;
+    let joints = (rec.joints.into_iter())
+        .map(|h| {
+            let j = PyJointHistory {
+                joint: h.joint,
+                penetration: arr(py, h.penetration),
+                force: arr(py, h.force),
+                qx: arr(py, h.qx),
+                qy: arr(py, h.qy),
+            };
+            Py::new(py, j)
+        })
+        .collect::<PyResult<_>>()?;
+    let nodes = (rec.nodes.into_iter())
+        .map(|h| {
+            let n = PyNodeHistory {
+                link: h.link,
+                node: h.node,
+                u: arr(py, h.u),
+                v: arr(py, h.v),
+                theta: arr(py, h.theta),
+            };
+            Py::new(py, n)
+        })
+        .collect::<PyResult<_>>()?;
+    let mut links = Vec::with_capacity(rec.links.len());
+    for (h, &ne) in rec.links.into_iter().zip(link_elements) {
+        let nn = ne + 1;
+        let fr_rows = h.frame.len();
+        let fr: Vec<f64> = h.frame.into_iter().flatten().collect();
+        let drows = h.displacements.len() / (3 * nn);
+        let arows = h.axial_force.len() / ne;
+        let l = PyLinkHistory {
+            frame: mat(py, fr, fr_rows, 4)?.unbind(),
+            displacements: mat(py, h.displacements, drows, 3 * nn)?.unbind(),
+            axial_force: mat(py, h.axial_force, arows, ne)?.unbind(),
+            midspan: arr(py, h.midspan),
+            kinetic: arr(py, h.kinetic),
+            strain: arr(py, h.strain),
+            momentum: arr(py, h.momentum),
+        };
+        links.push(Py::new(py, l)?);
+    }
+    let sliders = (rec.sliders.into_iter())
+        .map(|h| {
+            let s = PySliderHistory {
+                name: h.name,
+                position: arr(py, h.position),
+                velocity: arr(py, h.velocity),
+                acceleration: arr(py, h.acceleration),
+                max_acceleration: h.max_acceleration,
+            };
+            Py::new(py, s)
+        })
+        .collect::<PyResult<_>>()?;
+    let extremes = (rec.extremes.iter())
+        .map(|e| Py::new(py, PyJointExtremes::from(e)))
+        .collect::<PyResult<_>>()?;
+    let impact_log = (rec.impacts.into_iter())
+        .map(|(joint, log)| {
+            let col = |f: fn(&Impact) -> f64| arr(py, log.iter().map(f).collect());
+            let l = PyImpactLog {
+                joint,
+                time: col(|i| i.time),
+                speed: col(|i| i.speed),
+                peak_force: col(|i| i.peak_force),
+                peak_penetration: col(|i| i.peak_penetration),
+                duration: col(|i| i.duration),
+            };
+            Py::new(py, l)
+        })
+        .collect::<PyResult<_>>()?;
     let [u, v, a] = out.state;
-    d.set_item(
-        "state",
-        (
-            PyArray1::from_vec(py, u),
-            PyArray1::from_vec(py, v),
-            PyArray1::from_vec(py, a),
-        ),
-    )?;
-    d.set_item("t", out.time)?;
-    Ok(d)
+    let o = PyRunOutput {
+        time: arr(py, rec.time),
+        joints,
+        nodes,
+        links,
+        sliders,
+        extremes,
+        impact_log,
+        stats: stats_dict(py, out.stats)?.unbind(),
+        state: (arr(py, u), arr(py, v), arr(py, a)),
+        t: out.time,
+    };
+    Py::new(py, o)
 }
