@@ -297,3 +297,12 @@ def test_contact_modes_are_opt_in():
             with pytest.raises(fc.RecordingError, match="contact_modes=True"):
                 getattr(j, k)
         assert j.impacts == 1  # the other outputs as ever
+
+
+def test_link_peaks_are_those_of_the_recorded_histories():
+    res = scenes.slider_crank().simulate(0.005, 1e-5, record=Record(midspan=True, axial_force=True))
+    rod = res.link("rod")
+    assert rod.max_midspan == np.max(np.abs(rod.midspan)) > 0
+    assert rod.max_axial_force == np.max(np.abs(rod.axial_force)) > 0
+    plain = scenes.slider_crank().simulate(0.001, 1e-5).link("rod")
+    assert np.isnan(plain.max_midspan) and np.isnan(plain.max_axial_force)
