@@ -146,9 +146,9 @@ def test_a_pressed_joint_is_all_continuous_contact():
     r = model.simulate(0.02, 1e-5, record=Record(contact_modes=True, impact_log=True))
     for n in ("left", "right"):
         j = r.joint(n)
-        # no episode begins in the run (the Newton stepper's own count, `impacts`, takes the
-        # contact at t = 0 for an impact: 1 here; the log does not)
-        assert len(j.impact_log) == 0 and j.contact_time == pytest.approx(0.02, rel=1e-9)
+        # no episode begins in the run: contact from the initial state is no impact
+        assert j.impacts == 0 and len(j.impact_log) == 0
+        assert j.contact_time == pytest.approx(0.02, rel=1e-9)
         assert (j.free_flight_fraction, j.impact_fraction, j.continuous_fraction) == (0.0, 0.0, 1.0)
         # at rest on the wall: no dissipation beyond round-off, the stored spring energy left out
         assert abs(j.dissipated_energy) < 1e-6 * 0.5 * K * sag**2
@@ -297,3 +297,12 @@ def test_contact_modes_are_opt_in():
             with pytest.raises(fc.RecordingError, match="contact_modes=True"):
                 getattr(j, k)
         assert j.impacts == 1  # the other outputs as ever
+
+
+def test_link_peaks_are_those_of_the_recorded_histories():
+    res = scenes.slider_crank().simulate(0.005, 1e-5, record=Record(midspan=True, axial_force=True))
+    rod = res.link("rod")
+    assert rod.max_midspan == np.max(np.abs(rod.midspan)) > 0
+    assert rod.max_axial_force == np.max(np.abs(rod.axial_force)) > 0
+    plain = scenes.slider_crank().simulate(0.001, 1e-5).link("rod")
+    assert np.isnan(plain.max_midspan) and np.isnan(plain.max_axial_force)

@@ -274,6 +274,18 @@ class LinkResult:
     momentum: np.ndarray
 
     @property
+    def max_midspan(self) -> float:
+        """Peak midspan deflection: the largest magnitude of :attr:`midspan` over the recorded
+        samples, m (NaN unless ``Record(midspan=True)``; ``Record(every=k)`` thins the samples)."""
+        return float(np.max(np.abs(self.midspan))) if self.midspan.size else float("nan")
+
+    @property
+    def max_axial_force(self) -> float:
+        """Peak axial force: the largest magnitude of any element's :attr:`axial_force` over the
+        recorded samples, N (NaN unless ``Record(axial_force=True)``)."""
+        return float(np.max(np.abs(self.axial_force))) if self.axial_force.size else float("nan")
+
+    @property
     def tip(self) -> np.ndarray:
         """Transverse displacement of the last node, m."""
         return self.v[:, -1] if self.v.size else np.empty(0)

@@ -1969,7 +1969,8 @@ impl<'a> NewtonRun<'a> {
             let h = &mut self.track[j];
             let closed = terms.penetration > 0.0;
             if counts {
-                if closed && !self.contact_was[j] {
+                // a joint closed in the initial state is no impact (as in the shared recorder)
+                if closed && !self.contact_was[j] && !matches!(step, Some((0, _))) {
                     h.impacts += 1;
                 }
                 h.max_penetration = h.max_penetration.max(terms.penetration);
