@@ -1183,6 +1183,10 @@ impl<'a> NewtonRun<'a> {
             [g(yd, nt.idx[0]), g(yd, nt.idx[1]), g(yd, nt.idx[2])],
             [g(ydd, nt.idx[0]), g(ydd, nt.idx[1]), g(ydd, nt.idx[2])],
         );
+        if nt.plain {
+            // T the identity on the node's own unknowns, Td = Tdd = 0
+            return [q, qd, qdd];
+        }
         let mut w = [[0.0; 3]; 3];
         for r in 0..3 {
             for c in 0..3 {
@@ -1249,6 +1253,10 @@ impl<'a> NewtonRun<'a> {
             let mut wprev = Self::local(&prev, &self.y, &self.yd, &self.ydd);
             let (c0, k0) = self.element_ck(li, 0.0);
             let k23 = ld.k2u + ld.k3u;
+            // the nominal acceleration of the frame origin and the frame's rates: the same for
+            // every element of the link (one rotation per link, not per element)
+            let fr = self.frames[li];
+            let fs = if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] };
             let d2 = ld.k2u * ld.eta_e;
             for e in 0..self.mech.links[li].elements {
                 let next = self.nt(li, e + 1);
@@ -1264,8 +1272,6 @@ impl<'a> NewtonRun<'a> {
                     f += (k23 * q + d2 * qd) * fax;
                 }
                 if ld.active.load {
-                    let fr = &self.frames[li];
-                    let fs = self.a_ref(li, 0.0);
                     let b = &ld.loads[e];
                     f += b[0] * fs[0] + b[1] * fs[1] - b[2] * (fr.rate * fr.rate) + b[3] * fr.accel;
                 }
