@@ -14,13 +14,14 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use flexclear::integrator::newton::simulate_mechanism;
+use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
+use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
-use flexclear::model::mechanism::{Link, Mechanism, Support, Terms};
+use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Support, Terms};
 use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
-use flexclear::scenes::FlexibleSliderCrank;
-use flexclear::Settings;
+use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
+use flexclear::{Settings, SolverMode};
 
 /// Kane, Ryan & Banerjee (1987) beam data on a hub with the given rotation and terms.
 fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
@@ -159,5 +160,88 @@ fn scaling(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, step_terms, runs, scaling);
+/// Contact terms on the contact-free factor (Woodbury) against refactorizing for them: 1000 steps
+/// of 1e-5 s with implicit contact of (a) Simeon's slider-crank with a clearance at the crank pin
+/// (the scene's defaults: 26 unknowns, geometric terms on, so one factorization per step either
+/// way plus, refactorizing, one per contact change within the step) on the Newton stepper, and
+/// (b) a cantilever spinning at 30 rad/s rattling in a bearing on its hub on the constant-rate
+/// stepper (one factorization per run) and on Newton refactorizing.
+fn contact(c: &mut Criterion) {
+    let mut g = c.benchmark_group("ked/contact x1000 at 1e-5 s");
+    g.sample_size(10);
+    let mut s = quiet(0.01, 1e-5);
+    s.coupling = Coupling::Modified {
+        iterate: true,
+        tol: 1e-10,
+        max_iter: 50,
+    };
+    let mut refactor = s.clone();
+    refactor.solver = SolverMode::Refactor;
+    let crank = FlexibleSliderCrank {
+        clearance_at: Some(SliderCrankPin::CrankPin),
+        ..Default::default()
+    }
+    .build()
+    .expect("slider-crank scene");
+    g.bench_function("(a) slider-crank crank pin, Newton + Woodbury", |b| {
+        b.iter(|| run(black_box(&crank), &s))
+    });
+    g.bench_function("(a) slider-crank crank pin, Newton refactorizing", |b| {
+        b.iter(|| run(black_box(&crank), &refactor))
+    });
+    let spin = spinning_in_a_bearing();
+    g.bench_function("(b) spinning beam in a bearing, constant-rate", |b| {
+        b.iter(|| simulate_constant_rate(black_box(&spin), &s, &mut |_| true).expect("bench run failed"))
+    });
+    g.bench_function("(b) spinning beam in a bearing, Newton refactorizing", |b| {
+        b.iter(|| run(black_box(&spin), &refactor))
+    });
+    g.finish();
+}
+
+/// The cantilever of tests/constant_rate.rs: 0.3 m steel, 6 elements, clamped to a hub at 30
+/// rad/s, geometric terms off, its tip in a bearing (0.1 mm, 1e7 N/m, 20 N s/m) on the hub,
+/// starting with a transverse velocity of 0.2 m/s at the tip.
+fn spinning_in_a_bearing() -> Mechanism {
+    let spin = Rotation::Constant {
+        angle0: 0.3,
+        rate: 30.0,
+    };
+    let mut m = cantilever(
+        6,
+        spin.clone(),
+        Terms {
+            geometric: Some(false),
+            ..Default::default()
+        },
+    );
+    let a = 0.008f64;
+    let l = &mut m.links[0];
+    (l.length, l.youngs_modulus, l.density, l.damping, l.area, l.inertia) =
+        (0.3, 2e11, 7870.0, 2e6, a * a, a.powi(4) / 12.0);
+    l.initial_velocity = Some(
+        (0..21)
+            .map(|k| if k % 3 == 1 { 0.2 * (k / 3) as f64 / 6.0 } else { 0.0 })
+            .collect(),
+    );
+    m.joints.push(Clearance {
+        name: "tip".into(),
+        journal: Endpoint::Node { link: 0, node: 6 },
+        bearing: Endpoint::Body {
+            frame: Arc::new(RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, spin).unwrap()),
+            point: [0.3, 0.0],
+            name: "hub".into(),
+        },
+        clearance: 1e-4,
+        law: Arc::new(SpringDamper {
+            stiffness: 1e7,
+            damping: 20.0,
+            damping_law: DampingLaw::Viscous,
+            no_tension: false,
+        }),
+    });
+    m
+}
+
+criterion_group!(benches, step_terms, runs, scaling, contact);
 criterion_main!(benches);

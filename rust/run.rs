@@ -171,7 +171,9 @@ pub struct RunStats {
     pub factorizations: u64,
     /// Steps solved with the Woodbury correction while some contact was closed.
     pub woodbury_steps: u64,
-    /// Steps where the Woodbury capacitance was ill-conditioned and a refactorization was used.
+    /// Steps where the Woodbury capacitance was ill-conditioned and a refactorization was used,
+    /// and Newton steps redone refactorizing after they did not converge on the contact-free
+    /// factor.
     pub woodbury_fallbacks: u64,
     /// Coupling iterations in all (1 per step without iteration).
     pub iterations: u64,

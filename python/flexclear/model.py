@@ -985,9 +985,12 @@ class Model:
             :class:`~flexclear.NewmarkStabilityWarning` states the step limit
             ``dt_crit = 1/(omega_max sqrt(gamma/2 - beta))``.
         solver : {"woodbury", "refactor"}
-            On the constant stepper: contact terms by a low-rank correction of the contact-free
-            factorization (fast) or by numeric refactorization (reference). The Newton stepper
-            refactorizes the Jacobian whenever it changes, whatever this says.
+            Contact terms by a low-rank correction of the contact-free factorization (fast) or
+            by numeric refactorization (reference). On the Newton stepper, ``"woodbury"``
+            refactorizes the Jacobian only when its contact-free part changes (the frames, the
+            axial forces) and ``"refactor"`` whenever it changes, contact included; the
+            constant-rate stepper is the Woodbury one (``"refactor"`` runs such a model on
+            Newton).
         step_halving : int
             In moving frames: how often a step whose Newton iterations do not converge may be
             halved (0: raise :class:`ConvergenceError`).

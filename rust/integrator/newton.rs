@@ -12,9 +12,12 @@
 //! step start (including the axial-force dependence of K2, K3, D2: a modified Newton whose rate
 //! is set by how much the axial force moves within the step). The Jacobian is refactorized only when
 //! a quantity it depends on changed (step, frame rate and acceleration, frame angle for links
-//! with transformed nodes, axial forces, contact terms): a non-rotating link or one spinning at
+//! with transformed nodes, axial forces): a non-rotating link or one spinning at
 //! constant speed with no geometric terms factors it once per run (after the one factorization of
-//! the mass matrix for the initial accelerations). A step with nothing nonlinear
+//! the mass matrix for the initial accelerations). The clearance joints' terms go on that
+//! contact-free factor by Woodbury (below) where both sides of every joint turn at one rate and
+//! the solver is [`SolverMode::Woodbury`] (the default); otherwise a change of the contact terms
+//! refactorizes too (the reference, [`SolverMode::Refactor`]). A step with nothing nonlinear
 //! takes exactly one solve.
 //!
 //! Clearance joints: the force method applies the contact force of the step start; the modified
@@ -29,18 +32,23 @@
 //! the recorded force (the force applied in the step) are those of the constant stepper: one
 //! evaluation, [`crate::contact::evaluation`].
 //!
-//! The constant-rate stepper ([`NewtonRun::use_constant_rate`], `stats.stepper ==
-//! "constant-rate"`) is this stepper for models whose Jacobian without the contact terms is the
-//! same at every step ([`NewtonRun::constant_rate_obstacle`]: frames at rest or turning at a
+//! The contact on the contact-free factor: the constant-rate stepper
+//! ([`NewtonRun::use_constant_rate`], `stats.stepper == "constant-rate"`) is this stepper for
+//! models whose Jacobian without the contact terms is the same at every step ([`NewtonRun::constant_rate_obstacle`]: frames at rest or turning at a
 //! constant rate, no geometric terms, no transformed node in a rotating link, both sides of each
 //! clearance joint turning at one rate). It factorizes that Jacobian once, at the run's step, and
 //! solves each iteration with the contact terms as a low-rank update `P^T G P` on it
 //! (Sherman-Morrison-Woodbury, [`crate::linalg::Woodbury`], one 2 x 2 block per joint): `P`, the
 //! derivative of the joint's relative displacement, is constant in axes turning with the joint's
 //! frame, and `G = beta h^2 k + gamma h c + beta h^2 rate c S` (the damping's frame-rotation
-//! term) is turned into those axes. The same linear system as the Newton stepper's, so the same
-//! iterates up to rounding; steps of another length (halved, cut at an event) and a capacitance
-//! too ill-conditioned to trust take the Newton path.
+//! term) is turned into those axes. The same linear system as the refactorizing path's, so the
+//! same iterates up to rounding; steps of another length (halved, cut at an event) and a
+//! capacitance too ill-conditioned to trust take the refactorizing path. The Newton stepper uses
+//! the same update on the contact-free factor of its step, refactorized when that changes
+//! (every step for geometric terms, whose axial forces are those of the step's first iterate);
+//! its later iterations then keep the step start's geometric tangent where the refactorizing
+//! path refreshes it whenever the contact changes, so the two differ within the iteration
+//! tolerance.
 //!
 //! Nothing allocates inside the time loop.
 
@@ -55,7 +63,7 @@ use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
-use crate::run::{RunFailure, RunOutput, RunStats, Settings};
+use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
 const NONE: usize = usize::MAX;
 
@@ -276,14 +284,17 @@ impl LowRankBlocks for JointRows {
     }
 }
 
-/// The constant-rate stepper's solver: the contact-free Jacobian at the run's step `h`,
-/// factorized once, with the contact terms put on it by Woodbury (`J = J0 + P^T G P`, one 2 x 2
-/// block of `G` per clearance joint, linalg/woodbury.rs).
+/// The contact-free factor and the Woodbury update of the contact terms on it (`J = J0 + P^T G
+/// P`, one 2 x 2 block of `G` per clearance joint, linalg/woodbury.rs): the constant-rate
+/// stepper's solver (the contact-free Jacobian factorized once), and the Newton stepper's with
+/// the Woodbury solver (refactorized when the contact-free Jacobian changes, never for a change
+/// of the contact terms).
 #[derive(Debug, Clone)]
 struct RateSolver {
-    /// The step (s) `lu0` holds the Jacobian of; other steps (halved, event substeps) take the
-    /// Newton path.
-    h: f64,
+    /// The constant-rate stepper: the step (s) `lu0` is kept for (other steps, halved or event
+    /// substeps, take the refactorizing path). `None`: the Newton stepper, which refactorizes
+    /// `lu0` whenever the contact-free Jacobian changes (every step with geometric terms).
+    fixed_step: Option<f64>,
     lu0: BandLu,
     /// Whether `lu0`, `wb` and `rows` hold a factorized Jacobian.
     ready: bool,
@@ -291,6 +302,9 @@ struct RateSolver {
     signature: Vec<f64>,
     sig_new: Vec<f64>,
     rows: JointRows,
+    /// The rows at the current frames, compared with `rows` (the Woodbury columns are rebuilt
+    /// when they differ).
+    rows_new: JointRows,
     wb: Woodbury,
     /// `G`, per joint, in its reference axes.
     g: Vec<Mat2>,
@@ -367,8 +381,12 @@ pub struct NewtonRun<'a> {
     hist_joints: Vec<JointHistory>,
     hist_slot: Vec<Option<usize>>,
     limit: f64,
-    /// The constant-rate stepper's solver (`None`: the Newton stepper).
+    /// The contact-free factor and the Woodbury update of the contact on it (the constant-rate
+    /// stepper's, and the Newton stepper's with the Woodbury solver and clearance joints).
     rate: Option<Box<RateSolver>>,
+    /// The step being taken refactorizes the whole Jacobian (a Newton step redone after it did
+    /// not converge on the contact-free factor).
+    direct: bool,
 }
 
 /// Scratch of event-aware stepping: the start-of-step state and penetrations.
@@ -708,7 +726,7 @@ impl<'a> NewtonRun<'a> {
                 });
             }
         }
-        Ok(NewtonRun {
+        let mut run = NewtonRun {
             mech,
             settings,
             links,
@@ -755,19 +773,24 @@ impl<'a> NewtonRun<'a> {
             hist_slot,
             limit,
             rate: None,
-        })
+            direct: false,
+        };
+        if run.settings.solver == SolverMode::Woodbury
+            && !run.mech.joints.is_empty()
+            && !matches!(run.settings.coupling, Coupling::Force)
+        {
+            run.rate = Some(run.contact_free_solver(None));
+        }
+        Ok(run)
     }
 
-    /// The rate (rad/s) of the frame the unknowns of endpoint `e` turn with: `Some(rate of the
-    /// link frame)` for a node with local unknowns, `Some(0.0)` for global or slider unknowns
-    /// (fixed axes), `None` when it has no unknown; and the link for local unknowns.
-    fn endpoint_rate(&self, e: &Endpoint) -> Option<(f64, Option<usize>)> {
+    /// The frame the unknowns of endpoint `e` turn with: `Some((rate, Some(link)))` for a node
+    /// with local unknowns (the link frame's current rate, rad/s), `Some((0.0, None))` for global
+    /// or slider unknowns (fixed axes), `None` when it has no unknown.
+    fn endpoint_turn(&self, e: &Endpoint) -> Option<(f64, Option<usize>)> {
         match e {
             Endpoint::Node { link, node } => match self.links[*link].nodes[*node].trans {
-                Trans::Local(ix) if ix.iter().any(|&i| i != NONE) => Some((
-                    self.mech.links[*link].frame.constant_rate().unwrap_or(f64::NAN),
-                    Some(*link),
-                )),
+                Trans::Local(ix) if ix.iter().any(|&i| i != NONE) => Some((self.frames[*link].rate, Some(*link))),
                 Trans::Global(_) | Trans::Slider { .. } => Some((0.0, None)),
                 _ => None,
             },
@@ -776,38 +799,57 @@ impl<'a> NewtonRun<'a> {
         }
     }
 
+    /// Whether the contact terms can go on the contact-free factor by Woodbury at the current
+    /// frames: with the force method there is nothing to put; else the unknowns of both sides
+    /// of every clearance joint turn at one rate (then the velocity's position dependence is
+    /// `rate S P` and the contact block is `P^T G P`).
+    fn joints_turn_together(&self) -> bool {
+        matches!(self.settings.coupling, Coupling::Force)
+            || self.mech.joints.iter().all(
+                |j| match (self.endpoint_turn(&j.journal), self.endpoint_turn(&j.bearing)) {
+                    (Some((a, _)), Some((b, _))) => a == b,
+                    _ => true,
+                },
+            )
+    }
+
     /// Why the constant-rate stepper cannot run this model with these settings (`None`: it can).
     /// Its Jacobian without the contact terms must be the same at every step: every link frame at
     /// rest or turning at a constant rate ([`crate::kinematics::FrameKinematics::constant_rate`]),
     /// no geometric terms (their axial forces move), no node pinned or on a slider in a link that
     /// rotates (its transform turns with the link), and, with contact terms in the Jacobian
     /// (`method="modified"`), the unknowns of both sides of each clearance joint turning at one
-    /// rate (so that the contact block is `P^T G P` with a constant `P` in the joint's axes).
+    /// rate (so that the contact block is `P^T G P` with a constant `P` in the joint's axes), and
+    /// the Woodbury solver (`solver="refactor"` asks for refactorization).
     pub fn constant_rate_obstacle(&self) -> Option<String> {
+        let mut rate = Vec::with_capacity(self.links.len());
         for (l, ld) in self.mech.links.iter().zip(&self.links) {
-            let Some(rate) = l.frame.constant_rate() else {
+            let Some(r) = l.frame.constant_rate() else {
                 return Some(format!("the frame of link {:?} rotates at a varying rate", l.name));
             };
+            rate.push(r);
             if ld.active.geometric {
                 return Some(format!(
                     "link {:?} carries geometric terms (K2, K3, D2), which change with its axial force",
                     l.name
                 ));
             }
-            if ld.active.transformed && rate != 0.0 {
+            if ld.active.transformed && r != 0.0 {
                 return Some(format!(
                     "link {:?} rotates and has a node pinned or on a slider, whose transform turns with it",
                     l.name
                 ));
             }
         }
-        if matches!(self.settings.coupling, Coupling::Force) {
+        if matches!(self.settings.coupling, Coupling::Force) || self.mech.joints.is_empty() {
             return None;
         }
+        if self.settings.solver == SolverMode::Refactor {
+            return Some("the run asks for solver=\"refactor\"".into());
+        }
+        let turn = |e: &Endpoint| self.endpoint_turn(e).map(|(_, l)| l.map_or(0.0, |l| rate[l]));
         for j in &self.mech.joints {
-            let a = self.endpoint_rate(&j.journal).map(|r| r.0);
-            let b = self.endpoint_rate(&j.bearing).map(|r| r.0);
-            if let (Some(a), Some(b)) = (a, b) {
+            if let (Some(a), Some(b)) = (turn(&j.journal), turn(&j.bearing)) {
                 if a != b {
                     return Some(format!(
                         "the two sides of clearance joint {:?} turn at different rates ({a} and {b} rad/s)",
@@ -817,6 +859,35 @@ impl<'a> NewtonRun<'a> {
             }
         }
         None
+    }
+
+    /// A contact-free solver for `n` unknowns and the joints of this run; `fixed_step` as
+    /// [`RateSolver::fixed_step`].
+    fn contact_free_solver(&self, fixed_step: Option<f64>) -> Box<RateSolver> {
+        let nj = if matches!(self.settings.coupling, Coupling::Force) {
+            0
+        } else {
+            self.mech.joints.len()
+        };
+        let rows = JointRows {
+            cols: vec![[(NONE, [0.0; 2]); 4]; nj],
+            axes: vec![None; nj],
+            rate: vec![0.0; nj],
+        };
+        Box::new(RateSolver {
+            fixed_step,
+            lu0: BandLu::new(self.n, self.lu.bandwidth()),
+            ready: false,
+            signature: Vec::new(),
+            sig_new: Vec::new(),
+            rows_new: rows.clone(),
+            rows,
+            wb: Woodbury::default(),
+            g: vec![[[0.0; 2]; 2]; nj],
+            any: false,
+            scratch: WoodburyScratch::for_rank(2 * nj),
+            rhs: vec![0.0; self.n],
+        })
     }
 
     /// Makes this run the constant-rate stepper: the contact-free Jacobian at the step
@@ -832,87 +903,90 @@ impl<'a> NewtonRun<'a> {
                 format!("\"newton\" or None for this model ({why})"),
             ));
         }
-        let n = self.n;
         self.stats.stepper = "constant-rate";
-        self.rate = Some(Box::new(RateSolver {
-            h: self.settings.dt,
-            lu0: BandLu::new(n, self.lu.bandwidth()),
-            ready: false,
-            signature: Vec::new(),
-            sig_new: Vec::new(),
-            rows: JointRows::default(),
-            wb: Woodbury::default(),
-            g: vec![[[0.0; 2]; 2]; self.mech.joints.len()],
-            any: false,
-            scratch: WoodburyScratch::default(),
-            rhs: vec![0.0; n],
-        }));
+        self.rate = Some(self.contact_free_solver(Some(self.settings.dt)));
         Ok(())
     }
 
-    /// The rows of `P` in each joint's reference axes at the current frames (see [`JointRows`]);
-    /// no joint with the force method (its contact is not in the Jacobian).
-    fn joint_rows(&self) -> JointRows {
-        let mut rows = JointRows::default();
-        if matches!(self.settings.coupling, Coupling::Force) {
-            return rows;
-        }
-        for jt in &self.mech.joints {
-            let a = self.endpoint_rate(&jt.journal);
-            let b = self.endpoint_rate(&jt.bearing);
-            let (rate, axes) = match (a, b) {
-                (Some((r, Some(l))), _) | (_, Some((r, Some(l)))) if r != 0.0 => (r, Some(l)),
+    /// The rows of `P` in each joint's reference axes at the current frames (see
+    /// [`JointRows`]), into `rows` (sized for the joints; nothing allocated). A node with local
+    /// unknowns on the reference link gets the exact unit columns, so the rows of a joint that
+    /// turns with its link are bitwise the same at every step.
+    fn fill_joint_rows(&self, rows: &mut JointRows) {
+        for j in 0..rows.cols.len() {
+            let jt = &self.mech.joints[j];
+            let (rate, axes) = match (self.endpoint_turn(&jt.journal), self.endpoint_turn(&jt.bearing)) {
+                (Some((r, Some(l))), _) if r != 0.0 => (r, Some(l)),
+                (_, Some((r, Some(l)))) if r != 0.0 => (r, Some(l)),
                 _ => (0.0, None),
             };
             let rt = axes.map(|l| rot(self.frames[l].angle));
-            let turn = |g: [f64; 2]| match rt {
-                // R^T g
-                Some(r) => [r[0][0] * g[0] + r[1][0] * g[1], r[0][1] * g[0] + r[1][1] * g[1]],
-                None => g,
-            };
-            let ja = self.endpoint_jac(&jt.journal);
-            let jb = self.endpoint_jac(&jt.bearing);
             let mut cols = [(NONE, [0.0; 2]); 4];
-            for (k, (i, g, _)) in ja.into_iter().enumerate() {
-                cols[k] = (i, turn(g));
+            for (slot, e, sgn) in [(0, &jt.journal, 1.0), (2, &jt.bearing, -1.0)] {
+                let on_axes = match e {
+                    Endpoint::Node { link, node } => {
+                        Some(*link) == axes && matches!(self.links[*link].nodes[*node].trans, Trans::Local(_))
+                    }
+                    _ => false,
+                };
+                for (k, (i, g, _)) in self.endpoint_jac(e).into_iter().enumerate() {
+                    let g = if on_axes {
+                        // R^T R e_k = e_k exactly
+                        if k == 0 {
+                            [1.0, 0.0]
+                        } else {
+                            [0.0, 1.0]
+                        }
+                    } else if let Some(r) = rt {
+                        // R^T g
+                        [r[0][0] * g[0] + r[1][0] * g[1], r[0][1] * g[0] + r[1][1] * g[1]]
+                    } else {
+                        g
+                    };
+                    cols[slot + k] = (i, [sgn * g[0], sgn * g[1]]);
+                }
             }
-            for (k, (i, g, _)) in jb.into_iter().enumerate() {
-                cols[2 + k] = (i, turn([-g[0], -g[1]]));
-            }
-            rows.cols.push(cols);
-            rows.axes.push(axes);
-            rows.rate.push(rate);
+            rows.cols[j] = cols;
+            rows.axes[j] = axes;
+            rows.rate[j] = rate;
         }
-        rows
     }
 
-    /// Before the first iteration of a constant-rate step of length `h`: factorizes the
-    /// contact-free Jacobian (and builds the Woodbury columns) the first time, or again if the
-    /// frames' signature ever changed (a frame whose rate is not constant after all).
+    /// Before the first iteration of a step of length `h` (s) solved on the contact-free factor:
+    /// factorizes the contact-free Jacobian when it changed (the frames' signature, or the axial
+    /// forces of geometric terms, which are taken at the step's start as in the Newton path) and
+    /// rebuilds the Woodbury columns when the factor or the rows of `P` changed. For the
+    /// constant-rate stepper that is once per run. Fails as [`Self::factorize`].
     fn rate_prepare(&mut self, h: f64) -> Result<()> {
-        let mut rs = self.rate.take().expect("constant-rate run");
+        let mut rs = self.rate.take().expect("contact-free solver");
         let mut sig = std::mem::take(&mut rs.sig_new);
         self.frame_signature(h, &mut sig);
-        let res = if rs.ready && sig == rs.signature {
-            Ok(())
-        } else {
+        let refactor = !rs.ready || sig != rs.signature || self.nonlinear_geometric;
+        let mut res = Ok(());
+        if refactor {
             std::mem::swap(&mut rs.signature, &mut sig);
             let nm = self.settings.newmark;
             self.assemble(nm.beta * h * h, nm.gamma * h, &mut rs.lu0, true, false);
             self.stats.factorizations += 1;
             rs.ready = false;
-            let res = rs
+            res = rs
                 .lu0
                 .factorize("effective matrix of the mechanism")
                 .map_err(|e| self.name_pivot(e));
-            if res.is_ok() {
-                rs.rows = self.joint_rows();
-                rs.wb = Woodbury::new(&mut rs.lu0, &rs.rows);
-                rs.scratch = WoodburyScratch::for_rank(rs.wb.m());
-                rs.ready = true;
+        }
+        if res.is_ok() {
+            self.fill_joint_rows(&mut rs.rows_new);
+            if refactor || rs.rows_new.cols != rs.rows.cols {
+                std::mem::swap(&mut rs.rows, &mut rs.rows_new);
+                let RateSolver { lu0, rows, wb, .. } = &mut *rs;
+                wb.rebuild(lu0, rows);
+            } else {
+                // same columns; the axes' angle and the rate for this step
+                rs.rows.axes.clone_from_slice(&rs.rows_new.axes);
+                rs.rows.rate.clone_from_slice(&rs.rows_new.rate);
             }
-            res
-        };
+            rs.ready = true;
+        }
         rs.sig_new = sig;
         self.rate = Some(rs);
         res
@@ -974,7 +1048,7 @@ impl<'a> NewtonRun<'a> {
     /// factor alone while every contact is open, by Woodbury otherwise; a capacitance below
     /// [`WOODBURY_RCOND`] falls back to the whole Jacobian, refactorized by the Newton path.
     fn rate_solve(&mut self, h: f64, dx: &mut [f64]) -> Result<()> {
-        let mut rs = self.rate.take().expect("constant-rate run");
+        let mut rs = self.rate.take().expect("contact-free solver");
         if !rs.any {
             rs.lu0.solve_in_place(dx);
             self.rate = Some(rs);
@@ -1113,6 +1187,10 @@ impl<'a> NewtonRun<'a> {
             [g(yd, nt.idx[0]), g(yd, nt.idx[1]), g(yd, nt.idx[2])],
             [g(ydd, nt.idx[0]), g(ydd, nt.idx[1]), g(ydd, nt.idx[2])],
         );
+        if nt.plain {
+            // T the identity on the node's own unknowns, Td = Tdd = 0
+            return [q, qd, qdd];
+        }
         let mut w = [[0.0; 3]; 3];
         for r in 0..3 {
             for c in 0..3 {
@@ -1179,6 +1257,10 @@ impl<'a> NewtonRun<'a> {
             let mut wprev = Self::local(&prev, &self.y, &self.yd, &self.ydd);
             let (c0, k0) = self.element_ck(li, 0.0);
             let k23 = ld.k2u + ld.k3u;
+            // the nominal acceleration of the frame origin and the frame's rates: the same for
+            // every element of the link (one rotation per link, not per element)
+            let fr = self.frames[li];
+            let fs = if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] };
             let d2 = ld.k2u * ld.eta_e;
             for e in 0..self.mech.links[li].elements {
                 let next = self.nt(li, e + 1);
@@ -1194,8 +1276,6 @@ impl<'a> NewtonRun<'a> {
                     f += (k23 * q + d2 * qd) * fax;
                 }
                 if ld.active.load {
-                    let fr = &self.frames[li];
-                    let fs = self.a_ref(li, 0.0);
                     let b = &ld.loads[e];
                     f += b[0] * fs[0] + b[1] * fs[1] - b[2] * (fr.rate * fr.rate) + b[3] * fr.accel;
                 }
@@ -1636,8 +1716,14 @@ impl<'a> NewtonRun<'a> {
         }
         let iterate_contact = self.implicit_contact;
         let linear = !self.nonlinear_geometric && !iterate_contact;
-        // the constant-rate stepper's step: the contact-free factor of step h and Woodbury
-        let rate_step = self.rate.as_ref().is_some_and(|r| r.h == h);
+        // the contact terms on the contact-free factor by Woodbury (the constant-rate stepper at
+        // its step; the Newton stepper with the Woodbury solver when the joints allow it)
+        let rate_step = !self.direct
+            && self
+                .rate
+                .as_ref()
+                .is_some_and(|r| r.fixed_step.is_none_or(|hh| hh == h))
+            && self.joints_turn_together();
         let scale_floor = 1e-9 * self.limit / 10.0;
         let mut iters = 0usize;
         let mut last_res = f64::NAN;
@@ -1750,6 +1836,16 @@ impl<'a> NewtonRun<'a> {
         }
         self.restore();
         self.update_frames(t);
+        if rate_step && !self.direct && self.rate.as_ref().is_some_and(|r| r.fixed_step.is_none()) {
+            // the Newton stepper's step on the contact-free factor did not converge: redo it
+            // refactorizing the whole Jacobian when it changes (which also refreshes the
+            // geometric tangent at every contact change), as the reference path does
+            self.stats.woodbury_fallbacks += 1;
+            self.direct = true;
+            let res = self.step(t, h, step, depth);
+            self.direct = false;
+            return res;
+        }
         if depth < self.settings.newton.step_halving {
             self.step(t, 0.5 * h, step, depth + 1)?;
             self.step(t + 0.5 * h, 0.5 * h, step, depth + 1)?;
@@ -2126,7 +2222,7 @@ impl<'a> NewtonRun<'a> {
             self.track[j].max_penetration = f64::NEG_INFINITY;
         }
         let h = self.settings.dt;
-        if self.rate.is_some() {
+        if self.rate.as_ref().is_some_and(|r| r.fixed_step.is_some()) {
             // the constant-rate stepper's one factorization (and its Woodbury columns), before
             // the time loop: nothing is allocated there
             self.update_frames(h);

@@ -43,25 +43,36 @@ pub struct Woodbury {
 impl Woodbury {
     /// Builds `Z` and `W` with `factor` (which holds `A0`): m solves of dimension n.
     pub fn new<F: Factor, P: LowRankBlocks + ?Sized>(factor: &mut F, p: &P) -> Self {
+        let mut wb = Woodbury::default();
+        wb.rebuild(factor, p);
+        wb
+    }
+
+    /// Rebuilds `Z` and `W` for `factor` and `p` in place, as [`Woodbury::new`] does, reusing the
+    /// storage (nothing is allocated when the dimensions are those of the last build).
+    pub fn rebuild<F: Factor, P: LowRankBlocks + ?Sized>(&mut self, factor: &mut F, p: &P) {
         let n = factor.dim();
         let m = 2 * p.blocks();
-        let mut z = vec![0.0; n * m];
+        self.n = n;
+        self.m = m;
+        self.z.clear();
+        self.z.resize(n * m, 0.0);
         for b in 0..p.blocks() {
             for r in 0..2 {
-                let col = &mut z[(2 * b + r) * n..(2 * b + r + 1) * n];
+                let col = &mut self.z[(2 * b + r) * n..(2 * b + r + 1) * n];
                 p.scatter(b, r, col);
                 factor.solve_in_place(col);
             }
         }
-        let mut w = vec![0.0; m * m];
+        self.w.clear();
+        self.w.resize(m * m, 0.0);
         for b in 0..p.blocks() {
             for c in 0..m {
-                let pz = p.project(b, &z[c * n..(c + 1) * n]);
-                w[(2 * b) * m + c] = pz[0];
-                w[(2 * b + 1) * m + c] = pz[1];
+                let pz = p.project(b, &self.z[c * n..(c + 1) * n]);
+                self.w[(2 * b) * m + c] = pz[0];
+                self.w[(2 * b + 1) * m + c] = pz[1];
             }
         }
-        Woodbury { n, m, z, w }
     }
 
     /// The rank `m` (2 per joint).
