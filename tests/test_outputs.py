@@ -313,10 +313,13 @@ def test_study_slider_outputs_against_the_ideal_mechanism():
 
     kw = dict(fixed={"clearance_at": "crank_pin"}, samples=3, seed=2, t_end=0.004, dt=1e-5, sliders=True)
     s = Study("slider_crank", vary={"clearance": Uniform(1e-4, 3e-4)}, **kw)
-    f = s.run(threads=2, progress=False).frame
+    result = s.run(threads=2, progress=False)
+    f = result.frame
     assert (f["status"] == "ok").all()
     cols = [f"slider.{o}" for o in SLIDER_OUTPUTS]
-    assert all(c in f.columns for c in cols)
+    assert all(c in f.columns for c in cols) and s.output_columns[-len(cols) :] == cols
+    assert list(result.summary().index) == s.output_columns
+    assert result.exceedance("slider.max_acceleration", 0.0)["n"] == 3
     assert len(s._ideal) == 1  # one ideal run for the three samples (only the clearance varies)
     # the same numbers by hand for the first sample
     row = f.iloc[0]

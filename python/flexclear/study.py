@@ -313,6 +313,13 @@ _UNITS = {
     "max_impact_velocity": "m/s",
     "rms_penetration": "m",
     "rms_force": "N",
+    "max_acceleration": "m/s^2",
+    "position_deviation_mean": "m",
+    "position_deviation_max": "m",
+    "velocity_deviation_mean": "m/s",
+    "velocity_deviation_max": "m/s",
+    "acceleration_deviation_mean": "m/s^2",
+    "acceleration_deviation_max": "m/s^2",
     "free_flight_fraction": "1",
     "impact_fraction": "1",
     "continuous_fraction": "1",
@@ -790,8 +797,10 @@ class Study:
 
     @property
     def output_columns(self) -> list[str]:
-        """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output."""
-        return [f"{j}.{o}" for j in self.joints for o in self.outputs]
+        """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output,
+        then ``"<slider>.<output>"`` per slider and :data:`SLIDER_OUTPUTS` (``sliders=True``)."""
+        joints = [f"{j}.{o}" for j in self.joints for o in self.outputs]
+        return joints + [f"{n}.{o}" for n in self._slider_names for o in SLIDER_OUTPUTS]
 
     def column(self, output: str) -> str:
         """The result column of ``output``: a full ``"<joint>.<output>"`` name, or a bare output
@@ -1308,9 +1317,6 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     for r in keep:
         for c in study.output_columns:
             r.setdefault(c, float("nan"))
-        for n in study._slider_names:
-            for o in SLIDER_OUTPUTS:
-                r.setdefault(f"{n}.{o}", float("nan"))
         if hist:
             for j in study.joints:
                 for ch in _history_channels(study):
@@ -1447,7 +1453,6 @@ def _run_rows_task(definition: dict, ids: list, rows: list, pool: tuple):
 def _columns(study: Study) -> list[str]:
     cols = ["sample", *study.vary, "status", "message", "dt_used", "retries", "wall_time"]
     cols += study.output_columns
-    cols += [f"{n}.{o}" for n in study._slider_names for o in SLIDER_OUTPUTS]
     if study.history_every is not None:
         for j in study.joints:
             cols += [f"{j}.{ch}_history" for ch in _history_channels(study)]
