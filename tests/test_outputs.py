@@ -380,3 +380,11 @@ def test_study_slider_outputs_against_the_ideal_mechanism():
     )
     with pytest.raises(fc.InvalidParameterError, match="sliders"):
         Study("slider_yoke", sliders=True)
+
+
+def test_slider_histories_in_pandas():
+    res = scenes.slider_crank().simulate(0.002, 1e-5, record=Record(every=10))
+    df = res.to_pandas()
+    s = res.slider("slider")
+    np.testing.assert_array_equal(df["slider.position"].to_numpy(), s.position)
+    np.testing.assert_array_equal(df["slider.acceleration"].to_numpy(), s.acceleration)
