@@ -499,6 +499,7 @@ def _history_bytes(res: flexclear.Result) -> int:
     n += sum(h[k].nbytes for h in raw["joints"] for k in ("penetration", "force", "qx", "qy"))
     n += sum(h[k].nbytes for h in raw.get("nodes", ()) for k in ("u", "v", "theta"))
     n += sum(a.nbytes for lk in raw["links"] for a in lk.values())
+    n += sum(h[k].nbytes for h in raw.get("sliders", ()) for k in ("position", "velocity", "acceleration"))
     return n
 
 
