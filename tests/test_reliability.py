@@ -503,6 +503,7 @@ def _history_bytes(res: flexclear.Result) -> int:
     n += sum(getattr(h, k).nbytes for h in raw.nodes for k in ("u", "v", "theta"))
     channels = ("frame", "displacements", "axial_force", "midspan", "kinetic", "strain", "momentum")
     n += sum(getattr(lk, k).nbytes for lk in raw.links for k in channels)
+    n += sum(getattr(h, k).nbytes for h in raw.sliders for k in ("position", "velocity", "acceleration"))
     return n
 
 

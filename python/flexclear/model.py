@@ -824,6 +824,8 @@ class Model:
         if moving:
             records = steps // every + 2
             ch["time and link frames"] = 1 + 4 * len(elements)
+            if self._slider_ids:
+                ch["slider histories"] = 3 * len(self._slider_ids)
             if disp:
                 ch["link displacements"] = link_channels
             if rec.energy:

@@ -549,7 +549,8 @@ class Result:
         """The recorded histories as a pandas DataFrame indexed by time (s): one column per joint
         channel (``"<joint>.penetration"`` m, ``"<joint>.force"`` N, ``"<joint>.qx"``/``qy`` m) and
         per recorded node (``"<link>[<node>].u"``, ``.v`` m, ``.theta`` rad), and the link channels
-        ``"<link>.midspan"`` (m) where recorded."""
+        ``"<link>.midspan"`` (m) where recorded, and per slider ``"<slider>.position"`` (m),
+        ``.velocity`` (m/s), ``.acceleration`` (m/s^2) along its guide."""
         import pandas as pd
 
         cols: dict[str, np.ndarray] = {}
@@ -570,6 +571,11 @@ class Result:
             lr = self.link(ln)
             if lr.midspan.size == n and n:
                 cols[f"{ln}.midspan"] = lr.midspan
+        for h in self._raw.sliders:
+            for ch in ("position", "velocity", "acceleration"):
+                a = getattr(h, ch)
+                if a.size == n and n:
+                    cols[f"{h.name}.{ch}"] = a
         frame = pd.DataFrame(cols, index=pd.Index(self.time, name="time"))
         return frame
 

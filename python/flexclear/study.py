@@ -35,6 +35,7 @@ import inspect
 import json
 import math
 import os
+import threading
 import time
 import warnings
 from collections.abc import Mapping, Sequence
@@ -270,6 +271,33 @@ OUTPUTS = {
     "continuous_fraction": "fraction of the time in continuous contact (longer episodes)",
     "dissipated_energy": "energy dissipated in the joint (work balance of the contact force), J",
 }
+#: Per-slider outputs of ``Study(sliders=True)`` (columns ``"<slider>.<output>"``), with units: the
+#: peak acceleration along the guide and the deviation of the slider's motion from the same
+#: mechanism with ideal joints (mean absolute and peak over the recorded samples).
+SLIDER_OUTPUTS = {
+    "max_acceleration": "peak acceleration along the guide, m/s^2",
+    "position_deviation_mean": "mean |x - x_ideal| along the guide, m",
+    "position_deviation_max": "peak |x - x_ideal|, m",
+    "velocity_deviation_mean": "mean |v - v_ideal|, m/s",
+    "velocity_deviation_max": "peak |v - v_ideal|, m/s",
+    "acceleration_deviation_mean": "mean |a - a_ideal|, m/s^2",
+    "acceleration_deviation_max": "peak |a - a_ideal|, m/s^2",
+}
+#: Parameters of a build's clearance joint, left out of the ideal mechanism of ``sliders``.
+_JOINT_PARAMETERS = frozenset(
+    (
+        "clearance_at",
+        "clearance",
+        "bearing_stiffness",
+        "bearing_damping",
+        "bearing_damping_ratio",
+        "pin_radius",
+        "poisson_ratio",
+        "reference_penetration",
+        "damping_law",
+    )
+)
+_IDEAL_LOCK = threading.Lock()
 #: Outputs that need the runs to track the contact modes (``Record(contact_modes=True)``).
 MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
 #: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS`).
@@ -285,6 +313,13 @@ _UNITS = {
     "max_impact_velocity": "m/s",
     "rms_penetration": "m",
     "rms_force": "N",
+    "max_acceleration": "m/s^2",
+    "position_deviation_mean": "m",
+    "position_deviation_max": "m",
+    "velocity_deviation_mean": "m/s",
+    "velocity_deviation_max": "m/s",
+    "acceleration_deviation_mean": "m/s^2",
+    "acceleration_deviation_max": "m/s^2",
     "free_flight_fraction": "1",
     "impact_fraction": "1",
     "continuous_fraction": "1",
@@ -461,6 +496,13 @@ class Study:
     history_every : int, optional
         Also keep the joint's penetration and force histories, decimated to every k-th step
         (memory grows with the run length: off by default).
+    sliders : bool
+        Also report every slider's :data:`SLIDER_OUTPUTS` (columns ``"<slider>.<output>"``):
+        its peak acceleration along the guide, and the deviation of its position, velocity and
+        acceleration from the same mechanism with ideal joints (the build called with
+        ``clearance_at=None``; one ideal run per study structure, i.e. per distinct set of the
+        other parameters, ``t_end`` and ``dt``, not per sample), mean absolute and peak over the
+        recorded samples. Needs a build with a ``clearance_at`` parameter (``slider_crank``).
     orbit : bool
         Also keep the journal-centre orbit of each reported joint: columns
         ``"<joint>.qx_history"`` and ``"<joint>.qy_history"``, the journal centre relative to the
@@ -489,6 +531,7 @@ class Study:
         start: float = 0.0,
         history_every: Optional[int] = None,
         orbit: bool = False,
+        sliders: bool = False,
         retries: int = 0,
         retry_factor: float = 0.5,
         run_options: Optional[Mapping[str, Any]] = None,
@@ -648,9 +691,40 @@ class Study:
             raise InvalidParameterError(f"joints = {joints!r} is not allowed; allowed: a subset of {names}")
         self.joints = chosen
         self._joint_indices = [names.index(j) for j in chosen]
+        takes = "clearance_at" in self._scene_defaults
+        if not isinstance(sliders, (bool, np.bool_)) or (sliders and not takes):
+            raise InvalidParameterError(
+                f"sliders = {sliders!r} is not allowed; allowed: False, or True with a build that takes "
+                "clearance_at (the ideal mechanism is the build with clearance_at=None)"
+            )
+        self.sliders = bool(sliders)
+        self._slider_names = list(probe.slider_names) if self.sliders else []
+        #: The ideal-joint runs of ``sliders``, per structure (see :meth:`_ideal_run`).
+        self._ideal: dict = {}
         self._inputs: Optional[Any] = None
         #: Thresholds for the report's exceedance table (output -> value), from a study file.
         self.report_thresholds: dict[str, float] = {}
+
+    def _ideal_run(self, kwargs: Optional[dict], t_end: float, dt: float, options: dict):
+        """The run of the same mechanism with ideal joints (the build with ``clearance_at=None``)
+        for a sample built with ``kwargs``: one per structure (the parameters other than the
+        clearance joint's, ``t_end``, ``dt``), shared by every sample of it; None when it fails."""
+        if kwargs is None:
+            return None
+        kw = {k: v for k, v in kwargs.items() if k not in _JOINT_PARAMETERS}
+        kw["clearance_at"] = None
+        key = (json.dumps(kw, sort_keys=True, default=repr), float(t_end), float(dt))
+        with _IDEAL_LOCK:
+            if key not in self._ideal:
+                from .result import Record
+
+                record = Record(histories=False, displacements=False, every=self.history_every or 1)
+                try:
+                    model = self._scene_fn(**kw)
+                    self._ideal[key] = model.simulate(t_end, dt, record=record, progress=False, **options)
+                except FlexclearError:
+                    self._ideal[key] = None
+            return self._ideal[key]
 
     # -- definition ---------------------------------------------------------------------------
 
@@ -672,6 +746,7 @@ class Study:
             "start": self.start,
             "history_every": self.history_every,
             **({"orbit": True} if self.orbit else {}),
+            **({"sliders": True} if self.sliders else {}),
             "retries": self.retries,
             "retry_factor": self.retry_factor,
             "run_options": self.run_options,
@@ -722,8 +797,10 @@ class Study:
 
     @property
     def output_columns(self) -> list[str]:
-        """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output."""
-        return [f"{j}.{o}" for j in self.joints for o in self.outputs]
+        """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output,
+        then ``"<slider>.<output>"`` per slider and :data:`SLIDER_OUTPUTS` (``sliders=True``)."""
+        joints = [f"{j}.{o}" for j in self.joints for o in self.outputs]
+        return joints + [f"{n}.{o}" for n in self._slider_names for o in SLIDER_OUTPUTS]
 
     def column(self, output: str) -> str:
         """The result column of ``output``: a full ``"<joint>.<output>"`` name, or a bare output
@@ -1136,7 +1213,10 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
         rec: dict[str, Any] = {"sample": int(i)}
         rec.update(row)
         try:
-            model = study._scene_fn(**study._scene_kwargs(row))
+            build_kwargs = study._scene_kwargs(row)
+            model = study._scene_fn(**build_kwargs)
+            if study.sliders:
+                model._build_kwargs = build_kwargs  # for the ideal run of the same structure
         except FlexclearError as e:
             rec.update(status="invalid", message=str(e), dt_used=float("nan"), retries=0, wall_time=0.0)
             records.append(rec)
@@ -1219,6 +1299,9 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             retries=out["retries"],
             wall_time=out["wall_time"],
         )
+        for n, vals in (out.get("sliders") or {}).items():
+            for o, v in vals.items():
+                rec[f"{n}.{o}"] = v
         for j, ji in zip(study.joints, study._joint_indices):
             ext = out["extremes"][ji] if out["extremes"] and status == "ok" else None
             for o in study.outputs:
@@ -1249,6 +1332,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
     from .result import Record
 
     hist = study.history_every is not None
+    dt0 = dt
     record = Record(
         joints=study.joints,
         displacements=False,
@@ -1295,7 +1379,31 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
                 joints.append(h)
         out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
         out.update(extremes=extremes, joints=joints)
+        if study.sliders:
+            ideal = study._ideal_run(getattr(model, "_build_kwargs", None), t_end, dt0, options)
+            out["sliders"] = {n: _slider_outputs(res, ideal, n, study.start) for n in study._slider_names}
         return out
+
+
+def _slider_outputs(res, ideal, name: str, start: float) -> dict:
+    """:data:`SLIDER_OUTPUTS` of slider ``name`` of run ``res`` against the ideal run ``ideal``
+    over the recorded samples from ``start`` (s); the ideal run interpolated onto the run's
+    times where the grids differ (after a retry at a smaller step)."""
+    s = res.slider(name)
+    out = {"max_acceleration": s.max_acceleration}
+    i = ideal.slider(name) if ideal is not None else None
+    keep = res.time >= start
+    for ch in ("position", "velocity", "acceleration"):
+        x = getattr(s, ch)
+        if i is None or not x.size:
+            dev = np.full(1, np.nan)
+        elif np.array_equal(ideal.time, res.time):
+            dev = np.abs(x - getattr(i, ch))[keep]
+        else:
+            dev = np.abs(x - np.interp(res.time, ideal.time, getattr(i, ch)))[keep]
+        out[f"{ch}_deviation_mean"] = float(np.mean(dev))
+        out[f"{ch}_deviation_max"] = float(np.max(dev))
+    return out
 
 
 def _outcome(status: str, message: str, dt: float, retries: int, wall: float) -> dict:
@@ -2105,6 +2213,7 @@ __all__ = [
     "OUTPUTS",
     "DEFAULT_OUTPUTS",
     "MODE_OUTPUTS",
+    "SLIDER_OUTPUTS",
     "LogNormal",
     "Normal",
     "Study",
