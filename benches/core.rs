@@ -12,7 +12,7 @@ use flexclear::scenes::SliderYoke;
 use flexclear::{simulate, Settings};
 
 fn elements(c: &mut Criterion) {
-    let e = SliderYoke::default().build().unwrap().links[0].element();
+    let e = SliderYoke::default().build().unwrap().to_translating().unwrap().links[0].element();
     c.bench_function("element/mass+stiffness", |b| {
         b.iter(|| (black_box(&e).mass(), black_box(&e).stiffness()))
     });
@@ -28,6 +28,8 @@ fn assembly(c: &mut Criterion) {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         c.bench_function(&format!("assembly/slider {n} elements"), |b| {
             b.iter(|| System::assemble(black_box(&model)))
@@ -36,7 +38,7 @@ fn assembly(c: &mut Criterion) {
 }
 
 fn linsolve(c: &mut Criterion) {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = (0..sys.pattern.nnz())
         .map(|p| sys.mass[p] + 2.5e-13 * sys.stiffness[p])
@@ -71,6 +73,8 @@ fn steps(c: &mut Criterion) {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         for (mname, coupling) in [("modified", Coupling::default()), ("force", Coupling::Force)] {
             let mut s = Settings::new(1e-2, 1e-6);
@@ -91,6 +95,8 @@ fn full_run(c: &mut Criterion) {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.1, 1e-6);
     s.record.histories = false;
@@ -125,6 +131,8 @@ fn lockstep(c: &mut Criterion) {
                 ..Default::default()
             }
             .build()
+            .unwrap()
+            .to_translating()
             .unwrap();
             let mut s = Settings::new(0.02, 1e-5);
             s.record.histories = false;

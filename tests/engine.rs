@@ -162,7 +162,7 @@ fn cantilever_tip_deflection_is_pl3_over_3ei() {
 
 #[test]
 fn factorization_solves_to_small_residual() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = (0..sys.pattern.nnz())
         .map(|p| sys.mass[p] + 1e-10 * sys.stiffness[p])
@@ -196,6 +196,8 @@ fn banded_product_equals_sparse_product() {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         let sys = System::assemble(&model);
         let band = flexclear::plan::assembly::Band::from_csc(&sys.pattern, &sys.stiffness).expect("a chain is banded");
@@ -216,7 +218,7 @@ fn banded_product_equals_sparse_product() {
 
 #[test]
 fn indefinite_matrix_is_reported_not_solved() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = sys.stiffness.iter().map(|k| -k).collect();
     let mut ch = Cholesky::analyze(&sys.pattern).unwrap();
@@ -296,6 +298,8 @@ fn zero_clearance_stiff_joint_makes_the_slider_follow_the_yoke() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.2, 1e-5);
     s.record.joint_position = true;
@@ -307,7 +311,7 @@ fn zero_clearance_stiff_joint_makes_the_slider_follow_the_yoke() {
 }
 
 fn penetration(method: Coupling, solver: SolverMode, dt: f64, t_end: f64, sy: SliderYoke) -> Vec<f64> {
-    let model = sy.build().unwrap();
+    let model = sy.build().unwrap().to_translating().unwrap();
     let mut s = Settings::new(t_end, dt);
     s.coupling = method;
     s.solver = solver;
@@ -367,6 +371,8 @@ fn lagged_force_loses_stability_with_stiff_bearing_modified_does_not() {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         let mut s = Settings::new(0.03, dt);
         s.coupling = c;
@@ -394,6 +400,8 @@ fn gap_element_keeps_penetration_small_and_counts_impacts() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.2, 1e-5);
     s.coupling = Coupling::Gap {
@@ -417,6 +425,8 @@ fn extremes_only_keep_no_history() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.1, 1e-6);
     s.record.histories = false;
@@ -427,16 +437,16 @@ fn extremes_only_keep_no_history() {
 
 #[test]
 fn bad_input_names_the_parameter() {
-    let mut m = SliderYoke::default().build().unwrap();
+    let mut m = SliderYoke::default().build().unwrap().to_translating().unwrap();
     m.links[0].length = -1.0;
     match m.validate() {
         Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "links[0].length"),
         other => panic!("{other:?}"),
     }
-    let mut m = SliderYoke::default().build().unwrap();
+    let mut m = SliderYoke::default().build().unwrap().to_translating().unwrap();
     m.joints[0].node = 99;
     assert!(matches!(m.validate(), Err(Error::InvalidParameter { .. })));
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let s = Settings::new(0.1, f64::NAN);
     assert!(matches!(
         simulate(&model, &s, &mut |_| true).unwrap_err().error,
@@ -474,7 +484,7 @@ fn bad_input_names_the_parameter() {
 
 #[test]
 fn interrupt_stops_with_partial_output() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let s = Settings::new(1.0, 1e-5);
     let fail = simulate(&model, &s, &mut |frac| frac < 0.2).unwrap_err();
     assert!(matches!(fail.error, Error::Interrupted { .. }));

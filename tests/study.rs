@@ -28,6 +28,8 @@ fn clearance_samples(n: usize, elements: impl Fn(usize) -> usize) -> Vec<(flexcl
                 ..Default::default()
             }
             .build()
+            .unwrap()
+            .to_translating()
             .unwrap();
             (model, settings(0.02, 1e-5))
         })
@@ -78,9 +80,12 @@ fn failures_are_data_and_retries_are_recorded() {
     let mut bad = settings(0.01, 1e-5);
     bad.dt = -1.0;
     let samples = vec![
-        (stiff.build().unwrap(), force.clone()), // force method, stiff bearing: diverges at 1e-5
-        (SliderYoke::default().build().unwrap(), bad),
-        (SliderYoke::default().build().unwrap(), force.clone()),
+        (stiff.build().unwrap().to_translating().unwrap(), force.clone()), // force method, stiff bearing: diverges at 1e-5
+        (SliderYoke::default().build().unwrap().to_translating().unwrap(), bad),
+        (
+            SliderYoke::default().build().unwrap().to_translating().unwrap(),
+            force.clone(),
+        ),
     ];
     let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
     let (out, _) = run_batch(&samples, &BatchOptions::default(), &stop, &done).unwrap();
@@ -171,7 +176,7 @@ fn shared_factor_samples(n: usize) -> Vec<(flexclear::model::Model, Settings)> {
                 },
                 _ => Coupling::default(),
             };
-            (scene.build().unwrap(), s)
+            (scene.build().unwrap().to_translating().unwrap(), s)
         })
         .collect()
 }
@@ -220,6 +225,8 @@ fn a_diverging_lane_fails_alone_and_the_others_finish() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     std::mem::swap(&mut samples[1].0, &mut stiff);
     samples[1].1.coupling = Coupling::Force;
@@ -271,6 +278,8 @@ fn samples_that_cannot_share_run_alone() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let options = BatchOptions {
         threads: 2,
@@ -299,12 +308,14 @@ fn samples_that_cannot_share_run_alone() {
 
 #[test]
 fn lanes_that_do_not_share_the_factor_are_refused() {
-    let a = SliderYoke::default().build().unwrap();
+    let a = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let b = SliderYoke {
         elements: 10,
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let s = settings(0.001, 1e-5);
     assert!(Lockstep::<2>::with_analysis(&[(&a, &s), (&b, &s)], None).is_err());
@@ -323,6 +334,8 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap()
     };
     let (spiky, calm) = (build(1e13), build(1e8));
@@ -352,7 +365,7 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
 
 #[test]
 fn event_aware_runs_do_not_share_a_factor() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let s = settings(0.001, 1e-5);
     let mut e = s.clone();
     e.events = true;

@@ -12,6 +12,9 @@ __all__ = [
     "Mechanism",
     "slider_yoke",
     "slider_crank",
+    "four_bar",
+    "spin_up",
+    "spin_up_data",
     "run_batch",
     "NormalLaw",
     "CoulombFriction",
@@ -159,6 +162,8 @@ class Mechanism:
     @property
     def joint_names(self) -> list[str]: ...
     @property
+    def pin_names(self) -> list[str]: ...
+    @property
     def link_elements(self) -> list[int]: ...
     @property
     def link_lengths(self) -> list[float]: ...
@@ -261,6 +266,48 @@ def slider_crank(
     damping_law: str,
     geometric: Optional[bool],
 ) -> tuple[Mechanism, dict[str, float]]: ...
+def four_bar(
+    *,
+    ground_length: float,
+    crank_length: float,
+    coupler_length: float,
+    rocker_length: float,
+    crank_speed: float,
+    branch: float,
+    youngs_modulus: float,
+    density: float,
+    width: float,
+    depth: float,
+    elements: int,
+    flexible_rocker: bool,
+    rocker_elements: Optional[int],
+    damping: float,
+    clearance_at: Optional[str],
+    clearance: float,
+    bearing_stiffness: Optional[float],
+    bearing_damping: Optional[float],
+    pin_radius: float,
+    poisson_ratio: float,
+    reference_penetration: float,
+    bearing_damping_ratio: float,
+    damping_law: str,
+) -> tuple[Mechanism, dict[str, float]]: ...
+def spin_up(
+    *,
+    data: str,
+    length: Optional[float],
+    youngs_modulus: Optional[float],
+    density: Optional[float],
+    area: Optional[float],
+    inertia: Optional[float],
+    final_rate: Optional[float],
+    ramp_time: Optional[float],
+    elements: int,
+    geometric: bool,
+    damping: float,
+    rotation: Optional[Rotation],
+) -> Mechanism: ...
+def spin_up_data() -> dict[str, dict[str, float]]: ...
 def run_batch(
     models: list[Mechanism],
     t_end: list[float],

@@ -158,12 +158,12 @@ pub fn hertz_secant(youngs_modulus: f64, poisson_ratio: f64, radius: f64, cleara
 
 /// An invalid scene parameter; the value is shown with a decimal point (`-1.0`, as Python shows
 /// it: these errors reach Python users of `flexclear.scenes.slider_crank` unchanged).
-fn bad(name: &str, value: f64, allowed: impl Into<String>) -> Error {
+pub(super) fn bad(name: &str, value: f64, allowed: impl Into<String>) -> Error {
     Error::param(name, format!("{value:?}"), allowed)
 }
 
 /// `value` must be finite and > 0.
-fn positive(name: &str, value: f64) -> Result<()> {
+pub(super) fn positive(name: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
@@ -172,7 +172,7 @@ fn positive(name: &str, value: f64) -> Result<()> {
 }
 
 /// `value` must be finite.
-fn finite(name: &str, value: f64) -> Result<()> {
+pub(super) fn finite(name: &str, value: f64) -> Result<()> {
     if value.is_finite() {
         Ok(())
     } else {
