@@ -6,9 +6,16 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use flexclear::batch::{run_batch, BatchOptions, Retry};
 use flexclear::contact::{Coupling, DampingLaw};
 use flexclear::integrator::constant::Lockstep;
+use flexclear::model::mechanism::Mechanism;
 use flexclear::record::RecordSpec;
-use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Error, Settings};
+use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin, SliderYoke};
+use flexclear::{Error, RunFailure, RunOutput, Settings};
+
+/// A single run of a mechanism the constant stepper runs, on the translating model its plan
+/// derives (what the batch runs for such a sample).
+fn simulate(m: &Mechanism, s: &Settings, control: &mut dyn FnMut(f64) -> bool) -> Result<RunOutput, Box<RunFailure>> {
+    flexclear::simulate(&m.to_translating().unwrap(), s, control)
+}
 
 fn settings(t_end: f64, dt: f64) -> Settings {
     let mut s = Settings::new(t_end, dt);
@@ -19,7 +26,7 @@ fn settings(t_end: f64, dt: f64) -> Settings {
     s
 }
 
-fn clearance_samples(n: usize, elements: impl Fn(usize) -> usize) -> Vec<(flexclear::model::Model, Settings)> {
+fn clearance_samples(n: usize, elements: impl Fn(usize) -> usize) -> Vec<(Mechanism, Settings)> {
     (0..n)
         .map(|i| {
             let model = SliderYoke {
@@ -28,8 +35,6 @@ fn clearance_samples(n: usize, elements: impl Fn(usize) -> usize) -> Vec<(flexcl
                 ..Default::default()
             }
             .build()
-            .unwrap()
-            .to_translating()
             .unwrap();
             (model, settings(0.02, 1e-5))
         })
@@ -80,12 +85,9 @@ fn failures_are_data_and_retries_are_recorded() {
     let mut bad = settings(0.01, 1e-5);
     bad.dt = -1.0;
     let samples = vec![
-        (stiff.build().unwrap().to_translating().unwrap(), force.clone()), // force method, stiff bearing: diverges at 1e-5
-        (SliderYoke::default().build().unwrap().to_translating().unwrap(), bad),
-        (
-            SliderYoke::default().build().unwrap().to_translating().unwrap(),
-            force.clone(),
-        ),
+        (stiff.build().unwrap(), force.clone()), // force method, stiff bearing: diverges at 1e-5
+        (SliderYoke::default().build().unwrap(), bad),
+        (SliderYoke::default().build().unwrap(), force.clone()),
     ];
     let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
     let (out, _) = run_batch(&samples, &BatchOptions::default(), &stop, &done).unwrap();
@@ -143,7 +145,7 @@ fn text(r: &Result<flexclear::RunOutput, Box<flexclear::RunFailure>>) -> String 
 
 /// Samples that share one effective matrix: clearances, bearing laws, couplings and motions
 /// differ, M, K, C and dt do not.
-fn shared_factor_samples(n: usize) -> Vec<(flexclear::model::Model, Settings)> {
+fn shared_factor_samples(n: usize) -> Vec<(Mechanism, Settings)> {
     (0..n)
         .map(|i| {
             let scene = SliderYoke {
@@ -176,7 +178,7 @@ fn shared_factor_samples(n: usize) -> Vec<(flexclear::model::Model, Settings)> {
                 },
                 _ => Coupling::default(),
             };
-            (scene.build().unwrap().to_translating().unwrap(), s)
+            (scene.build().unwrap(), s)
         })
         .collect()
 }
@@ -225,8 +227,6 @@ fn a_diverging_lane_fails_alone_and_the_others_finish() {
         ..Default::default()
     }
     .build()
-    .unwrap()
-    .to_translating()
     .unwrap();
     std::mem::swap(&mut samples[1].0, &mut stiff);
     samples[1].1.coupling = Coupling::Force;
@@ -236,7 +236,8 @@ fn a_diverging_lane_fails_alone_and_the_others_finish() {
         matches!(&single[1], Err(f) if matches!(f.error, Error::Diverged { step, .. } if step > 100 && step < 1000))
     );
     assert!(single.iter().enumerate().all(|(i, r)| (i == 1) != r.is_ok()));
-    let runs: Vec<_> = samples.iter().map(|(m, s)| (m, s)).collect();
+    let models: Vec<_> = samples.iter().map(|(m, _)| m.to_translating().unwrap()).collect();
+    let runs: Vec<_> = models.iter().zip(&samples).map(|(m, (_, s))| (m, s)).collect();
     let group = Lockstep::<4>::with_analysis(&runs, None).unwrap();
     let out = group.run(&mut |_| true);
     for (i, (o, e)) in out.iter().zip(&single).enumerate() {
@@ -278,8 +279,6 @@ fn samples_that_cannot_share_run_alone() {
         ..Default::default()
     }
     .build()
-    .unwrap()
-    .to_translating()
     .unwrap();
     let options = BatchOptions {
         threads: 2,
@@ -335,8 +334,6 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
         }
         .build()
         .unwrap()
-        .to_translating()
-        .unwrap()
     };
     let (spiky, calm) = (build(1e13), build(1e8));
     let mut s = settings(0.01, 1e-5);
@@ -355,7 +352,8 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
         },
         Ok(_) => panic!("the spike was not detected"),
     }
-    let out = Lockstep::<2>::with_analysis(&[(&calm, &s), (&spiky, &s)], None)
+    let (calm_t, spiky_t) = (calm.to_translating().unwrap(), spiky.to_translating().unwrap());
+    let out = Lockstep::<2>::with_analysis(&[(&calm_t, &s), (&spiky_t, &s)], None)
         .unwrap()
         .run(&mut |_| true);
     assert!(out[0].is_ok());
@@ -372,4 +370,67 @@ fn event_aware_runs_do_not_share_a_factor() {
     assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &s)], None).is_ok());
     assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &e)], None).is_err());
     assert!(Lockstep::<2>::with_analysis(&[(&model, &e), (&model, &e)], None).is_err());
+}
+
+/// A slider-crank with a clearance joint at the crank pin (the Newton stepper's model) at
+/// `clearance` (m).
+fn slider_crank(clearance: f64) -> Mechanism {
+    FlexibleSliderCrank {
+        clearance_at: Some(SliderCrankPin::CrankPin),
+        clearance,
+        ..Default::default()
+    }
+    .build()
+    .unwrap()
+}
+
+#[test]
+fn samples_that_need_newton_run_in_the_batch_as_single_runs() {
+    // slider-crank samples (Newton) between slider-yoke samples (constant, two lockstep pairs)
+    let mut samples = clearance_samples(4, |_| 12);
+    let mut s = settings(0.004, 1e-5);
+    s.coupling = Coupling::Modified {
+        iterate: true,
+        tol: 1e-10,
+        max_iter: 50,
+    };
+    samples.insert(2, (slider_crank(5e-4), s.clone()));
+    samples.push((slider_crank(2e-4), s.clone()));
+    // a Newton sample that fails before its first step is an outcome too
+    let mut bad = s.clone();
+    bad.dt = -1.0;
+    samples.push((slider_crank(5e-4), bad));
+    let single: Vec<String> = samples
+        .iter()
+        .map(|(m, s)| text(&flexclear::plan::simulate(m, s, &mut |_| true)))
+        .collect();
+    for threads in [1, 2] {
+        let options = BatchOptions {
+            threads,
+            ..Default::default()
+        };
+        let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+        let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+        assert_eq!(done.load(Ordering::Relaxed), samples.len());
+        // [0, 1] and [3, 4] in lockstep; the slider-cranks alone
+        assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (2, 4));
+        for i in [2, 5, 6] {
+            // bitwise the single run, its stepper's statistics included
+            assert_eq!(text(out[i].result.as_ref().unwrap()), single[i], "sample {i}");
+        }
+        let newton = out[2].result.as_ref().unwrap().as_ref().unwrap();
+        assert_eq!(newton.stats.stepper, "newton");
+        assert!(newton.record.extremes[0].max_force > 0.0);
+        let failed = out[6].result.as_ref().unwrap().as_ref().unwrap_err();
+        assert!(matches!(failed.error, Error::InvalidParameter { ref name, .. } if name == "dt"));
+        for i in [0, 1, 3, 4] {
+            let (a, b) = (out[i].result.as_ref().unwrap().as_ref().unwrap(), &samples[i]);
+            let alone = flexclear::plan::simulate(&b.0, &b.1, &mut |_| true).unwrap();
+            // the constant stepper's joint channels, state and counters as in a single run
+            assert_eq!(
+                (&a.record.extremes, &a.state, &a.stats),
+                (&alone.record.extremes, &alone.state, &alone.stats)
+            );
+        }
+    }
 }

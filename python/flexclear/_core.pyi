@@ -318,9 +318,10 @@ def run_batch(
     retries: int = ...,
     retry_factor: float = ...,
     method: str = ...,
-    iterate: bool = ...,
-    tol: float = ...,
-    max_iter: int = ...,
+    iterate: Optional[bool] = ...,
+    tol: Optional[float] = ...,
+    max_iter: Optional[int] = ...,
+    step_halving: int = ...,
     gap_stiffness: Optional[float] = ...,
     gap_damping: float = ...,
     beta: float = ...,
@@ -334,7 +335,9 @@ def run_batch(
     progress: Optional[Callable[[int], Any]] = ...,
     events: bool = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
-    """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
+    """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released, each on the
+    stepper its plan picks (lockstep lanes for the constant stepper, one lane each otherwise);
+    `iterate`, `tol`, `max_iter` None = that stepper's default, as in `Model.simulate`.
 
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes,
     time, joints), the batch counters (analyses, threads, lockstep_groups, lockstep_samples) and

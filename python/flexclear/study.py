@@ -45,7 +45,6 @@ import numpy as np
 
 from . import _core, scenes
 from .errors import (
-    ConvergenceError,
     FlexclearError,
     InvalidParameterError,
     ResourceError,
@@ -1092,8 +1091,10 @@ class _PartWriter:
 
 def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     """Runs the samples ``ids`` with inputs ``rows`` on ``pool = (threads, lanes)``; returns
-    (DataFrame, pending exception). Models whose links all translate go to one Rust batch (lanes
-    for samples that share a factorization); models in moving frames run one per thread."""
+    (DataFrame, pending exception). Every sample goes to one Rust batch, which runs each on the
+    stepper its plan picks: lockstep lanes for samples the constant stepper runs and that share
+    a factorization, one lane each for the others (a sample that needs Newton gives the outcome
+    of its single ``simulate``)."""
     threads, lanes = pool
     import pandas as pd
 
@@ -1101,7 +1102,6 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
 
     records: list[dict] = []
     batch: list[tuple[int, Any, float, float]] = []
-    moving: list[tuple[int, Any, float, float]] = []
     for i, row in zip(ids, rows):
         rec: dict[str, Any] = {"sample": int(i)}
         rec.update(row)
@@ -1118,18 +1118,11 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             rec.update(status="invalid", message=str(e), dt_used=job[3], retries=0, wall_time=0.0)
             records.append(rec)
             continue
-        # samples the constant stepper runs go to the Rust batch (lanes, one analysis)
-        constant = model.engine == "translating"  # the plan: the constant stepper
-        (batch if constant else moving).append(job)
+        batch.append(job)
         records.append(rec)
     hist = study.history_every is not None
     outcomes: dict[int, dict] = {}
     pending = None
-    done = [0, 0]
-
-    def report() -> None:
-        if progress is not None:
-            progress(done[0] + done[1])
 
     simulate_options = {_RUN_OPTION_ALIASES.get(k, k): v for k, v in study.run_options.items()}
     simulate_options.pop("memory_limit", None)  # checked once for the whole study
@@ -1137,20 +1130,18 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     if "iter_tol" in batch_options:
         batch_options["tol"] = batch_options.pop("iter_tol")
     halving = batch_options.pop("step_halving", 0)
-    if batch and halving:
+    if halving:
+        # the constant stepper has no Newton iteration to halve: refused per sample, as
+        # Model.simulate refuses it
         from .model import _bad
 
         message = str(_bad("step_halving", halving, "0 while every link translates (no Newton to halve)"))
-        for k, *_ in batch:
-            records[k].update(status="invalid", message=message, dt_used=float("nan"), retries=0)
-            records[k]["wall_time"] = 0.0
-        batch = []
+        for k, m, *_ in batch:
+            if m.engine == "translating":
+                records[k].update(status="invalid", message=message, dt_used=float("nan"), retries=0)
+                records[k]["wall_time"] = 0.0
+        batch = [job for job in batch if job[1].engine != "translating"]
     if batch:
-
-        def batch_progress(n: int) -> None:
-            done[0] = n
-            report()
-
         outs, _stats, pending = _core.run_batch(
             [m._core for _, m, _, _ in batch],
             [t for _, _, t, _ in batch],
@@ -1164,19 +1155,12 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             every=study.history_every or 1,
             histories=hist,
             start=study.start,
-            progress=batch_progress if progress is not None else None,
+            progress=progress,
+            step_halving=halving,
             **batch_options,
         )
         for (k, *_), out in zip(batch, outs):
             outcomes[k] = out
-    if moving and pending is None:
-
-        def one_done() -> None:
-            done[1] += 1
-            report()
-
-        more, pending = _run_moving(study, moving, threads, one_done, simulate_options)
-        outcomes.update(more)
     for k, out in outcomes.items():
         rec = records[k]
         status = out["status"]
@@ -1206,92 +1190,6 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     frame = pd.DataFrame.from_records(keep, columns=_columns(study))
     frame = frame.set_index("sample")
     return frame, pending
-
-
-def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict) -> dict:
-    """One moving-frame sample, with retries at a smaller step after a divergence or a step that
-    does not converge; the outcome in the layout of the Rust batch."""
-    from .result import Record
-
-    hist = study.history_every is not None
-    record = Record(
-        joints=study.joints,
-        displacements=False,
-        histories=hist,
-        every=study.history_every or 1,
-        start=study.start,
-    )
-    retries = 0
-    t0 = time.perf_counter()
-    while True:
-        try:
-            res = model.simulate(t_end, dt, study.method, record=record, progress=False, **options)
-        except FlexclearError as e:
-            from .errors import SimulationDivergedError, SingularMatrixError
-
-            failed = isinstance(e, (SimulationDivergedError, ConvergenceError))
-            if failed and retries < study.retries:
-                retries += 1
-                dt *= study.retry_factor
-                continue
-            status = (
-                "diverged"
-                if isinstance(e, SimulationDivergedError)
-                else "unconverged"
-                if isinstance(e, ConvergenceError)
-                else "singular"
-                if isinstance(e, SingularMatrixError)
-                else "invalid"
-            )
-            return _outcome(status, str(e), dt, retries, time.perf_counter() - t0)
-        extremes = []
-        for name in model.joint_names:
-            j = res.joint(name)
-            extremes.append({o: getattr(j, o) for o in OUTPUTS})
-        joints = []
-        if hist:
-            for ji, name in zip(study._joint_indices, study.joints):
-                j = res.joint(name)
-                joints.append({"joint": ji, "penetration": j.penetration, "force": j.force})
-        out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
-        out.update(extremes=extremes, joints=joints)
-        return out
-
-
-def _outcome(status: str, message: str, dt: float, retries: int, wall: float) -> dict:
-    return {
-        "status": status,
-        "message": message,
-        "dt": dt,
-        "retries": retries,
-        "wall_time": wall,
-        "extremes": [],
-        "joints": [],
-    }
-
-
-def _run_moving(study: Study, jobs: list, threads: int, one_done, options: dict):
-    """Moving-frame samples on ``threads`` worker threads (0 = one per core); each run releases
-    the GIL. Returns ``({record index: outcome}, pending exception)``; on Ctrl-C the samples not
-    started are dropped and the finished ones kept."""
-    from concurrent.futures import ThreadPoolExecutor, as_completed
-
-    workers = threads if threads > 0 else (os.cpu_count() or 1)
-    out: dict[int, dict] = {}
-    with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
-        futures = {ex.submit(_run_one_moving, study, m, t, d, options): k for k, m, t, d in jobs}
-        try:
-            for fut in as_completed(futures):
-                out[futures[fut]] = fut.result()
-                one_done()
-        except KeyboardInterrupt as e:
-            for f in futures:
-                f.cancel()
-            for f, k in futures.items():
-                if f.done() and not f.cancelled() and f.exception() is None:
-                    out[k] = f.result()
-            return out, e
-    return out, None
 
 
 def _run_rows_task(definition: dict, ids: list, rows: list, pool: tuple):
