@@ -1,5 +1,8 @@
 //! Criterion benches of the hot paths: element matrices, assembly, one Newmark step (contact
 //! open and closed), the linear solves, and a full slider-yoke run (the target case).
+//! The scene builds a mechanism; these benches run the constant stepper on the translating model
+//! its plan derives (`Mechanism::to_translating`), as `plan::simulate` does, without the plan's
+//! per-run work.
 
 use std::hint::black_box;
 
@@ -8,8 +11,9 @@ use flexclear::contact::Coupling;
 use flexclear::integrator::constant::Lockstep;
 use flexclear::linalg::Cholesky;
 use flexclear::plan::assembly::System;
+use flexclear::run::simulate;
 use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Settings};
+use flexclear::Settings;
 
 fn elements(c: &mut Criterion) {
     let e = SliderYoke::default().build().unwrap().to_translating().unwrap().links[0].element();
@@ -149,7 +153,7 @@ fn lockstep(c: &mut Criterion) {
             }
         })
     });
-    fn groups<const L: usize>(samples: &[(flexclear::model::Model, Settings)]) {
+    fn groups<const L: usize>(samples: &[(flexclear::plan::translating::Model, Settings)]) {
         for chunk in samples.chunks(L) {
             let runs: Vec<_> = chunk.iter().map(|(m, s)| (m, s)).collect();
             let out = Lockstep::<L>::with_analysis(&runs, None).unwrap().run(&mut |_| true);

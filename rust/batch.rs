@@ -30,8 +30,8 @@ use crate::error::{Error, Result};
 use crate::integrator::constant::{shares_factor, Lockstep, RunResult};
 use crate::linalg::AnalysisCache;
 use crate::model::mechanism::Mechanism;
-use crate::model::Model;
 use crate::plan::assembly::System;
+use crate::plan::translating::Model;
 use crate::plan::{Plan, StepperKind};
 use crate::run::{simulate_shared, RunFailure, RunOutput, Settings, SolverMode};
 

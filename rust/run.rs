@@ -4,7 +4,7 @@ use crate::contact::Coupling;
 use crate::error::{check_positive, Error, Result};
 use crate::integrator::{Newmark, NewmarkRun};
 use crate::linalg::AnalysisCache;
-use crate::model::Model;
+use crate::plan::translating::Model;
 use crate::record::{RecordSpec, Recorder};
 
 /// How the effective matrix with contact terms is solved.
@@ -237,7 +237,9 @@ impl RunFailure {
     }
 }
 
-/// Runs `model` with `settings`. `control(fraction_done)` is called every few thousand steps and
+/// Runs the translating `model` (the constant stepper's compiled input,
+/// [`crate::plan::translating`]; models are run through [`crate::plan::simulate`], which derives
+/// it) with `settings`. `control(fraction_done)` is called every few thousand steps and
 /// stops the run (as [`Error::Interrupted`]) when it returns `false`.
 ///
 /// Errors before the first step (invalid input, a mass matrix that is not positive definite) come

@@ -5,11 +5,15 @@ use std::sync::Arc;
 
 use flexclear::contact::{Coupling, SpringDamper};
 use flexclear::element::BeamElement;
+use flexclear::kinematics::{RotatingFrame, Rotation};
 use flexclear::linalg::Cholesky;
-use flexclear::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody};
+use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism};
+use flexclear::model::Motion;
 use flexclear::plan::assembly::System;
+use flexclear::plan::translating::Model;
+use flexclear::run::simulate;
 use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Error, Settings, SolverMode};
+use flexclear::{Error, Settings, SolverMode};
 use nalgebra::DMatrix;
 
 fn element() -> BeamElement {
@@ -92,8 +96,16 @@ fn element_stiffness_and_geometric_match_closed_form() {
     assert!(close(by[1] + by[4], e.density * e.area * l, 1e-13));
 }
 
-fn beam(elements: usize) -> FlexibleLink {
-    FlexibleLink {
+/// A frame at rest at the origin, angle 0.
+fn at_rest() -> Arc<RotatingFrame> {
+    Arc::new(RotatingFrame {
+        origin: Motion::Fixed { position: [0.0, 0.0] },
+        rotation: Rotation::Fixed { angle: 0.0 },
+    })
+}
+
+fn beam(elements: usize) -> Link {
+    Link {
         name: "beam".into(),
         length: 1.0,
         elements,
@@ -102,21 +114,28 @@ fn beam(elements: usize) -> FlexibleLink {
         damping: 0.0,
         area: 1e-4,
         inertia: 1e-9,
+        frame: at_rest(),
+        terms: Default::default(),
         rotary_inertia: false,
-        angle: 0.0,
-        motion: Motion::Fixed { position: [0.0, 0.0] },
         initial_displacement: None,
         initial_velocity: None,
     }
 }
 
+/// The constant stepper's compiled input of a mechanism of free `links` (what the plan derives).
+fn translating(links: Vec<Link>) -> Model {
+    Mechanism {
+        links,
+        ..Default::default()
+    }
+    .to_translating()
+    .unwrap()
+}
+
 #[test]
 fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
     let link = beam(10);
-    let model = Model {
-        links: vec![link.clone()],
-        ..Default::default()
-    };
+    let model = translating(vec![link.clone()]);
     let f = flexclear::modes::natural_frequencies(&model, 3).unwrap();
     let c = (link.youngs_modulus * link.inertia / (link.density * link.area)).sqrt() / link.length.powi(2);
     for (fi, bl) in f.iter().zip([4.730041, 7.853205, 10.995608]) {
@@ -124,14 +143,7 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
         assert!(close(*fi, exact, 1e-3), "{fi} vs {exact}");
     }
     // h-convergence: 20 elements are closer than 10
-    let f20 = flexclear::modes::natural_frequencies(
-        &Model {
-            links: vec![beam(20)],
-            ..Default::default()
-        },
-        3,
-    )
-    .unwrap();
+    let f20 = flexclear::modes::natural_frequencies(&translating(vec![beam(20)]), 3).unwrap();
     let exact3 = 10.995608f64.powi(2) * c / (2.0 * std::f64::consts::PI);
     assert!((f20[2] - exact3).abs() < (f[2] - exact3).abs());
 }
@@ -139,10 +151,7 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
 #[test]
 fn cantilever_tip_deflection_is_pl3_over_3ei() {
     let link = beam(8);
-    let model = Model {
-        links: vec![link.clone()],
-        ..Default::default()
-    };
+    let model = translating(vec![link.clone()]);
     let sys = System::assemble(&model);
     let n = sys.n();
     let mut k = DMatrix::zeros(n, n);
@@ -239,10 +248,7 @@ fn free_vibration(dt: f64, t_end: f64) -> (flexclear::RunOutput, Model) {
         // rad/s
     }
     link.initial_velocity = Some(v0);
-    let model = Model {
-        links: vec![link],
-        ..Default::default()
-    };
+    let model = translating(vec![link]);
     let mut s = Settings::new(t_end, dt);
     s.record.nodes = vec![(0, 10)];
     (simulate(&model, &s, &mut |_| true).unwrap(), model)
@@ -458,24 +464,23 @@ fn bad_input_names_the_parameter() {
         damping_law: Default::default(),
         no_tension: false,
     });
-    let bad = Model {
+    let bad = Mechanism {
         links: vec![beam(2)],
-        bodies: vec![RigidBody {
-            name: "g".into(),
-            motion: Motion::Fixed { position: [0.0; 2] },
-        }],
-        joints: vec![ClearanceJoint {
+        joints: vec![Clearance {
             name: "j".into(),
-            link: 0,
-            node: 0,
-            target: JointTarget::Body {
-                body: 0,
+            journal: Endpoint::Node { link: 0, node: 0 },
+            bearing: Endpoint::Body {
+                frame: at_rest(),
                 point: [0.0; 2],
+                name: "g".into(),
             },
             clearance: 0.0,
             law,
         }],
-    };
+        ..Default::default()
+    }
+    .to_translating()
+    .unwrap();
     match bad.validate() {
         Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "joints[0].law.stiffness"),
         other => panic!("{other:?}"),
@@ -508,11 +513,8 @@ fn general_damping_path_matches_proportional_path_link_by_link() {
         l
     };
     let (a, b) = (mk("a", 2e5), mk("b", 7e5));
-    let run = |links: Vec<FlexibleLink>, nodes: Vec<(usize, usize)>| {
-        let model = Model {
-            links,
-            ..Default::default()
-        };
+    let run = |links: Vec<Link>, nodes: Vec<(usize, usize)>| {
+        let model = translating(links);
         let mut s = Settings::new(2e-3, 1e-6);
         s.record.nodes = nodes;
         simulate(&model, &s, &mut |_| true).unwrap()

@@ -14,7 +14,7 @@ use flexclear::{Error, RunFailure, RunOutput, Settings};
 /// A single run of a mechanism the constant stepper runs, on the translating model its plan
 /// derives (what the batch runs for such a sample).
 fn simulate(m: &Mechanism, s: &Settings, control: &mut dyn FnMut(f64) -> bool) -> Result<RunOutput, Box<RunFailure>> {
-    flexclear::simulate(&m.to_translating().unwrap(), s, control)
+    flexclear::run::simulate(&m.to_translating().unwrap(), s, control)
 }
 
 fn settings(t_end: f64, dt: f64) -> Settings {

@@ -5,9 +5,10 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
+use super::translating::{JointTarget, Model};
 use crate::contact::ContactLaw;
 use crate::element::Mat6;
-use crate::model::{JointTarget, Kinematics, Model, Motion, NODE_DOFS};
+use crate::model::{Kinematics, Motion, NODE_DOFS};
 
 /// A square sparsity pattern in compressed sparse column form (row indices sorted per column).
 #[derive(Debug, Clone)]

@@ -12,12 +12,13 @@
 //! stepper. Energy channels need the velocities: a run that records them takes the Newton stepper.
 
 pub mod assembly;
+pub mod translating;
 
 use crate::error::Error;
 use crate::model::mechanism::Mechanism;
-use crate::model::Model;
 use crate::record::LinkHistory;
 use crate::run::{simulate as simulate_translating, RunFailure, RunOutput, Settings};
+use translating::Model;
 
 /// The kinds of stepper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
