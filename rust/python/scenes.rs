@@ -17,8 +17,8 @@ use crate::contact::DampingLaw;
 use crate::error::{check_non_negative, Error};
 use crate::model::check_elements;
 use crate::scenes::{
-    FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin, SliderYoke, SliderYokeGeometry, SpinUp,
-    SpinUpData,
+    BearingDerived, FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin, SliderYoke, SliderYokeGeometry,
+    SpinUp, SpinUpData,
 };
 
 /// The keyword arguments of one scene call.
@@ -96,6 +96,25 @@ impl<'py> Keywords<'_, 'py> {
         };
         err(self.py, e)
     }
+}
+
+/// A scene's derived values as a dict: `values` in order, then, with a clearance joint, the
+/// bearing's `bearing_stiffness`, `bearing_damping` and `effective_mass`.
+fn derived_dict<'py>(
+    py: Python<'py>,
+    values: &[(&str, f64)],
+    bearing: Option<BearingDerived>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let info = PyDict::new(py);
+    for (k, v) in values {
+        info.set_item(*k, *v)?;
+    }
+    if let Some(b) = bearing {
+        info.set_item("bearing_stiffness", b.bearing_stiffness)?;
+        info.set_item("bearing_damping", b.bearing_damping)?;
+        info.set_item("effective_mass", b.effective_mass)?;
+    }
+    Ok(info)
 }
 
 /// The numeric keywords of [`slider_crank`] that the scene checks by name. (`bearing_stiffness`
@@ -187,16 +206,8 @@ pub(super) fn slider_crank<'py>(
     }
     let mech = scene.build().map_err(|e| k.as_given(e))?;
     let d = scene.derived().map_err(|e| k.as_given(e))?;
-    let info = PyDict::new(py);
-    info.set_item("area", d.area)?;
-    info.set_item("inertia", d.inertia)?;
-    info.set_item("rod_mass", d.rod_mass)?;
-    if let Some(b) = d.bearing {
-        info.set_item("bearing_stiffness", b.bearing_stiffness)?;
-        info.set_item("bearing_damping", b.bearing_damping)?;
-        info.set_item("effective_mass", b.effective_mass)?;
-    }
-    Ok((PyMechanism { inner: mech }, info))
+    let values = [("area", d.area), ("inertia", d.inertia), ("rod_mass", d.rod_mass)];
+    Ok((PyMechanism { inner: mech }, derived_dict(py, &values, d.bearing)?))
 }
 
 /// The numeric keywords of [`four_bar`] that the scene checks by name.
@@ -326,15 +337,9 @@ pub(super) fn four_bar<'py>(
     }
     k.no_bool(&link_keywords)?;
     let mech = scene.build().map_err(|e| k.as_given(e))?;
-    let info = PyDict::new(py);
-    info.set_item("area", derived.area)?;
-    info.set_item("inertia", derived.inertia)?;
+    let values = [("area", derived.area), ("inertia", derived.inertia)];
+    let info = derived_dict(py, &values, derived.bearing)?;
     info.set_item("rocker_elements", derived.rocker_elements)?;
-    if let Some(b) = derived.bearing {
-        info.set_item("bearing_stiffness", b.bearing_stiffness)?;
-        info.set_item("bearing_damping", b.bearing_damping)?;
-        info.set_item("effective_mass", b.effective_mass)?;
-    }
     Ok((PyMechanism { inner: mech }, info))
 }
 

@@ -18,7 +18,8 @@
 
 use std::sync::Arc;
 
-use super::slider_crank::{bad, finite, hertz_secant, positive, BearingDerived};
+use super::bearing::{hertz_secant, BearingDerived};
+use super::{bad, finite, positive};
 use crate::contact::{ContactLaw, DampingLaw, SpringDamper};
 use crate::error::{check_non_negative, Error, Result};
 use crate::kinematics::{FourBar, FourBarFrame, FourBarLink, FrameKinematics, Rotation};

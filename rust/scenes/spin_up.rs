@@ -12,7 +12,7 @@
 
 use std::sync::Arc;
 
-use super::slider_crank::{finite, positive};
+use super::{finite, positive};
 use crate::error::Result;
 use crate::kinematics::{RotatingFrame, Rotation};
 use crate::model::check_elements;

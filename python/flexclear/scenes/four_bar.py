@@ -7,7 +7,7 @@ from typing import Any, Optional
 
 from .. import _core
 from ..model import Model
-from ._checks import _types
+from ._checks import _bearing_parameters, _types
 
 
 def four_bar(
@@ -161,17 +161,7 @@ def four_bar(
     params["rocker_elements"] = derived["rocker_elements"] if flexible_rocker else None
     params.update(area=derived["area"], inertia=derived["inertia"], clearance_at=clearance_at)
     if clearance_at is not None:
-        params.update(
-            clearance=clearance,
-            bearing_stiffness=derived["bearing_stiffness"],
-            bearing_damping=derived["bearing_damping"],
-            pin_radius=pin_radius,
-            poisson_ratio=poisson_ratio,
-            reference_penetration=reference_penetration,
-            bearing_damping_ratio=bearing_damping_ratio,
-            effective_mass=derived["effective_mass"],
-            damping_law=damping_law,
-        )
+        params.update(_bearing_parameters(bearing, derived))
     model = Model._wrap(core, params)
     # the bodies in the scene's order (the core lists them by the joints that use them first)
     model._body_frames = {b: model._body_frames[b] for b in ("crank", "rocker") if b in model._body_frames}
