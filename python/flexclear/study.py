@@ -15,9 +15,10 @@ exceedance probabilities with confidence intervals, and plots.
 >>> result.exceedance("bearing.max_force", 50.0)    # P(max force > 50 N) with a 95 % interval
 
 The samples run in one process on a thread pool (``threads=``), or on a Dask cluster when a
-``dask.distributed.Client`` is passed (``client=``): chunks of samples per task. Models whose links
-all translate run as one Rust batch (samples sharing the contact-free factorization step in
-lockstep lanes); models in moving frames run one sample per thread (each run releases the GIL). A
+``dask.distributed.Client`` is passed (``client=``): chunks of samples per task. Every chunk runs
+as one Rust batch with the GIL released: samples the constant stepper runs and that share the
+contact-free factorization step in lockstep lanes; any other sample (a model in moving frames,
+on the Newton stepper) runs as one lane, its outputs those of its own ``Model.simulate``. A
 sample's result does not depend on where or with how many threads it ran, so the same study gives
 identical results serially, threaded and on Dask.
 
