@@ -130,7 +130,7 @@ impl Settings {
     /// Checks the settings against a model of the constant stepper.
     pub fn validate(&self, model: &Model) -> Result<()> {
         self.validate_run()?;
-        let nodes: Vec<usize> = model.links.iter().map(|l| l.elements + 1).collect();
+        let nodes: Vec<usize> = model.links.iter().map(|l| l.section.elements + 1).collect();
         self.record.validate(model.joints.len(), &nodes)?;
         for (i, l) in model.links.iter().enumerate() {
             if let crate::model::Motion::Tabulated(t) = &l.motion {

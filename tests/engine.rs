@@ -444,7 +444,7 @@ fn extremes_only_keep_no_history() {
 #[test]
 fn bad_input_names_the_parameter() {
     let mut m = SliderYoke::default().build().unwrap().to_translating().unwrap();
-    m.links[0].length = -1.0;
+    m.links[0].section.length = -1.0;
     match m.validate() {
         Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "links[0].length"),
         other => panic!("{other:?}"),

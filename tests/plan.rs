@@ -50,7 +50,7 @@ fn the_slider_yoke_as_a_mechanism_runs_on_the_constant_stepper_bitwise() {
     assert_eq!(a.state, b.state);
     // link channels in the Newton stepper's layout, from the node histories
     let l = &a.record.links[0];
-    let (rows, nn) = (a.record.time.len(), model.links[0].elements + 1);
+    let (rows, nn) = (a.record.time.len(), model.links[0].section.elements + 1);
     assert_eq!(
         (l.frame.len(), l.displacements.len(), l.midspan.len()),
         (rows, rows * 3 * nn, rows)

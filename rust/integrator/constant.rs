@@ -571,7 +571,7 @@ impl<'m> Lane<'m> {
         let needs_refactor = nj > 0 && !matches!(settings.coupling, Coupling::Force);
         let limit = settings
             .divergence_limit
-            .unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.length).fold(0.0, f64::max));
+            .unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.section.length).fold(0.0, f64::max));
         let gap_k = sys
             .joints
             .iter()

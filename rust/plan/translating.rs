@@ -25,20 +25,9 @@ use crate::model::Motion;
 pub struct FlexibleLink {
     /// Name, unique among links.
     pub name: String,
-    /// Length L, m.
-    pub length: f64,
-    /// Number of elements N, 1 ..= [`MAX_ELEMENTS`](crate::model::MAX_ELEMENTS) (N + 1 nodes, node 0 at the frame origin).
-    pub elements: usize,
-    /// Young's modulus E, Pa.
-    pub youngs_modulus: f64,
-    /// Density rho, kg/m^3.
-    pub density: f64,
-    /// Kelvin-Voigt damping eta, Pa s (D1 = (eta/E) K1).
-    pub damping: f64,
-    /// Section area A, m^2.
-    pub area: f64,
-    /// Second moment of area I, m^4.
-    pub inertia: f64,
+    /// Length, element count (node 0 at the frame origin), material and section: those of the
+    /// mechanism's link it is derived from.
+    pub section: BeamSection,
     /// Include rotary inertia in the mass matrix.
     pub rotary_inertia: bool,
     /// Orientation of the link axis in the global frame, rad (fixed).
@@ -54,15 +43,7 @@ pub struct FlexibleLink {
 impl FlexibleLink {
     /// Length, element count and section.
     pub fn section(&self) -> BeamSection {
-        BeamSection {
-            length: self.length,
-            elements: self.elements,
-            youngs_modulus: self.youngs_modulus,
-            density: self.density,
-            damping: self.damping,
-            area: self.area,
-            inertia: self.inertia,
-        }
+        self.section
     }
 
     /// Element length l = L / N, m.
@@ -244,7 +225,7 @@ impl Model {
     }
 
     fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
-        let links = self.links.iter().map(|l| (l.name.as_str(), l.elements));
+        let links = self.links.iter().map(|l| (l.name.as_str(), l.section.elements));
         section::check_node(name, "model", links, link, node)
     }
 }
@@ -297,13 +278,7 @@ impl Mechanism {
             }
             model.links.push(FlexibleLink {
                 name: l.name.clone(),
-                length: l.length,
-                elements: l.elements,
-                youngs_modulus: l.youngs_modulus,
-                density: l.density,
-                damping: l.damping,
-                area: l.area,
-                inertia: l.inertia,
+                section: l.section(),
                 rotary_inertia: l.rotary_inertia,
                 angle,
                 motion: motion.clone(),
