@@ -557,7 +557,21 @@ def test_a_failed_moving_frame_sample_stays_its_own_row():
     assert (ok.frame["status"] == "ok").all()
 
 
-def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkeypatch):
+@pytest.fixture
+def batched(monkeypatch):
+    """The models given to the Rust batch during the test, in order (run_batch spied on)."""
+    models = []
+    run_batch = flexclear._core.run_batch
+
+    def spy(given, *args, **kwargs):
+        models.extend(given)
+        return run_batch(given, *args, **kwargs)
+
+    monkeypatch.setattr(flexclear._core, "run_batch", spy)
+    return models
+
+
+def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(batched):
     # the slider-yoke with a zero gravity set (a feature of the moving-frame formulation) plans as
     # constant: its samples run in the Rust batch (lanes, shared analysis), bitwise as the
     # scene's
@@ -567,14 +581,6 @@ def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkey
     plain = Study("slider_yoke", vary, **kw)
     model = moved._scene_fn(clearance=1e-4)
     assert model.engine == "translating" and model._core.stepper == "constant"
-    batched = []
-    run_batch = flexclear._core.run_batch
-
-    def spy(models, *args, **kwargs):
-        batched.extend(models)
-        return run_batch(models, *args, **kwargs)
-
-    monkeypatch.setattr(flexclear._core, "run_batch", spy)
     a = moved.run(threads=2, progress=False)
     assert len(batched) == 6 and all(isinstance(m, flexclear._core.Mechanism) for m in batched)
     b = plain.run(threads=2, progress=False)
@@ -583,7 +589,7 @@ def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkey
         assert np.array_equal(a.frame[c].to_numpy(), b.frame[c].to_numpy()), c
 
 
-def test_a_slider_crank_study_runs_through_the_batch_as_single_simulates(monkeypatch):
+def test_a_slider_crank_study_runs_through_the_batch_as_single_simulates(batched):
     # every sample goes to the Rust batch (a sample that needs the Newton stepper runs there as
     # one lane), and its outputs are those of Model.simulate with its parameters, bitwise
     study = Study(
@@ -595,14 +601,6 @@ def test_a_slider_crank_study_runs_through_the_batch_as_single_simulates(monkeyp
         t_end=0.002,
         dt=1e-5,
     )
-    batched = []
-    run_batch = flexclear._core.run_batch
-
-    def spy(models, *args, **kwargs):
-        batched.extend(models)
-        return run_batch(models, *args, **kwargs)
-
-    monkeypatch.setattr(flexclear._core, "run_batch", spy)
     res = study.run(threads=2, progress=False)
     assert len(batched) == 4 and all(m.stepper == "newton" for m in batched)
     assert (res.frame["status"] == "ok").all(), res.failed
