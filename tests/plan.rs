@@ -7,10 +7,10 @@ use std::sync::Arc;
 use flexclear::kinematics::{RotatingFrame, Rotation};
 use flexclear::model::mechanism::{Endpoint, Mechanism, NodalLoad, Pin, Terms};
 use flexclear::model::Motion;
-use flexclear::plan::{Plan, StepperKind};
+use flexclear::plan::{simulate as simulate_any, Plan, StepperKind};
 use flexclear::run::simulate as simulate_translating;
 use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Settings};
+use flexclear::Settings;
 
 fn yoke() -> Mechanism {
     SliderYoke {
@@ -41,7 +41,7 @@ fn the_slider_yoke_as_a_mechanism_runs_on_the_constant_stepper_bitwise() {
     s.record.links.axial_force = true;
     s.record.links.midspan = true;
     assert_eq!(kind(&mech, &s).0, StepperKind::Constant);
-    let a = simulate(&mech, &s, &mut |_| true).unwrap();
+    let a = simulate_any(&mech, &s, &mut |_| true).unwrap();
     let b = simulate_translating(&model, &Settings::new(0.05, 1e-5), &mut |_| true).unwrap();
     assert_eq!(a.stats.stepper, "constant");
     assert_eq!(a.record.extremes, b.record.extremes);
@@ -119,14 +119,17 @@ fn the_newton_stepper_runs_what_the_constant_one_cannot_each_rule() {
     // and the Newton stepper then runs it
     let mut m = yoke();
     m.gravity = [0.0, -9.81];
-    let out = simulate(&m, &s, &mut |_| true).unwrap();
+    let out = simulate_any(&m, &s, &mut |_| true).unwrap();
     assert_eq!(out.stats.stepper, "newton");
 
     // asked for: Newton on the yoke; the constant stepper refused where it cannot run, saying why
     let mut n = s.clone();
     n.stepper = Some(StepperKind::Newton);
-    assert_eq!(simulate(&yoke(), &n, &mut |_| true).unwrap().stats.stepper, "newton");
+    assert_eq!(
+        simulate_any(&yoke(), &n, &mut |_| true).unwrap().stats.stepper,
+        "newton"
+    );
     n.stepper = Some(StepperKind::Constant);
-    let err = simulate(&m, &n, &mut |_| true).unwrap_err().error.to_string();
+    let err = simulate_any(&m, &n, &mut |_| true).unwrap_err().error.to_string();
     assert!(err.contains("stepper") && err.contains("gravity"), "{err}");
 }
