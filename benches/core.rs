@@ -1,5 +1,8 @@
 //! Criterion benches of the hot paths: element matrices, assembly, one Newmark step (contact
 //! open and closed), the linear solves, and a full slider-yoke run (the target case).
+//! The scene builds a mechanism; these benches run the constant stepper on the translating model
+//! its plan derives (`Mechanism::to_translating`), as `plan::simulate` does, without the plan's
+//! per-run work.
 
 use std::hint::black_box;
 
@@ -8,11 +11,12 @@ use flexclear::contact::Coupling;
 use flexclear::integrator::constant::Lockstep;
 use flexclear::linalg::Cholesky;
 use flexclear::plan::assembly::System;
+use flexclear::run::simulate;
 use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Settings};
+use flexclear::Settings;
 
 fn elements(c: &mut Criterion) {
-    let e = SliderYoke::default().build().unwrap().links[0].element();
+    let e = SliderYoke::default().build().unwrap().to_translating().unwrap().links[0].element();
     c.bench_function("element/mass+stiffness", |b| {
         b.iter(|| (black_box(&e).mass(), black_box(&e).stiffness()))
     });
@@ -28,6 +32,8 @@ fn assembly(c: &mut Criterion) {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         c.bench_function(&format!("assembly/slider {n} elements"), |b| {
             b.iter(|| System::assemble(black_box(&model)))
@@ -36,7 +42,7 @@ fn assembly(c: &mut Criterion) {
 }
 
 fn linsolve(c: &mut Criterion) {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = (0..sys.pattern.nnz())
         .map(|p| sys.mass[p] + 2.5e-13 * sys.stiffness[p])
@@ -71,6 +77,8 @@ fn steps(c: &mut Criterion) {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         for (mname, coupling) in [("modified", Coupling::default()), ("force", Coupling::Force)] {
             let mut s = Settings::new(1e-2, 1e-6);
@@ -91,6 +99,8 @@ fn full_run(c: &mut Criterion) {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.1, 1e-6);
     s.record.histories = false;
@@ -125,6 +135,8 @@ fn lockstep(c: &mut Criterion) {
                 ..Default::default()
             }
             .build()
+            .unwrap()
+            .to_translating()
             .unwrap();
             let mut s = Settings::new(0.02, 1e-5);
             s.record.histories = false;
@@ -141,7 +153,7 @@ fn lockstep(c: &mut Criterion) {
             }
         })
     });
-    fn groups<const L: usize>(samples: &[(flexclear::model::Model, Settings)]) {
+    fn groups<const L: usize>(samples: &[(flexclear::plan::translating::Model, Settings)]) {
         for chunk in samples.chunks(L) {
             let runs: Vec<_> = chunk.iter().map(|(m, s)| (m, s)).collect();
             let out = Lockstep::<L>::with_analysis(&runs, None).unwrap().run(&mut |_| true);

@@ -1,11 +1,15 @@
 //! Batches of independent runs (the samples of a Monte Carlo study) on a rayon thread pool.
 //!
-//! Every sample is a model and its settings. The samples run in parallel, each on one thread
-//! from start to end (a run is sequential), so the results do not depend on the number of
-//! threads. The symbolic factorization is shared among samples whose models have the same
+//! Every sample is a [`Mechanism`] and its settings, planned as [`crate::plan::simulate`] plans
+//! it ([`Plan::compile`]). A sample the constant stepper runs is run on the translating model the
+//! plan derives (its joint channels, state and statistics are those of `plan::simulate`, bitwise;
+//! no link histories are made); any other sample (Newton, or one the plan refuses) runs alone, one
+//! lane on one thread, through `plan::simulate` itself, so its outcome is that of a single run.
+//! The samples run in parallel, each on one thread from start to end (a run is sequential), so
+//! the results do not depend on the number of threads. The symbolic factorization is shared among samples whose models have the same
 //! sparsity pattern ([`AnalysisCache`]); samples that change the element count get their own.
-//! A sample that fails (invalid parameters, divergence, a matrix that is not positive definite)
-//! is an outcome like any other: the batch goes on. Memory is what each sample's
+//! A sample that fails (invalid parameters, divergence, a Newton step that does not converge, a
+//! matrix that is not positive definite) is an outcome like any other: the batch goes on. Memory is what each sample's
 //! [`RecordSpec`](crate::record::RecordSpec) asks for, so a batch that records only running
 //! extremes needs O(samples x outputs), whatever the run length.
 //!
@@ -25,14 +29,17 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::integrator::constant::{shares_factor, Lockstep, RunResult};
 use crate::linalg::AnalysisCache;
-use crate::model::Model;
+use crate::model::mechanism::Mechanism;
 use crate::plan::assembly::System;
+use crate::plan::translating::Model;
+use crate::plan::{Plan, StepperKind};
 use crate::run::{simulate_shared, RunFailure, RunOutput, Settings, SolverMode};
 
-/// What to do when a sample diverges.
+/// What to do when a sample diverges ([`Error::Diverged`]) or a Newton step does not converge
+/// ([`Error::NotConverged`]): run it again from the start at a smaller step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Retry {
-    /// How many times to retry a diverged sample (0 = never).
+    /// How many times to retry such a sample (0 = never).
     pub attempts: u32,
     /// The step is multiplied by this at each retry (0 < factor < 1).
     pub factor: f64,
@@ -104,8 +111,43 @@ pub struct BatchStats {
     pub lockstep_samples: usize,
 }
 
-/// Runs every `(model, settings)` pair of `samples` on `options.threads` threads and returns the
-/// outcomes in the input order.
+/// How the batch runs one sample.
+enum Job {
+    /// On the constant stepper: the translating model [`Plan::compile`] derives (validated as a
+    /// mechanism first, as `plan::simulate` does).
+    Constant(Model),
+    /// Alone, through [`crate::plan::simulate`]: a sample for another stepper, or one that fails
+    /// before its first step (the failure is its outcome).
+    Alone,
+}
+
+impl Job {
+    fn of(mech: &Mechanism, settings: &Settings) -> Job {
+        match Plan::compile(mech, settings) {
+            Ok(plan) if plan.kind == StepperKind::Constant && mech.validate(settings.t_end).is_ok() => {
+                mech.to_translating().map_or(Job::Alone, Job::Constant)
+            }
+            _ => Job::Alone,
+        }
+    }
+
+    /// One run of `mech` (this job's sample) with `settings`.
+    fn run(
+        &self,
+        mech: &Mechanism,
+        settings: &Settings,
+        cache: &AnalysisCache,
+        control: &mut dyn FnMut(f64) -> bool,
+    ) -> RunResult {
+        match self {
+            Job::Constant(model) => simulate_shared(model, settings, Some(cache), control),
+            Job::Alone => crate::plan::simulate(mech, settings, control),
+        }
+    }
+}
+
+/// Runs every `(mechanism, settings)` pair of `samples` on `options.threads` threads and returns
+/// the outcomes in the input order.
 ///
 /// `stop` is polled by every run (every few thousand steps) and before each sample (or lockstep
 /// group) starts: once it is set, running samples end with [`Error::Interrupted`] and samples
@@ -113,7 +155,7 @@ pub struct BatchStats {
 /// finishes, so another thread can show progress. Fails only when the options are invalid or the
 /// thread pool cannot be built.
 pub fn run_batch(
-    samples: &[(Model, Settings)],
+    samples: &[(Mechanism, Settings)],
     options: &BatchOptions,
     stop: &AtomicBool,
     done: &AtomicUsize,
@@ -139,16 +181,21 @@ pub fn run_batch(
         })?;
     let cache = AnalysisCache::new();
     let (outcomes, lockstep_groups, lockstep_samples) = pool.install(|| {
-        // the systems that decide grouping, assembled in parallel (None: runs alone)
-        let systems: Vec<Option<System>> = samples
+        // the plans, and the systems that decide grouping, made in parallel (None: runs alone)
+        let jobs: Vec<Job> = samples.par_iter().map(|(m, s)| Job::of(m, s)).collect();
+        let systems: Vec<Option<System>> = jobs
             .par_iter()
-            .map(|(m, s)| {
-                let fits = lanes > 1
-                    && !s.record.histories
-                    && s.solver == SolverMode::Woodbury
-                    && m.validate().is_ok()
-                    && s.validate(m).is_ok();
-                fits.then(|| System::assemble(m))
+            .zip(samples.par_iter())
+            .map(|(job, (_, s))| match job {
+                Job::Constant(m) => {
+                    let fits = lanes > 1
+                        && !s.record.histories
+                        && s.solver == SolverMode::Woodbury
+                        && m.validate().is_ok()
+                        && s.validate(m).is_ok();
+                    fits.then(|| System::assemble(m))
+                }
+                Job::Alone => None,
             })
             .collect();
         let groups = lockstep_groups(samples, &systems, lanes);
@@ -160,12 +207,11 @@ pub fn run_batch(
             .with_max_len(1)
             .map(|g| {
                 if g.len() == 1 {
-                    let (model, settings) = &samples[g.start];
-                    let out = run_one(model, settings, options.retry, &cache, stop);
+                    let out = run_one(&samples[g.start], &jobs[g.start], options.retry, &cache, stop);
                     done.fetch_add(1, Ordering::Relaxed);
                     vec![out]
                 } else {
-                    run_group(&samples[g.clone()], options.retry, &cache, stop, done)
+                    run_group(&samples[g.clone()], &jobs[g.clone()], options.retry, &cache, stop, done)
                 }
             })
             .collect();
@@ -185,7 +231,7 @@ pub fn run_batch(
 /// cannot join the current one (it runs alone, the group is full, or [`shares_factor`] does not
 /// hold with the group's first sample). Depends on the samples and `lanes` only.
 fn lockstep_groups(
-    samples: &[(Model, Settings)],
+    samples: &[(Mechanism, Settings)],
     systems: &[Option<System>],
     lanes: usize,
 ) -> Vec<std::ops::Range<usize>> {
@@ -208,29 +254,34 @@ fn lockstep_groups(
     groups
 }
 
-/// Runs 2 ..= 8 samples that share their factor as one lockstep group; a lane that
-/// diverges is retried alone (at smaller steps) as [`run_one`] would. Each sample's wall time is
-/// the group's time divided by its size, plus its own retries.
+/// Runs 2 ..= 8 samples that share their factor (constant-stepper jobs) as one lockstep group; a
+/// lane that diverges is retried alone (at smaller steps) as [`run_one`] would. Each sample's
+/// wall time is the group's time divided by its size, plus its own retries.
 fn run_group(
-    group: &[(Model, Settings)],
+    group: &[(Mechanism, Settings)],
+    jobs: &[Job],
     retry: Retry,
     cache: &AnalysisCache,
     stop: &AtomicBool,
     done: &AtomicUsize,
 ) -> Vec<SampleOutcome> {
     if stop.load(Ordering::Relaxed) {
-        return group
-            .iter()
-            .map(|(_, s)| SampleOutcome {
-                result: None,
-                dt: s.dt,
-                retries: 0,
-                wall_time: 0.0,
-            })
-            .collect();
+        return group.iter().map(|(_, s)| not_run(s)).collect();
     }
     let start = Instant::now();
-    let runs: Vec<(&Model, &Settings)> = group.iter().map(|(m, s)| (m, s)).collect();
+    let runs: Vec<(&Model, &Settings)> = jobs
+        .iter()
+        .zip(group)
+        .filter_map(|(job, (_, s))| match job {
+            Job::Constant(m) => Some((m, s)),
+            Job::Alone => None,
+        })
+        .collect();
+    debug_assert_eq!(
+        runs.len(),
+        group.len(),
+        "a lockstep group holds constant-stepper jobs only"
+    );
     let mut control = |_: f64| !stop.load(Ordering::Relaxed);
     // the narrowest lockstep that holds the group (a short group does not step idle lanes)
     let results = match group.len() {
@@ -241,9 +292,10 @@ fn run_group(
     let share = start.elapsed().as_secs_f64() / group.len() as f64;
     group
         .iter()
+        .zip(jobs)
         .zip(results)
-        .map(|((model, settings), result)| {
-            let out = retry_diverged(model, settings.clone(), result, retry, cache, stop, share);
+        .map(|((sample, job), result)| {
+            let out = retry_failed(sample, job, result, retry, cache, stop, share);
             done.fetch_add(1, Ordering::Relaxed);
             out
         })
@@ -265,48 +317,55 @@ fn lockstep<const L: usize>(
     }
 }
 
+/// The outcome of a sample the batch did not start.
+fn not_run(settings: &Settings) -> SampleOutcome {
+    SampleOutcome {
+        result: None,
+        dt: settings.dt,
+        retries: 0,
+        wall_time: 0.0,
+    }
+}
+
 fn run_one(
-    model: &Model,
-    settings: &Settings,
+    sample: &(Mechanism, Settings),
+    job: &Job,
     retry: Retry,
     cache: &AnalysisCache,
     stop: &AtomicBool,
 ) -> SampleOutcome {
     if stop.load(Ordering::Relaxed) {
-        return SampleOutcome {
-            result: None,
-            dt: settings.dt,
-            retries: 0,
-            wall_time: 0.0,
-        };
+        return not_run(&sample.1);
     }
     let start = Instant::now();
     let mut control = |_: f64| !stop.load(Ordering::Relaxed);
-    let result = simulate_shared(model, settings, Some(cache), &mut control);
+    let result = job.run(&sample.0, &sample.1, cache, &mut control);
     let wall = start.elapsed().as_secs_f64();
-    retry_diverged(model, settings.clone(), result, retry, cache, stop, wall)
+    retry_failed(sample, job, result, retry, cache, stop, wall)
 }
 
-/// Retries a diverged first attempt `result` (wall time `wall`, s) at smaller steps as `retry`
-/// allows, unless the batch is stopping.
-fn retry_diverged(
-    model: &Model,
-    mut settings: Settings,
+/// Retries a first attempt `result` (wall time `wall`, s) that diverged or did not converge at
+/// smaller steps as `retry` allows, unless the batch is stopping.
+fn retry_failed(
+    (mech, settings): &(Mechanism, Settings),
+    job: &Job,
     mut result: RunResult,
     retry: Retry,
     cache: &AnalysisCache,
     stop: &AtomicBool,
     mut wall: f64,
 ) -> SampleOutcome {
+    let mut settings = settings.clone();
     let mut retries = 0;
     loop {
-        let diverged = matches!(&result, Err(f) if matches!(f.error, Error::Diverged { .. }));
-        if diverged && retries < retry.attempts && !stop.load(Ordering::Relaxed) {
+        let failed =
+            matches!(&result, Err(f) if matches!(f.error, Error::Diverged { .. } | Error::NotConverged { .. }));
+        if failed && retries < retry.attempts && !stop.load(Ordering::Relaxed) {
             retries += 1;
             settings.dt *= retry.factor;
             let start = Instant::now();
             let mut control = |_: f64| !stop.load(Ordering::Relaxed);
-            result = simulate_shared(model, &settings, Some(cache), &mut control);
+            result = job.run(mech, &settings, cache, &mut control);
             wall += start.elapsed().as_secs_f64();
             continue;
         }

@@ -37,4 +37,5 @@ pub mod scenes;
 mod python;
 
 pub use error::{Error, Result};
-pub use run::{simulate, RunFailure, RunOutput, Settings, SolverMode};
+pub use plan::simulate;
+pub use run::{RunFailure, RunOutput, Settings, SolverMode};

@@ -5,8 +5,8 @@
 use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
-use crate::model::Model;
 use crate::plan::assembly::System;
+use crate::plan::translating::Model;
 
 /// Eigenvalues `omega^2` below this fraction of the largest are rigid-body modes.
 pub const RIGID_TOLERANCE: f64 = 1e-9;

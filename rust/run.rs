@@ -4,7 +4,7 @@ use crate::contact::Coupling;
 use crate::error::{check_positive, Error, Result};
 use crate::integrator::{Newmark, NewmarkRun};
 use crate::linalg::AnalysisCache;
-use crate::model::Model;
+use crate::plan::translating::Model;
 use crate::record::{RecordSpec, Recorder};
 
 /// How the effective matrix with contact terms is solved.
@@ -130,7 +130,7 @@ impl Settings {
     /// Checks the settings against a model of the constant stepper.
     pub fn validate(&self, model: &Model) -> Result<()> {
         self.validate_run()?;
-        let nodes: Vec<usize> = model.links.iter().map(|l| l.elements + 1).collect();
+        let nodes: Vec<usize> = model.links.iter().map(|l| l.section.elements + 1).collect();
         self.record.validate(model.joints.len(), &nodes)?;
         for (i, l) in model.links.iter().enumerate() {
             if let crate::model::Motion::Tabulated(t) = &l.motion {
@@ -239,7 +239,9 @@ impl RunFailure {
     }
 }
 
-/// Runs `model` with `settings`. `control(fraction_done)` is called every few thousand steps and
+/// Runs the translating `model` (the constant stepper's compiled input,
+/// [`crate::plan::translating`]; models are run through [`crate::plan::simulate`], which derives
+/// it) with `settings`. `control(fraction_done)` is called every few thousand steps and
 /// stops the run (as [`Error::Interrupted`]) when it returns `false`.
 ///
 /// Errors before the first step (invalid input, a mass matrix that is not positive definite) come

@@ -5,11 +5,15 @@ use std::sync::Arc;
 
 use flexclear::contact::{Coupling, SpringDamper};
 use flexclear::element::BeamElement;
+use flexclear::kinematics::{RotatingFrame, Rotation};
 use flexclear::linalg::Cholesky;
-use flexclear::model::{ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody};
+use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism};
+use flexclear::model::Motion;
 use flexclear::plan::assembly::System;
+use flexclear::plan::translating::Model;
+use flexclear::run::simulate;
 use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Error, Settings, SolverMode};
+use flexclear::{Error, Settings, SolverMode};
 use nalgebra::DMatrix;
 
 fn element() -> BeamElement {
@@ -92,8 +96,16 @@ fn element_stiffness_and_geometric_match_closed_form() {
     assert!(close(by[1] + by[4], e.density * e.area * l, 1e-13));
 }
 
-fn beam(elements: usize) -> FlexibleLink {
-    FlexibleLink {
+/// A frame at rest at the origin, angle 0.
+fn at_rest() -> Arc<RotatingFrame> {
+    Arc::new(RotatingFrame {
+        origin: Motion::Fixed { position: [0.0, 0.0] },
+        rotation: Rotation::Fixed { angle: 0.0 },
+    })
+}
+
+fn beam(elements: usize) -> Link {
+    Link {
         name: "beam".into(),
         length: 1.0,
         elements,
@@ -102,21 +114,28 @@ fn beam(elements: usize) -> FlexibleLink {
         damping: 0.0,
         area: 1e-4,
         inertia: 1e-9,
+        frame: at_rest(),
+        terms: Default::default(),
         rotary_inertia: false,
-        angle: 0.0,
-        motion: Motion::Fixed { position: [0.0, 0.0] },
         initial_displacement: None,
         initial_velocity: None,
     }
 }
 
+/// The constant stepper's compiled input of a mechanism of free `links` (what the plan derives).
+fn translating(links: Vec<Link>) -> Model {
+    Mechanism {
+        links,
+        ..Default::default()
+    }
+    .to_translating()
+    .unwrap()
+}
+
 #[test]
 fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
     let link = beam(10);
-    let model = Model {
-        links: vec![link.clone()],
-        ..Default::default()
-    };
+    let model = translating(vec![link.clone()]);
     let f = flexclear::modes::natural_frequencies(&model, 3).unwrap();
     let c = (link.youngs_modulus * link.inertia / (link.density * link.area)).sqrt() / link.length.powi(2);
     for (fi, bl) in f.iter().zip([4.730041, 7.853205, 10.995608]) {
@@ -124,14 +143,7 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
         assert!(close(*fi, exact, 1e-3), "{fi} vs {exact}");
     }
     // h-convergence: 20 elements are closer than 10
-    let f20 = flexclear::modes::natural_frequencies(
-        &Model {
-            links: vec![beam(20)],
-            ..Default::default()
-        },
-        3,
-    )
-    .unwrap();
+    let f20 = flexclear::modes::natural_frequencies(&translating(vec![beam(20)]), 3).unwrap();
     let exact3 = 10.995608f64.powi(2) * c / (2.0 * std::f64::consts::PI);
     assert!((f20[2] - exact3).abs() < (f[2] - exact3).abs());
 }
@@ -139,10 +151,7 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
 #[test]
 fn cantilever_tip_deflection_is_pl3_over_3ei() {
     let link = beam(8);
-    let model = Model {
-        links: vec![link.clone()],
-        ..Default::default()
-    };
+    let model = translating(vec![link.clone()]);
     let sys = System::assemble(&model);
     let n = sys.n();
     let mut k = DMatrix::zeros(n, n);
@@ -162,7 +171,7 @@ fn cantilever_tip_deflection_is_pl3_over_3ei() {
 
 #[test]
 fn factorization_solves_to_small_residual() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = (0..sys.pattern.nnz())
         .map(|p| sys.mass[p] + 1e-10 * sys.stiffness[p])
@@ -196,6 +205,8 @@ fn banded_product_equals_sparse_product() {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         let sys = System::assemble(&model);
         let band = flexclear::plan::assembly::Band::from_csc(&sys.pattern, &sys.stiffness).expect("a chain is banded");
@@ -216,7 +227,7 @@ fn banded_product_equals_sparse_product() {
 
 #[test]
 fn indefinite_matrix_is_reported_not_solved() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);
     let a: Vec<f64> = sys.stiffness.iter().map(|k| -k).collect();
     let mut ch = Cholesky::analyze(&sys.pattern).unwrap();
@@ -237,10 +248,7 @@ fn free_vibration(dt: f64, t_end: f64) -> (flexclear::RunOutput, Model) {
         // rad/s
     }
     link.initial_velocity = Some(v0);
-    let model = Model {
-        links: vec![link],
-        ..Default::default()
-    };
+    let model = translating(vec![link]);
     let mut s = Settings::new(t_end, dt);
     s.record.nodes = vec![(0, 10)];
     (simulate(&model, &s, &mut |_| true).unwrap(), model)
@@ -296,6 +304,8 @@ fn zero_clearance_stiff_joint_makes_the_slider_follow_the_yoke() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.2, 1e-5);
     s.record.joint_position = true;
@@ -307,7 +317,7 @@ fn zero_clearance_stiff_joint_makes_the_slider_follow_the_yoke() {
 }
 
 fn penetration(method: Coupling, solver: SolverMode, dt: f64, t_end: f64, sy: SliderYoke) -> Vec<f64> {
-    let model = sy.build().unwrap();
+    let model = sy.build().unwrap().to_translating().unwrap();
     let mut s = Settings::new(t_end, dt);
     s.coupling = method;
     s.solver = solver;
@@ -367,6 +377,8 @@ fn lagged_force_loses_stability_with_stiff_bearing_modified_does_not() {
             ..Default::default()
         }
         .build()
+        .unwrap()
+        .to_translating()
         .unwrap();
         let mut s = Settings::new(0.03, dt);
         s.coupling = c;
@@ -394,6 +406,8 @@ fn gap_element_keeps_penetration_small_and_counts_impacts() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.2, 1e-5);
     s.coupling = Coupling::Gap {
@@ -417,6 +431,8 @@ fn extremes_only_keep_no_history() {
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let mut s = Settings::new(0.1, 1e-6);
     s.record.histories = false;
@@ -427,16 +443,16 @@ fn extremes_only_keep_no_history() {
 
 #[test]
 fn bad_input_names_the_parameter() {
-    let mut m = SliderYoke::default().build().unwrap();
-    m.links[0].length = -1.0;
+    let mut m = SliderYoke::default().build().unwrap().to_translating().unwrap();
+    m.links[0].section.length = -1.0;
     match m.validate() {
         Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "links[0].length"),
         other => panic!("{other:?}"),
     }
-    let mut m = SliderYoke::default().build().unwrap();
+    let mut m = SliderYoke::default().build().unwrap().to_translating().unwrap();
     m.joints[0].node = 99;
     assert!(matches!(m.validate(), Err(Error::InvalidParameter { .. })));
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let s = Settings::new(0.1, f64::NAN);
     assert!(matches!(
         simulate(&model, &s, &mut |_| true).unwrap_err().error,
@@ -448,24 +464,23 @@ fn bad_input_names_the_parameter() {
         damping_law: Default::default(),
         no_tension: false,
     });
-    let bad = Model {
+    let bad = Mechanism {
         links: vec![beam(2)],
-        bodies: vec![RigidBody {
-            name: "g".into(),
-            motion: Motion::Fixed { position: [0.0; 2] },
-        }],
-        joints: vec![ClearanceJoint {
+        joints: vec![Clearance {
             name: "j".into(),
-            link: 0,
-            node: 0,
-            target: JointTarget::Body {
-                body: 0,
+            journal: Endpoint::Node { link: 0, node: 0 },
+            bearing: Endpoint::Body {
+                frame: at_rest(),
                 point: [0.0; 2],
+                name: "g".into(),
             },
             clearance: 0.0,
             law,
         }],
-    };
+        ..Default::default()
+    }
+    .to_translating()
+    .unwrap();
     match bad.validate() {
         Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "joints[0].law.stiffness"),
         other => panic!("{other:?}"),
@@ -474,7 +489,7 @@ fn bad_input_names_the_parameter() {
 
 #[test]
 fn interrupt_stops_with_partial_output() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let s = Settings::new(1.0, 1e-5);
     let fail = simulate(&model, &s, &mut |frac| frac < 0.2).unwrap_err();
     assert!(matches!(fail.error, Error::Interrupted { .. }));
@@ -498,11 +513,8 @@ fn general_damping_path_matches_proportional_path_link_by_link() {
         l
     };
     let (a, b) = (mk("a", 2e5), mk("b", 7e5));
-    let run = |links: Vec<FlexibleLink>, nodes: Vec<(usize, usize)>| {
-        let model = Model {
-            links,
-            ..Default::default()
-        };
+    let run = |links: Vec<Link>, nodes: Vec<(usize, usize)>| {
+        let model = translating(links);
         let mut s = Settings::new(2e-3, 1e-6);
         s.record.nodes = nodes;
         simulate(&model, &s, &mut |_| true).unwrap()

@@ -6,9 +6,16 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use flexclear::batch::{run_batch, BatchOptions, Retry};
 use flexclear::contact::{Coupling, DampingLaw};
 use flexclear::integrator::constant::Lockstep;
+use flexclear::model::mechanism::Mechanism;
 use flexclear::record::RecordSpec;
-use flexclear::scenes::SliderYoke;
-use flexclear::{simulate, Error, Settings};
+use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin, SliderYoke};
+use flexclear::{Error, RunFailure, RunOutput, Settings};
+
+/// A single run of a mechanism the constant stepper runs, on the translating model its plan
+/// derives (what the batch runs for such a sample).
+fn simulate(m: &Mechanism, s: &Settings, control: &mut dyn FnMut(f64) -> bool) -> Result<RunOutput, Box<RunFailure>> {
+    flexclear::run::simulate(&m.to_translating().unwrap(), s, control)
+}
 
 fn settings(t_end: f64, dt: f64) -> Settings {
     let mut s = Settings::new(t_end, dt);
@@ -19,7 +26,7 @@ fn settings(t_end: f64, dt: f64) -> Settings {
     s
 }
 
-fn clearance_samples(n: usize, elements: impl Fn(usize) -> usize) -> Vec<(flexclear::model::Model, Settings)> {
+fn clearance_samples(n: usize, elements: impl Fn(usize) -> usize) -> Vec<(Mechanism, Settings)> {
     (0..n)
         .map(|i| {
             let model = SliderYoke {
@@ -138,7 +145,7 @@ fn text(r: &Result<flexclear::RunOutput, Box<flexclear::RunFailure>>) -> String 
 
 /// Samples that share one effective matrix: clearances, bearing laws, couplings and motions
 /// differ, M, K, C and dt do not.
-fn shared_factor_samples(n: usize) -> Vec<(flexclear::model::Model, Settings)> {
+fn shared_factor_samples(n: usize) -> Vec<(Mechanism, Settings)> {
     (0..n)
         .map(|i| {
             let scene = SliderYoke {
@@ -229,7 +236,8 @@ fn a_diverging_lane_fails_alone_and_the_others_finish() {
         matches!(&single[1], Err(f) if matches!(f.error, Error::Diverged { step, .. } if step > 100 && step < 1000))
     );
     assert!(single.iter().enumerate().all(|(i, r)| (i == 1) != r.is_ok()));
-    let runs: Vec<_> = samples.iter().map(|(m, s)| (m, s)).collect();
+    let models: Vec<_> = samples.iter().map(|(m, _)| m.to_translating().unwrap()).collect();
+    let runs: Vec<_> = models.iter().zip(&samples).map(|(m, (_, s))| (m, s)).collect();
     let group = Lockstep::<4>::with_analysis(&runs, None).unwrap();
     let out = group.run(&mut |_| true);
     for (i, (o, e)) in out.iter().zip(&single).enumerate() {
@@ -299,12 +307,14 @@ fn samples_that_cannot_share_run_alone() {
 
 #[test]
 fn lanes_that_do_not_share_the_factor_are_refused() {
-    let a = SliderYoke::default().build().unwrap();
+    let a = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let b = SliderYoke {
         elements: 10,
         ..Default::default()
     }
     .build()
+    .unwrap()
+    .to_translating()
     .unwrap();
     let s = settings(0.001, 1e-5);
     assert!(Lockstep::<2>::with_analysis(&[(&a, &s), (&b, &s)], None).is_err());
@@ -342,7 +352,8 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
         },
         Ok(_) => panic!("the spike was not detected"),
     }
-    let out = Lockstep::<2>::with_analysis(&[(&calm, &s), (&spiky, &s)], None)
+    let (calm_t, spiky_t) = (calm.to_translating().unwrap(), spiky.to_translating().unwrap());
+    let out = Lockstep::<2>::with_analysis(&[(&calm_t, &s), (&spiky_t, &s)], None)
         .unwrap()
         .run(&mut |_| true);
     assert!(out[0].is_ok());
@@ -352,11 +363,74 @@ fn a_one_step_penetration_spike_stops_its_lane_at_that_step() {
 
 #[test]
 fn event_aware_runs_do_not_share_a_factor() {
-    let model = SliderYoke::default().build().unwrap();
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let s = settings(0.001, 1e-5);
     let mut e = s.clone();
     e.events = true;
     assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &s)], None).is_ok());
     assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &e)], None).is_err());
     assert!(Lockstep::<2>::with_analysis(&[(&model, &e), (&model, &e)], None).is_err());
+}
+
+/// A slider-crank with a clearance joint at the crank pin (the Newton stepper's model) at
+/// `clearance` (m).
+fn slider_crank(clearance: f64) -> Mechanism {
+    FlexibleSliderCrank {
+        clearance_at: Some(SliderCrankPin::CrankPin),
+        clearance,
+        ..Default::default()
+    }
+    .build()
+    .unwrap()
+}
+
+#[test]
+fn samples_that_need_newton_run_in_the_batch_as_single_runs() {
+    // slider-crank samples (Newton) between slider-yoke samples (constant, two lockstep pairs)
+    let mut samples = clearance_samples(4, |_| 12);
+    let mut s = settings(0.004, 1e-5);
+    s.coupling = Coupling::Modified {
+        iterate: true,
+        tol: 1e-10,
+        max_iter: 50,
+    };
+    samples.insert(2, (slider_crank(5e-4), s.clone()));
+    samples.push((slider_crank(2e-4), s.clone()));
+    // a Newton sample that fails before its first step is an outcome too
+    let mut bad = s.clone();
+    bad.dt = -1.0;
+    samples.push((slider_crank(5e-4), bad));
+    let single: Vec<String> = samples
+        .iter()
+        .map(|(m, s)| text(&flexclear::plan::simulate(m, s, &mut |_| true)))
+        .collect();
+    for threads in [1, 2] {
+        let options = BatchOptions {
+            threads,
+            ..Default::default()
+        };
+        let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+        let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+        assert_eq!(done.load(Ordering::Relaxed), samples.len());
+        // [0, 1] and [3, 4] in lockstep; the slider-cranks alone
+        assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (2, 4));
+        for i in [2, 5, 6] {
+            // bitwise the single run, its stepper's statistics included
+            assert_eq!(text(out[i].result.as_ref().unwrap()), single[i], "sample {i}");
+        }
+        let newton = out[2].result.as_ref().unwrap().as_ref().unwrap();
+        assert_eq!(newton.stats.stepper, "newton");
+        assert!(newton.record.extremes[0].max_force > 0.0);
+        let failed = out[6].result.as_ref().unwrap().as_ref().unwrap_err();
+        assert!(matches!(failed.error, Error::InvalidParameter { ref name, .. } if name == "dt"));
+        for i in [0, 1, 3, 4] {
+            let (a, b) = (out[i].result.as_ref().unwrap().as_ref().unwrap(), &samples[i]);
+            let alone = flexclear::plan::simulate(&b.0, &b.1, &mut |_| true).unwrap();
+            // the constant stepper's joint channels, state and counters as in a single run
+            assert_eq!(
+                (&a.record.extremes, &a.state, &a.stats),
+                (&alone.record.extremes, &alone.state, &alone.stats)
+            );
+        }
+    }
 }

@@ -557,7 +557,21 @@ def test_a_failed_moving_frame_sample_stays_its_own_row():
     assert (ok.frame["status"] == "ok").all()
 
 
-def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkeypatch):
+@pytest.fixture
+def batched(monkeypatch):
+    """The models given to the Rust batch during the test, in order (run_batch spied on)."""
+    models = []
+    run_batch = flexclear._core.run_batch
+
+    def spy(given, *args, **kwargs):
+        models.extend(given)
+        return run_batch(given, *args, **kwargs)
+
+    monkeypatch.setattr(flexclear._core, "run_batch", spy)
+    return models
+
+
+def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(batched):
     # the slider-yoke with a zero gravity set (a feature of the moving-frame formulation) plans as
     # constant: its samples run in the Rust batch (lanes, shared analysis), bitwise as the
     # scene's
@@ -567,14 +581,6 @@ def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkey
     plain = Study("slider_yoke", vary, **kw)
     model = moved._scene_fn(clearance=1e-4)
     assert model.engine == "translating" and model._core.stepper == "constant"
-    batched = []
-    run_batch = flexclear._core.run_batch
-
-    def spy(models, *args, **kwargs):
-        batched.extend(models)
-        return run_batch(models, *args, **kwargs)
-
-    monkeypatch.setattr(flexclear._core, "run_batch", spy)
     a = moved.run(threads=2, progress=False)
     assert len(batched) == 6 and all(isinstance(m, flexclear._core.Mechanism) for m in batched)
     b = plain.run(threads=2, progress=False)
@@ -583,12 +589,30 @@ def test_a_moving_frame_model_the_constant_stepper_runs_goes_to_the_batch(monkey
         assert np.array_equal(a.frame[c].to_numpy(), b.frame[c].to_numpy()), c
 
 
-def test_the_batch_refuses_a_model_that_needs_the_newton_stepper_by_name():
-    crank = flexclear.scenes.slider_crank(clearance_at="crank_pin")
-    assert crank._core.stepper == "newton"
-    with pytest.raises(
-        flexclear.InvalidParameterError, match=r"models\[0\].*Newton stepper: the mechanism has a pin"
-    ):
-        flexclear._core.run_batch([crank._core], [0.01], [1e-5])
+def test_a_slider_crank_study_runs_through_the_batch_as_single_simulates(batched):
+    # every sample goes to the Rust batch (a sample that needs the Newton stepper runs there as
+    # one lane), and its outputs are those of Model.simulate with its parameters, bitwise
+    study = Study(
+        "slider_crank",
+        fixed={"clearance_at": "crank_pin"},
+        vary={"clearance": Uniform(1e-4, 5e-4)},
+        samples=4,
+        seed=4,
+        t_end=0.002,
+        dt=1e-5,
+    )
+    res = study.run(threads=2, progress=False)
+    assert len(batched) == 4 and all(m.stepper == "newton" for m in batched)
+    assert (res.frame["status"] == "ok").all(), res.failed
+    for i, row in res.frame.iterrows():
+        model = flexclear.scenes.slider_crank(clearance_at="crank_pin", clearance=row["clearance"])
+        r = model.simulate(0.002, 1e-5, record=flexclear.Record(histories=False), progress=False)
+        assert r.stats["stepper"] == "newton"
+        j = r.joint("crank_pin")
+        for o in study.outputs:
+            assert row[f"crank_pin.{o}"] == getattr(j, o), (i, o)
+
+
+def test_the_batch_refuses_what_is_not_a_mechanism_by_name():
     with pytest.raises(flexclear.InvalidParameterError, match=r"models\[0\].*a Mechanism"):
         flexclear._core.run_batch(["yoke"], [0.01], [1e-5])

@@ -19,6 +19,9 @@ __all__ = [
     "SliderHistory",
     "slider_yoke",
     "slider_crank",
+    "four_bar",
+    "spin_up",
+    "spin_up_data",
     "run_batch",
     "NormalLaw",
     "CoulombFriction",
@@ -165,6 +168,8 @@ class Mechanism:
     def link_names(self) -> list[str]: ...
     @property
     def joint_names(self) -> list[str]: ...
+    @property
+    def pin_names(self) -> list[str]: ...
     @property
     def link_elements(self) -> list[int]: ...
     @property
@@ -407,6 +412,48 @@ def slider_crank(
     damping_law: str,
     geometric: Optional[bool],
 ) -> tuple[Mechanism, dict[str, float]]: ...
+def four_bar(
+    *,
+    ground_length: float,
+    crank_length: float,
+    coupler_length: float,
+    rocker_length: float,
+    crank_speed: float,
+    branch: float,
+    youngs_modulus: float,
+    density: float,
+    width: float,
+    depth: float,
+    elements: int,
+    flexible_rocker: bool,
+    rocker_elements: Optional[int],
+    damping: float,
+    clearance_at: Optional[str],
+    clearance: float,
+    bearing_stiffness: Optional[float],
+    bearing_damping: Optional[float],
+    pin_radius: float,
+    poisson_ratio: float,
+    reference_penetration: float,
+    bearing_damping_ratio: float,
+    damping_law: str,
+) -> tuple[Mechanism, dict[str, float]]: ...
+def spin_up(
+    *,
+    data: str,
+    length: Optional[float],
+    youngs_modulus: Optional[float],
+    density: Optional[float],
+    area: Optional[float],
+    inertia: Optional[float],
+    final_rate: Optional[float],
+    ramp_time: Optional[float],
+    elements: int,
+    geometric: bool,
+    damping: float,
+    rotation: Optional[Rotation],
+) -> Mechanism: ...
+def spin_up_data() -> dict[str, dict[str, float]]: ...
 def run_batch(
     models: list[Mechanism],
     t_end: list[float],
@@ -417,9 +464,10 @@ def run_batch(
     retries: int = ...,
     retry_factor: float = ...,
     method: str = ...,
-    iterate: bool = ...,
-    tol: float = ...,
-    max_iter: int = ...,
+    iterate: Optional[bool] = ...,
+    tol: Optional[float] = ...,
+    max_iter: Optional[int] = ...,
+    step_halving: int = ...,
     gap_stiffness: Optional[float] = ...,
     gap_damping: float = ...,
     beta: float = ...,
@@ -435,7 +483,9 @@ def run_batch(
     joint_position: bool = ...,
     contact_modes: bool = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
-    """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released.
+    """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released, each on the
+    stepper its plan picks (lockstep lanes for the constant stepper, one lane each otherwise);
+    `iterate`, `tol`, `max_iter` None = that stepper's default, as in `Model.simulate`.
 
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes
     (the keys of `Mechanism.simulate`'s extremes), time, joints), the batch counters (analyses,

@@ -274,7 +274,7 @@ class Model:
         m._link_ids = {n: i for i, n in enumerate(core.link_names)}
         m._body_frames = dict(core.bodies)
         m._slider_ids = {n: i for i, n in enumerate(core.slider_names)}
-        m._connectors = set(core.joint_names)
+        m._connectors = set(core.joint_names) | set(core.pin_names)
         m.parameters = dict(parameters or {})
         return m
 

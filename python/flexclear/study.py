@@ -15,9 +15,10 @@ exceedance probabilities with confidence intervals, and plots.
 >>> result.exceedance("bearing.max_force", 50.0)    # P(max force > 50 N) with a 95 % interval
 
 The samples run in one process on a thread pool (``threads=``), or on a Dask cluster when a
-``dask.distributed.Client`` is passed (``client=``): chunks of samples per task. Models whose links
-all translate run as one Rust batch (samples sharing the contact-free factorization step in
-lockstep lanes); models in moving frames run one sample per thread (each run releases the GIL). A
+``dask.distributed.Client`` is passed (``client=``): chunks of samples per task. Every chunk runs
+as one Rust batch with the GIL released: samples the constant stepper runs and that share the
+contact-free factorization step in lockstep lanes; any other sample (a model in moving frames,
+on the Newton stepper) runs as one lane, its outputs those of its own ``Model.simulate``. A
 sample's result does not depend on where or with how many threads it ran, so the same study gives
 identical results serially, threaded and on Dask.
 
@@ -46,7 +47,6 @@ import numpy as np
 
 from . import _core, scenes
 from .errors import (
-    ConvergenceError,
     FlexclearError,
     InvalidParameterError,
     ResourceError,
@@ -1199,8 +1199,10 @@ class _PartWriter:
 
 def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     """Runs the samples ``ids`` with inputs ``rows`` on ``pool = (threads, lanes)``; returns
-    (DataFrame, pending exception). Models whose links all translate go to one Rust batch (lanes
-    for samples that share a factorization); models in moving frames run one per thread."""
+    (DataFrame, pending exception). Every sample goes to one Rust batch, which runs each on the
+    stepper its plan picks: lockstep lanes for samples the constant stepper runs and that share
+    a factorization, one lane each for the others (a sample that needs Newton gives the outcome
+    of its single ``simulate``)."""
     threads, lanes = pool
     import pandas as pd
 
@@ -1208,7 +1210,6 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
 
     records: list[dict] = []
     batch: list[tuple[int, Any, float, float]] = []
-    moving: list[tuple[int, Any, float, float]] = []
     for i, row in zip(ids, rows):
         rec: dict[str, Any] = {"sample": int(i)}
         rec.update(row)
@@ -1228,18 +1229,11 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             rec.update(status="invalid", message=str(e), dt_used=job[3], retries=0, wall_time=0.0)
             records.append(rec)
             continue
-        # samples the constant stepper runs go to the Rust batch (lanes, one analysis)
-        constant = model.engine == "translating"  # the plan: the constant stepper
-        (batch if constant else moving).append(job)
+        batch.append(job)
         records.append(rec)
     hist = study.history_every is not None
     outcomes: dict[int, dict] = {}
     pending = None
-    done = [0, 0]
-
-    def report() -> None:
-        if progress is not None:
-            progress(done[0] + done[1])
 
     simulate_options = {_RUN_OPTION_ALIASES.get(k, k): v for k, v in study.run_options.items()}
     simulate_options.pop("memory_limit", None)  # checked once for the whole study
@@ -1247,20 +1241,31 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     if "iter_tol" in batch_options:
         batch_options["tol"] = batch_options.pop("iter_tol")
     halving = batch_options.pop("step_halving", 0)
-    if batch and halving:
+    if halving:
+        # the constant stepper has no Newton iteration to halve: refused per sample, as
+        # Model.simulate refuses it
         from .model import _bad
 
         message = str(_bad("step_halving", halving, "0 while every link translates (no Newton to halve)"))
-        for k, *_ in batch:
-            records[k].update(status="invalid", message=message, dt_used=float("nan"), retries=0)
-            records[k]["wall_time"] = 0.0
+        for k, m, *_ in batch:
+            if m.engine == "translating":
+                records[k].update(status="invalid", message=message, dt_used=float("nan"), retries=0)
+                records[k]["wall_time"] = 0.0
+        batch = [job for job in batch if job[1].engine != "translating"]
+    if batch and study.sliders:
+        # slider outputs compare each sample with its ideal-joint mechanism through Result
+        # objects: these samples run one per thread through Model.simulate
+        done = [0]
+
+        def one_done() -> None:
+            done[0] += 1
+            if progress is not None:
+                progress(done[0])
+
+        outs_by_job, pending = _run_moving(study, batch, threads, one_done, simulate_options)
+        outcomes.update(outs_by_job)
         batch = []
     if batch:
-
-        def batch_progress(n: int) -> None:
-            done[0] = n
-            report()
-
         outs, _stats, pending = _core.run_batch(
             [m._core for _, m, _, _ in batch],
             [t for _, _, t, _ in batch],
@@ -1276,19 +1281,12 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             joint_position=study.orbit,
             contact_modes=study._modes,
             start=study.start,
-            progress=batch_progress if progress is not None else None,
+            progress=progress,
+            step_halving=halving,
             **batch_options,
         )
         for (k, *_), out in zip(batch, outs):
             outcomes[k] = out
-    if moving and pending is None:
-
-        def one_done() -> None:
-            done[1] += 1
-            report()
-
-        more, pending = _run_moving(study, moving, threads, one_done, simulate_options)
-        outcomes.update(more)
     for k, out in outcomes.items():
         rec = records[k]
         status = out["status"]
@@ -1348,7 +1346,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         try:
             res = model.simulate(t_end, dt, study.method, record=record, progress=False, **options)
         except FlexclearError as e:
-            from .errors import SimulationDivergedError, SingularMatrixError
+            from .errors import ConvergenceError, SimulationDivergedError, SingularMatrixError
 
             failed = isinstance(e, (SimulationDivergedError, ConvergenceError))
             if failed and retries < study.retries:

@@ -47,8 +47,8 @@ use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, Woodbury};
-use crate::model::Model;
 use crate::plan::assembly::{Frames, Pattern, System};
+use crate::plan::translating::Model;
 use crate::record::Recorder;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 use std::sync::Arc;
@@ -572,7 +572,7 @@ impl<'m> Lane<'m> {
         let needs_refactor = nj > 0 && !matches!(settings.coupling, Coupling::Force);
         let limit = settings
             .divergence_limit
-            .unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.length).fold(0.0, f64::max));
+            .unwrap_or_else(|| 10.0 * model.links.iter().map(|l| l.section.length).fold(0.0, f64::max));
         let gap_k = sys
             .joints
             .iter()

@@ -2,9 +2,10 @@
 //! planar motion (translation and rotation), ideal pins between links, supports, sliders on
 //! straight guides, point masses, nodal loads and clearance joints (docs/method.md sections 2-4).
 //!
-//! Plain data plus validation; [`crate::integrator::newton`] steps it. The nominal (rigid-body)
-//! motion of every frame comes from a [`FrameKinematics`] (a spinning hub, a slider-crank, a
-//! four-bar, tables); elastic displacements are measured in each link's frame.
+//! Plain data plus validation; [`crate::plan::simulate`] runs it on the stepper the plan picks
+//! (the constant one on its translating form, else [`crate::integrator::newton`]). The nominal
+//! (rigid-body) motion of every frame comes from a [`FrameKinematics`] (a spinning hub, a
+//! slider-crank, a four-bar, tables); elastic displacements are measured in each link's frame.
 
 use std::sync::Arc;
 
@@ -193,7 +194,11 @@ pub struct Clearance {
     pub law: Arc<dyn ContactLaw>,
 }
 
-/// A mechanism for the KED integrator.
+/// The one user model: flexible links in any frame, sliders, pins, supports, point masses, loads,
+/// gravity and clearance joints. Checked by [`Mechanism::validate`]; run by
+/// [`crate::plan::simulate`] on the stepper [`crate::plan::Plan::compile`] picks for it (the
+/// constant stepper on its translating form, [`Mechanism::to_translating`], or Newton), alone or
+/// in a batch ([`crate::batch::run_batch`]). The bundled scenes ([`crate::scenes`]) build one.
 #[derive(Debug, Clone, Default)]
 pub struct Mechanism {
     /// Flexible links.

@@ -1,10 +1,9 @@
 //! What every straight flexible link is made of, whatever moves it: the beam data and element
-//! count of [`FlexibleLink`] (the slider-yoke [`Model`]) and of
-//! [`mechanism::Link`] (the KED [`Mechanism`]), and the one validation of that data, of initial
+//! count of [`mechanism::Link`] (the one user model, [`Mechanism`]) and of [`FlexibleLink`] (its
+//! translating form the constant stepper runs), and the one validation of that data, of initial
 //! elastic states and of node references that both use.
 //!
-//! [`FlexibleLink`]: super::FlexibleLink
-//! [`Model`]: super::Model
+//! [`FlexibleLink`]: crate::plan::translating::FlexibleLink
 //! [`mechanism::Link`]: super::mechanism::Link
 //! [`Mechanism`]: super::mechanism::Mechanism
 

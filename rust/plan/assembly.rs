@@ -5,9 +5,10 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
+use super::translating::{JointTarget, Model};
 use crate::contact::ContactLaw;
 use crate::element::Mat6;
-use crate::model::{JointTarget, Kinematics, Model, Motion, NODE_DOFS};
+use crate::model::{Kinematics, Motion, NODE_DOFS};
 
 /// A square sparsity pattern in compressed sparse column form (row indices sorted per column).
 #[derive(Debug, Clone)]
@@ -283,7 +284,7 @@ impl System {
         let n = offset;
         let mut entries = BTreeSet::new();
         for (l, &o) in model.links.iter().zip(&offsets) {
-            for e in 0..l.elements {
+            for e in 0..l.section.elements {
                 let base = o + NODE_DOFS * e;
                 for i in 0..6 {
                     for j in 0..6 {
@@ -306,7 +307,7 @@ impl System {
                 bearing: Bearing::Body(0, [0.0; 2]),
                 clearance: j.clearance,
                 law: j.law.clone(),
-                element_stiffness: 12.0 * la.youngs_modulus * la.inertia / la.element_length().powi(3),
+                element_stiffness: 12.0 * la.section.youngs_modulus * la.section.inertia / la.element_length().powi(3),
             };
             match j.target {
                 JointTarget::Body { body, point } => plan.bearing = Bearing::Body(body, point),
@@ -335,17 +336,17 @@ impl System {
         let nnz = pattern.nnz();
         let (mut mass, mut stiffness, mut damping) = (vec![0.0; nnz], vec![0.0; nnz], vec![0.0; nnz]);
         let mut links = Vec::with_capacity(model.links.len());
-        let ratio0 = model.links[0].damping / model.links[0].youngs_modulus;
+        let ratio0 = model.links[0].section.damping / model.links[0].section.youngs_modulus;
         let mut proportional = true;
         for (l, &o) in model.links.iter().zip(&offsets) {
             let el = l.element();
             let (me, ke) = (el.mass(), el.stiffness());
-            let ratio = l.damping / l.youngs_modulus;
+            let ratio = l.section.damping / l.section.youngs_modulus;
             proportional &= ratio == ratio0;
             let ce: Mat6 = ke * ratio;
             let accelerates = !l.motion.is_fixed();
             let mut load = accelerates.then(|| [vec![0.0; l.dofs()], vec![0.0; l.dofs()]]);
-            for e in 0..l.elements {
+            for e in 0..l.section.elements {
                 let base = o + NODE_DOFS * e;
                 for j in 0..6 {
                     for i in 0..6 {

@@ -13,13 +13,14 @@
 //! stepper. Energy channels need the velocities: a run that records them takes the Newton stepper.
 
 pub mod assembly;
+pub mod translating;
 
 use crate::error::Error;
 use crate::integrator::newton::NewtonRun;
 use crate::model::mechanism::Mechanism;
-use crate::model::Model;
 use crate::record::LinkHistory;
 use crate::run::{simulate as simulate_translating, RunFailure, RunOutput, Settings};
+use translating::Model;
 
 /// The kinds of stepper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -167,7 +168,7 @@ pub fn simulate(
             .links
             .iter()
             .enumerate()
-            .flat_map(|(l, link)| (0..=link.elements).map(move |n| (l, n)))
+            .flat_map(|(l, link)| (0..=link.section.elements).map(move |n| (l, n)))
             .collect()
     } else {
         // no link channel: the node histories asked for by the caller (the Python `Model`'s
@@ -205,7 +206,7 @@ fn link_histories(model: &Model, out: &RunOutput, settings: &Settings) -> Vec<Li
         .links
         .iter()
         .map(|l| {
-            let nn = l.elements + 1;
+            let nn = l.section.elements + 1;
             let mut h = LinkHistory::default();
             // the frame goes with the displacements (as the memory estimate counts it)
             for &t in rec.time.iter().filter(|_| ch.displacements) {
@@ -219,7 +220,7 @@ fn link_histories(model: &Model, out: &RunOutput, settings: &Settings) -> Vec<Li
             }
             let rows = nodes[0].u.len();
             let e = l.section().element(false);
-            let ea_l = l.youngs_modulus * l.area / l.element_length();
+            let ea_l = l.section.youngs_modulus * l.section.area / l.element_length();
             for r in 0..rows {
                 if ch.displacements {
                     for n in nodes {
@@ -227,13 +228,13 @@ fn link_histories(model: &Model, out: &RunOutput, settings: &Settings) -> Vec<Li
                     }
                 }
                 if ch.axial_force {
-                    for k in 0..l.elements {
+                    for k in 0..l.section.elements {
                         h.axial_force.push(ea_l * (nodes[k + 1].u[r] - nodes[k].u[r]));
                     }
                 }
                 if ch.midspan {
-                    let xm = 0.5 * l.elements as f64;
-                    let k = (xm.floor() as usize).min(l.elements - 1);
+                    let xm = 0.5 * l.section.elements as f64;
+                    let k = (xm.floor() as usize).min(l.section.elements - 1);
                     let xi = xm - k as f64;
                     let (a, b) = (&nodes[k], &nodes[k + 1]);
                     let q = crate::element::Vec6::new(a.u[r], a.v[r], a.theta[r], b.u[r], b.v[r], b.theta[r]);

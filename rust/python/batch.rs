@@ -1,5 +1,6 @@
-//! Bindings of the batch: many samples of constant-planned mechanisms in parallel, lockstep
-//! lanes (see `flexclear.study`).
+//! Bindings of the batch: many samples of mechanisms in parallel, each planned as
+//! `Mechanism.simulate` plans it: lockstep lanes for those the constant stepper runs, one lane
+//! each for the others (see `flexclear.study`).
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Duration;
@@ -13,9 +14,10 @@ use super::{err, mechanism, parse_coupling, parse_solver};
 use crate::batch::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 use crate::error::Error;
 use crate::integrator::Newmark;
-use crate::model::Model;
-use crate::record::RecordSpec;
-use crate::run::Settings;
+use crate::model::mechanism::Mechanism;
+use crate::plan::{Plan, StepperKind};
+use crate::record::{LinkChannels, RecordSpec};
+use crate::run::{NewtonSettings, Settings};
 
 /// A count given from Python as `i64`. Only negative values are refused here; zero is reported by
 /// the engine's own validation, which names the same range.
@@ -23,44 +25,76 @@ fn count_at_least_1(py: Python<'_>, name: &str, v: i64) -> PyResult<usize> {
     usize::try_from(v).map_err(|_| err(py, Error::param(name, v, "an integer >= 1")))
 }
 
-/// Settings of a batch run from the keyword arguments of `run_batch`.
-#[allow(clippy::too_many_arguments)]
-fn build_settings(
-    py: Python<'_>,
-    t_end: f64,
-    dt: f64,
-    method: &str,
-    iterate: bool,
-    tol: f64,
-    max_iter: i64,
+/// The settings `run_batch` shares among its samples, as given.
+struct Shared<'a> {
+    method: &'a str,
+    iterate: Option<bool>,
+    tol: Option<f64>,
+    max_iter: Option<usize>,
+    step_halving: u32,
     gap_stiffness: Option<f64>,
     gap_damping: f64,
     beta: f64,
     gamma: f64,
-    solver: &str,
+    solver: &'a str,
     divergence_limit: Option<f64>,
     record: RecordSpec,
-) -> PyResult<Settings> {
-    let max_iter = count_at_least_1(py, "max_iter", max_iter)?;
-    let coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
-    let solver = parse_solver(py, solver)?;
-    let settings = Settings {
-        t_end,
-        dt,
-        newmark: Newmark { beta, gamma },
-        coupling,
-        solver,
-        divergence_limit,
-        record,
-        events: false,
-        newton: Default::default(),
+    events: bool,
+}
+
+/// The settings of one sample, resolved as `flexclear.Model.simulate` resolves them for the
+/// stepper the plan picks: on the constant stepper `iterate` defaults to off and `tol`,
+/// `max_iter` are the contact iteration's (1e-10, 50); otherwise `iterate` defaults to on where
+/// a clearance joint sits on a rotating link or body (method "modified"), `tol`, `max_iter` are
+/// Newton's (1e-8, 25) and the contact iteration keeps 1e-10, 50.
+fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Shared<'_>) -> PyResult<Settings> {
+    let rotating = || {
+        let rotates = |e: &crate::model::mechanism::Endpoint| match e {
+            crate::model::mechanism::Endpoint::Node { link, .. } => {
+                mech.links.get(*link).is_some_and(|l| l.frame.rotates())
+            }
+            crate::model::mechanism::Endpoint::Body { frame, .. } => frame.rotates(),
+            crate::model::mechanism::Endpoint::Slider(_) => false,
+        };
+        mech.joints.iter().any(|j| rotates(&j.journal) || rotates(&j.bearing))
+    };
+    let coupling = |iterate: bool, tol: f64, max_iter: usize| {
+        parse_coupling(py, c.method, iterate, tol, max_iter, c.gap_stiffness, c.gap_damping)
+    };
+    let mut settings = Settings {
+        newmark: Newmark {
+            beta: c.beta,
+            gamma: c.gamma,
+        },
+        coupling: coupling(false, 1e-10, 50)?,
+        solver: parse_solver(py, c.solver)?,
+        divergence_limit: c.divergence_limit,
+        record: c.record.clone(),
+        events: c.events,
+        newton: NewtonSettings {
+            tol: c.tol.unwrap_or(1e-8),
+            max_iter: c.max_iter.unwrap_or(25),
+            step_halving: c.step_halving,
+        },
         stepper: None,
+        ..Settings::new(t_end, dt)
+    };
+    let constant = matches!(Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant);
+    settings.coupling = if constant {
+        coupling(
+            c.iterate.unwrap_or(false),
+            c.tol.unwrap_or(1e-10),
+            c.max_iter.unwrap_or(50),
+        )?
+    } else {
+        let iterate = c.iterate.unwrap_or_else(|| c.method == "modified" && rotating());
+        coupling(iterate, 1e-10, 50)?
     };
     Ok(settings)
 }
 
-/// One sample's outcome as a dict: `status` ("ok", "diverged", "invalid", "singular",
-/// "interrupted", "not_run"), `message`, `dt`, `retries`, `wall_time`, `steps`, `t`,
+/// One sample's outcome as a dict: `status` ("ok", "diverged", "unconverged", "invalid",
+/// "singular", "interrupted", "not_run"), `message`, `dt`, `retries`, `wall_time`, `steps`, `t`,
 /// `extremes` (per joint) and `joints` (histories, when recorded).
 fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
@@ -77,7 +111,8 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
         Some(Err(f)) => {
             let status = match f.error {
                 Error::InvalidParameter { .. } | Error::InvalidModel { .. } => "invalid",
-                Error::Diverged { .. } | Error::NotConverged { .. } => "diverged",
+                Error::Diverged { .. } => "diverged",
+                Error::NotConverged { .. } => "unconverged",
                 Error::Singular { .. } => "singular",
                 Error::Interrupted { .. } => "interrupted",
             };
@@ -96,39 +131,31 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     Ok(d)
 }
 
-/// The constant-stepper model of batch sample `i`: the translating model `plan::Plan::compile`
-/// derives from a `Mechanism` it runs on the constant stepper (validated first); any other
-/// object, or a mechanism that needs the Newton stepper, is refused naming `models[i]` and the
-/// reason.
-fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>, t_end: f64) -> PyResult<Model> {
-    let name = format!("models[{i}]");
-    let Ok(mech) = m.extract::<PyRef<'_, mechanism::PyMechanism>>() else {
-        let shown = m.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
-        return Err(err(py, Error::param(name, shown, "a Mechanism")));
-    };
-    mech.inner.validate(t_end).map_err(|e| err(py, e))?;
-    mech.inner.to_translating().map_err(|reason| {
-        err(
-            py,
-            Error::param(
-                name,
-                "a mechanism",
-                format!("a model the constant stepper runs (this one needs the Newton stepper: {reason})"),
-            ),
-        )
-    })
+/// The mechanism of batch sample `i`; any other object is refused naming `models[i]`.
+fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>) -> PyResult<Mechanism> {
+    match m.extract::<PyRef<'_, mechanism::PyMechanism>>() {
+        Ok(mech) => Ok(mech.inner.clone()),
+        Err(_) => {
+            let shown = m.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
+            Err(err(py, Error::param(format!("models[{i}]"), shown, "a Mechanism")))
+        }
+    }
 }
 
 /// Runs many samples in parallel (see `flexclear.study`). `models[i]` runs to `t_end[i]` with
-/// step `dt[i]`; the other settings are shared. Returns `(outcomes, stats, pending)`: one dict
+/// step `dt[i]` on the stepper its plan picks (the outcome of a sample that needs Newton is that
+/// of its single run; see `crate::batch`); the other settings are shared, `iterate`, `tol` and
+/// `max_iter` resolved per sample as `Model.simulate` resolves them (None = that stepper's
+/// default). A sample that fails, before or during its run, is an outcome (`status`), not an
+/// exception. Returns `(outcomes, stats, pending)`: one dict
 /// per sample in input order, the batch counters, and the exception that stopped the batch
 /// (KeyboardInterrupt or one raised by `progress`), else None. The GIL is released throughout;
 /// `progress(done)` is called from the calling thread as samples finish. `joint_position` also
 /// keeps the journal positions (`qx`, `qy`, m) in the joint histories (the orbit of a study);
 /// `contact_modes` tracks the contact-mode fractions and the dissipated energy.
 #[pyfunction]
-#[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=false,
-                    tol=1e-10, max_iter=50, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
+#[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=None,
+                    tol=None, max_iter=None, step_halving=0, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
                     progress=None, events=false, joint_position=false,
                     contact_modes=false))]
@@ -143,9 +170,10 @@ pub(super) fn run_batch<'py>(
     retries: i64,
     retry_factor: f64,
     method: &str,
-    iterate: bool,
-    tol: f64,
-    max_iter: i64,
+    iterate: Option<bool>,
+    tol: Option<f64>,
+    max_iter: Option<i64>,
+    step_halving: i64,
     gap_stiffness: Option<f64>,
     gap_damping: f64,
     beta: f64,
@@ -193,31 +221,39 @@ pub(super) fn run_batch<'py>(
         histories,
         start,
         impacts: false,
-        links: Default::default(),
+        // joint channels only (a sample on the Newton stepper keeps no link history)
+        links: LinkChannels {
+            displacements: false,
+            axial_force: false,
+            midspan: false,
+            energy: false,
+        },
         contact_modes,
+    };
+    let max_iter = max_iter.map(|m| count_at_least_1(py, "max_iter", m)).transpose()?;
+    let step_halving = u32::try_from(step_halving)
+        .map_err(|_| err(py, Error::param("step_halving", step_halving, "an integer in 0 ..= 20")))?;
+    let shared = Shared {
+        method,
+        iterate,
+        tol,
+        max_iter,
+        step_halving,
+        gap_stiffness,
+        gap_damping,
+        beta,
+        gamma,
+        solver,
+        divergence_limit,
+        record,
+        // event-aware runs step alone (never a lockstep lane: `shares_factor` is false for them)
+        events,
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {
-        let model = batch_model(py, i, m, t_end[i])?;
-        let mut settings = build_settings(
-            py,
-            t_end[i],
-            dt[i],
-            method,
-            iterate,
-            tol,
-            max_iter,
-            gap_stiffness,
-            gap_damping,
-            beta,
-            gamma,
-            solver,
-            divergence_limit,
-            record.clone(),
-        )?;
-        // event-aware runs step alone (never a lockstep lane: `shares_factor` is false for them)
-        settings.events = events;
-        samples.push((model, settings));
+        let mech = batch_model(py, i, m)?;
+        let settings = sample_settings(py, &mech, t_end[i], dt[i], &shared)?;
+        samples.push((mech, settings));
     }
     drop(models);
     let options = BatchOptions {

@@ -13,6 +13,15 @@ fn class<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
     py.import("flexclear.errors")?.getattr(name)
 }
 
+/// A `flexclear.ModelError` with `message` as it stands (no `invalid model:` prefix): for a
+/// binding that words the message itself.
+pub fn model_error(py: Python<'_>, message: String) -> PyErr {
+    match class(py, "ModelError").and_then(|c| c.call1((message,))) {
+        Ok(e) => PyErr::from_value(e),
+        Err(e) => e,
+    }
+}
+
 /// Converts an engine error into the matching `flexclear` exception. `partial` (the output
 /// recorded until the failure, a `RunOutput`) is attached as `exc.partial` when given.
 pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyAny>>) -> PyErr {

@@ -1,15 +1,13 @@
-//! Bindings of the one user model: the `Mechanism` builder with its run and linearization, and
-//! the bundled scenes built in Rust (slider-yoke, slider-crank) that return it.
+//! Bindings of the one user model: the `Mechanism` builder with its run and linearization (the
+//! bundled scenes that build it are in `scenes.rs`).
 
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt};
 
 use super::errors::{run_detached, to_pyerr};
 use super::motion::PyFrame;
 use super::output::{mat, run_output};
-use super::{err, parse_coupling, parse_damping_law, parse_solver};
-use crate::contact::DampingLaw;
+use super::{err, parse_coupling, parse_solver};
 use crate::error::Error;
 use crate::integrator::newton::NewtonRun;
 use crate::integrator::Newmark;
@@ -20,7 +18,6 @@ use crate::model::mechanism::{
 use crate::plan::StepperKind;
 use crate::record::{LinkChannels, RecordSpec};
 use crate::run::{NewtonSettings, Settings};
-use crate::scenes::{FlexibleSliderCrank, SliderCrankPin, SliderYoke, SliderYokeGeometry};
 
 /// A kineto-elastodynamic mechanism under construction (see `flexclear.Mechanism`).
 #[pyclass(name = "Mechanism", module = "flexclear._core")]
@@ -310,6 +307,12 @@ impl PyMechanism {
         self.inner.joints.iter().map(|j| j.name.clone()).collect()
     }
 
+    /// Ideal pin names, in order.
+    #[getter]
+    fn pin_names(&self) -> Vec<String> {
+        self.inner.pins.iter().map(|p| p.name.clone()).collect()
+    }
+
     /// Element counts per link.
     #[getter]
     fn link_elements(&self) -> Vec<usize> {
@@ -590,224 +593,4 @@ impl PyMechanism {
             self.joint_names()
         )
     }
-}
-
-/// The numeric keywords of [`slider_crank`] that the scene checks by name. A value that is not a
-/// Python `int` or `float` reaches the scene as NaN (an `elements` that is not an `int`, or is a
-/// `bool`, as 0), so the scene's own check refuses it in its order; the message then shows the
-/// value as given (`str`), as the scene's Python checks did. (`bearing_stiffness` and
-/// `bearing_damping` are checked by the bearing law, as `joints[0].stiffness` / `.damping`.)
-const SLIDER_CRANK_NUMBERS: [&str; 15] = [
-    "crank_length",
-    "rod_length",
-    "crank_speed",
-    "side",
-    "youngs_modulus",
-    "density",
-    "slider_mass",
-    "elements",
-    "damping",
-    "offset",
-    "clearance",
-    "pin_radius",
-    "poisson_ratio",
-    "reference_penetration",
-    "bearing_damping_ratio",
-];
-
-/// Builds the flexible slider-crank scene for `flexclear.scenes.slider_crank`, which passes
-/// every keyword of `FlexibleSliderCrank` plus `clearance_at` (None, "crank_pin" or
-/// "slider_pin") and `damping_law` (read only with a clearance joint). Returns the mechanism and
-/// the derived values as a dict: `area`, `inertia`, `rod_mass` and, with a clearance joint,
-/// `bearing_stiffness`, `bearing_damping`, `effective_mass`. Errors come in the order of the
-/// scene's checks: `clearance_at` after the rod and slider data, `damping_law` after the bearing
-/// data.
-#[pyfunction]
-#[pyo3(signature = (**kwargs))]
-pub(super) fn slider_crank<'py>(
-    py: Python<'py>,
-    kwargs: Option<&Bound<'py, PyDict>>,
-) -> PyResult<(PyMechanism, Bound<'py, PyDict>)> {
-    let empty = PyDict::new(py);
-    let kw = kwargs.unwrap_or(&empty);
-    let arg = |name: &str| -> PyResult<Bound<'py, PyAny>> {
-        kw.get_item(name)?
-            .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err(format!("slider_crank: missing keyword `{name}`")))
-    };
-    let is_number = |v: &Bound<'py, PyAny>| v.is_instance_of::<PyFloat>() || v.is_instance_of::<PyInt>();
-    let num = |name: &str| -> PyResult<f64> {
-        let v = arg(name)?;
-        Ok(if is_number(&v) {
-            v.extract().unwrap_or(f64::NAN)
-        } else {
-            f64::NAN
-        })
-    };
-    let opt_num = |name: &str| -> PyResult<Option<f64>> {
-        let v = arg(name)?;
-        Ok(if v.is_none() { None } else { Some(num(name)?) })
-    };
-    let elements = {
-        let v = arg("elements")?;
-        if v.is_instance_of::<PyInt>() && !v.is_instance_of::<PyBool>() {
-            v.extract::<usize>().unwrap_or(0)
-        } else {
-            0
-        }
-    };
-    // An error of a numeric keyword shows the value as Python gave it.
-    let as_given = |e: Error| -> PyErr {
-        let e = match e {
-            Error::InvalidParameter { name, value, allowed } if SLIDER_CRANK_NUMBERS.contains(&name.as_str()) => {
-                let value = kw
-                    .get_item(&name)
-                    .ok()
-                    .flatten()
-                    .and_then(|v| v.str().ok().map(|s| s.to_string()))
-                    .unwrap_or(value);
-                Error::InvalidParameter { name, value, allowed }
-            }
-            e => e,
-        };
-        err(py, e)
-    };
-    let scene = FlexibleSliderCrank {
-        crank_length: num("crank_length")?,
-        rod_length: num("rod_length")?,
-        crank_speed: num("crank_speed")?,
-        side: num("side")?,
-        youngs_modulus: num("youngs_modulus")?,
-        density: num("density")?,
-        slider_mass: num("slider_mass")?,
-        elements,
-        damping: num("damping")?,
-        offset: num("offset")?,
-        geometric: arg("geometric")?.extract()?,
-        clearance_at: None,
-        clearance: num("clearance")?,
-        bearing_stiffness: opt_num("bearing_stiffness")?,
-        bearing_damping: opt_num("bearing_damping")?,
-        pin_radius: num("pin_radius")?,
-        poisson_ratio: num("poisson_ratio")?,
-        reference_penetration: num("reference_penetration")?,
-        bearing_damping_ratio: num("bearing_damping_ratio")?,
-        damping_law: DampingLaw::Viscous,
-    };
-    // A bad `clearance_at` or `damping_law` is reported after the checks that precede it.
-    let after_checks_of = |s: &FlexibleSliderCrank, e: PyErr| -> PyErr { s.derived().map_or_else(as_given, |_| e) };
-    let at = arg("clearance_at")?;
-    let at = if at.is_none() {
-        None
-    } else {
-        match at.extract::<String>().as_deref() {
-            Ok("crank_pin") => Some(SliderCrankPin::CrankPin),
-            Ok("slider_pin") => Some(SliderCrankPin::SliderPin),
-            _ => {
-                let shown = at.repr().map_or_else(|_| String::from("?"), |r| r.to_string());
-                let e = Error::param("clearance_at", shown, "None, \"crank_pin\" or \"slider_pin\"");
-                return Err(after_checks_of(&scene, err(py, e)));
-            }
-        }
-    };
-    let mut scene = FlexibleSliderCrank {
-        clearance_at: at,
-        ..scene
-    };
-    if at.is_some() {
-        let law = arg("damping_law")?.extract::<String>()?;
-        scene.damping_law = parse_damping_law(py, &law).map_err(|e| after_checks_of(&scene, e))?;
-    }
-    let mech = scene.build().map_err(as_given)?;
-    let d = scene.derived().map_err(as_given)?;
-    let info = PyDict::new(py);
-    info.set_item("area", d.area)?;
-    info.set_item("inertia", d.inertia)?;
-    info.set_item("rod_mass", d.rod_mass)?;
-    if let Some(b) = d.bearing {
-        info.set_item("bearing_stiffness", b.bearing_stiffness)?;
-        info.set_item("bearing_damping", b.bearing_damping)?;
-        info.set_item("effective_mass", b.effective_mass)?;
-    }
-    Ok((PyMechanism { inner: mech }, info))
-}
-
-/// Builds the slider-yoke scene (see `flexclear.scenes.slider_yoke`). Returns the model and the
-/// derived parameters as a dict.
-#[pyfunction]
-#[pyo3(signature = (clearance=0.0, amplitude=0.010, frequency=6.0, length=0.269, side=0.0127, density=7850.0,
-                    youngs_modulus=None, first_frequency=880.0, damping_ratio=0.01, elements=12,
-                    bearing_stiffness=None, stiffness_ratio=100.0, bearing_damping=None, bearing_damping_ratio=0.5,
-                    damping_law="viscous", no_tension=false, geometry="end", rotary_inertia=false))]
-#[allow(clippy::too_many_arguments)]
-pub(super) fn slider_yoke<'py>(
-    py: Python<'py>,
-    clearance: f64,
-    amplitude: f64,
-    frequency: f64,
-    length: f64,
-    side: f64,
-    density: f64,
-    youngs_modulus: Option<f64>,
-    first_frequency: f64,
-    damping_ratio: f64,
-    elements: i64,
-    bearing_stiffness: Option<f64>,
-    stiffness_ratio: f64,
-    bearing_damping: Option<f64>,
-    bearing_damping_ratio: f64,
-    damping_law: &str,
-    no_tension: bool,
-    geometry: &str,
-    rotary_inertia: bool,
-) -> PyResult<(PyMechanism, Bound<'py, PyDict>)> {
-    let elements = check_elements("elements", elements).map_err(|e| err(py, e))?;
-    let geometry = match geometry {
-        "end" => SliderYokeGeometry::End,
-        "both_ends" => SliderYokeGeometry::BothEnds,
-        "mid_span" => SliderYokeGeometry::MidSpan,
-        other => {
-            return Err(err(
-                py,
-                Error::param(
-                    "geometry",
-                    format!("{other:?}"),
-                    "one of \"end\", \"both_ends\", \"mid_span\"",
-                ),
-            ))
-        }
-    };
-    let scene = SliderYoke {
-        clearance,
-        amplitude,
-        frequency,
-        length,
-        side,
-        density,
-        youngs_modulus,
-        first_frequency,
-        damping_ratio,
-        elements,
-        bearing_stiffness,
-        stiffness_ratio,
-        bearing_damping,
-        bearing_damping_ratio,
-        damping_law: parse_damping_law(py, damping_law)?,
-        no_tension,
-        geometry,
-        rotary_inertia,
-    };
-    let model = scene.build().map_err(|e| err(py, e))?;
-    let d = scene.derived().map_err(|e| err(py, e))?;
-    let info = PyDict::new(py);
-    info.set_item("area", d.area)?;
-    info.set_item("inertia", d.inertia)?;
-    info.set_item("mass", d.mass)?;
-    info.set_item("youngs_modulus", d.youngs_modulus)?;
-    info.set_item("eta", d.eta)?;
-    info.set_item("bearing_stiffness", d.bearing_stiffness)?;
-    info.set_item("bearing_damping", d.bearing_damping)?;
-    // the one user model: the mechanism (lossless; the plan derives this translating model back
-    // for the constant stepper)
-    let inner = Mechanism::from_translating(&model).map_err(|e| err(py, e))?;
-    Ok((PyMechanism { inner }, info))
 }

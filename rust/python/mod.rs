@@ -1,6 +1,6 @@
 //! Python bindings (`flexclear._core`), behind the `python` feature: the only code that knows
-//! about Python. One module per concept: the one model class (`Mechanism`, its runs and the
-//! scenes that build it) in `mechanism.rs`, motions and frames in `motion.rs`, the batch in
+//! about Python. One module per concept: the one model class (`Mechanism` and its runs) in
+//! `mechanism.rs`, the bundled scenes that build it in `scenes.rs`, motions and frames in `motion.rs`, the batch in
 //! `batch.rs`, run outputs in `output.rs`, contact laws in `contact.rs`, errors in `errors.rs`;
 //! here the module and the parsers they share.
 
@@ -10,6 +10,7 @@ mod errors;
 mod mechanism;
 mod motion;
 mod output;
+mod scenes;
 
 use pyo3::prelude::*;
 
@@ -96,8 +97,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<output::PyNodeHistory>()?;
     m.add_class::<output::PyLinkHistory>()?;
     m.add_class::<output::PySliderHistory>()?;
-    m.add_function(wrap_pyfunction!(mechanism::slider_yoke, m)?)?;
-    m.add_function(wrap_pyfunction!(mechanism::slider_crank, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::slider_yoke, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::slider_crank, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::four_bar, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::spin_up, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::spin_up_data, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;
     contact::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

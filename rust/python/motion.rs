@@ -125,7 +125,7 @@ fn str_arg(arg: &Bound<'_, PyAny>, name: &str, allowed: &str) -> PyResult<String
 #[pyclass(name = "Rotation", module = "flexclear._core", frozen)]
 #[derive(Clone)]
 pub(super) struct PyRotation {
-    inner: Rotation,
+    pub(super) inner: Rotation,
 }
 
 #[pymethods]

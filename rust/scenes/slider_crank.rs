@@ -18,8 +18,10 @@
 
 use std::sync::Arc;
 
+use super::bearing::{hertz_secant, BearingDerived};
+use super::{bad, finite, positive};
 use crate::contact::{ContactLaw, DampingLaw, SpringDamper};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::kinematics::{FrameKinematics, Rotation, SliderCrank, SliderCrankFrame, SliderCrankLink};
 use crate::model::check_elements;
 use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Pin, Slider, Terms};
@@ -135,51 +137,6 @@ pub struct SliderCrankDerived {
     pub bearing: Option<BearingDerived>,
 }
 
-/// Derived values of the clearance joint's bearing.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BearingDerived {
-    /// Bearing stiffness K_B, N/m.
-    pub bearing_stiffness: f64,
-    /// Bearing damping C_B, N s/m.
-    pub bearing_damping: f64,
-    /// The mass the derived C_B is critical for, kg.
-    pub effective_mass: f64,
-}
-
-/// Secant stiffness (N/m) at `penetration` (m) of the Hertz law `F = K_h delta^1.5` for a journal
-/// of `radius` (m) in a bearing of radius `radius + clearance`, both of the same material
-/// (Young's modulus in Pa): `K_h = (4/3) E* sqrt(R*)` with `E* = E / (2 (1 - nu^2))` and
-/// `R* = R (R + c) / c` (the conformal internal contact, as in Lankarani & Nikravesh 1990).
-pub fn hertz_secant(youngs_modulus: f64, poisson_ratio: f64, radius: f64, clearance: f64, penetration: f64) -> f64 {
-    let e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio * poisson_ratio));
-    let r_star = radius * (radius + clearance) / clearance;
-    4.0 / 3.0 * e_star * r_star.sqrt() * penetration.sqrt()
-}
-
-/// An invalid scene parameter; the value is shown with a decimal point (`-1.0`, as Python shows
-/// it: these errors reach Python users of `flexclear.scenes.slider_crank` unchanged).
-fn bad(name: &str, value: f64, allowed: impl Into<String>) -> Error {
-    Error::param(name, format!("{value:?}"), allowed)
-}
-
-/// `value` must be finite and > 0.
-fn positive(name: &str, value: f64) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(name, value, "a finite number > 0"))
-    }
-}
-
-/// `value` must be finite.
-fn finite(name: &str, value: f64) -> Result<()> {
-    if value.is_finite() {
-        Ok(())
-    } else {
-        Err(bad(name, value, "a finite number"))
-    }
-}
-
 /// `x` with 6 significant digits, shortest form (as C's `%g` for lengths of order metres).
 fn g6(x: f64) -> String {
     let rounded: f64 = format!("{x:.5e}").parse().unwrap_or(x);
@@ -188,7 +145,7 @@ fn g6(x: f64) -> String {
 
 impl FlexibleSliderCrank {
     /// The derived quantities (A, I, rod mass and, with a clearance joint, K_B, C_B). Fails with
-    /// [`Error::InvalidParameter`] naming the first invalid field and its allowed range.
+    /// [`Error::InvalidParameter`](crate::Error::InvalidParameter) naming the first invalid field and its allowed range.
     pub fn derived(&self) -> Result<SliderCrankDerived> {
         positive("crank_length", self.crank_length)?;
         positive("rod_length", self.rod_length)?;
@@ -368,6 +325,7 @@ impl FlexibleSliderCrank {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Error;
 
     #[test]
     fn pins_become_the_named_clearance_joint_with_the_hertz_secant_bearing() {

@@ -12,8 +12,10 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use crate::contact::{DampingLaw, SpringDamper};
-use crate::error::{check_positive, Error, Result};
-use crate::model::{check_elements, ClearanceJoint, FlexibleLink, JointTarget, Model, Motion, RigidBody};
+use crate::error::{check_non_negative, check_positive, Error, Result};
+use crate::kinematics::{FrameKinematics, RotatingFrame, Rotation};
+use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Terms};
+use crate::model::{check_elements, Motion};
 
 /// `(beta_1 L)^2` of the first free-free bending mode.
 pub const BETA1_L_SQUARED: f64 = 22.3733;
@@ -166,11 +168,15 @@ impl SliderYoke {
         })
     }
 
-    /// Builds the model. The slider is link `"slider"`, the yoke body `"yoke"`, the joint
-    /// `"bearing"`. Initial state: the zero-clearance steady motion, i.e. absolute transverse
+    /// Builds the mechanism. The slider is link `"slider"` on a frame translating with the yoke
+    /// (angle 0), the yoke the body `"yoke"` on that frame, the joint `"bearing"` (and
+    /// `"bearing_2"`) from a slider node to the yoke point at that node. Fails as
+    /// [`SliderYoke::derived`], then on the section (`links[0].*`: a given `youngs_modulus`), the
+    /// joints' clearance (`joints[i].clearance`, >= 0 m) and bearing law (`joints[i].law.*`).
+    /// Initial state: the zero-clearance steady motion, i.e. absolute transverse
     /// velocity `Y 2 pi f (1 - 1.5 x/L)` (in the yoke-fixed frame `-1.5 x Y 2 pi f / L`) and
     /// rotation rate `-1.5 Y 2 pi f / L`, no deformation.
-    pub fn build(&self) -> Result<Model> {
+    pub fn build(&self) -> Result<Mechanism> {
         let d = self.derived()?;
         let motion = Motion::Harmonic {
             offset: [0.0, 0.0],
@@ -187,7 +193,13 @@ impl SliderYoke {
             v0[3 * i + 1] = rate * x;
             v0[3 * i + 2] = rate;
         }
-        let slider = FlexibleLink {
+        // the slider's frame and the yoke's: translating with the yoke at angle 0 (so a bearing
+        // point given in global axes from the yoke's reference point is the same in its frame)
+        let frame: Arc<dyn FrameKinematics> = Arc::new(RotatingFrame {
+            origin: motion.clone(),
+            rotation: Rotation::Fixed { angle: 0.0 },
+        });
+        let slider = Link {
             name: "slider".into(),
             length: self.length,
             elements: n,
@@ -196,25 +208,28 @@ impl SliderYoke {
             damping: d.eta,
             area: d.area,
             inertia: d.inertia,
+            frame: frame.clone(),
+            terms: Terms::default(),
             rotary_inertia: self.rotary_inertia,
-            angle: 0.0,
-            motion: motion.clone(),
             initial_displacement: None,
             initial_velocity: Some(v0),
         };
+        slider.section().validate("links[0].")?;
+        motion.validate("links[0].motion")?;
+        motion.validate("bodies[0].motion")?;
         let law = Arc::new(SpringDamper {
             stiffness: d.bearing_stiffness,
             damping: d.bearing_damping,
             damping_law: self.damping_law,
             no_tension: self.no_tension,
         });
-        let joint = |name: &str, node: usize| ClearanceJoint {
+        let joint = |name: &str, node: usize| Clearance {
             name: name.into(),
-            link: 0,
-            node,
-            target: JointTarget::Body {
-                body: 0,
+            journal: Endpoint::Node { link: 0, node },
+            bearing: Endpoint::Body {
+                frame: frame.clone(),
                 point: [self.length * node as f64 / n as f64, 0.0],
+                name: "yoke".into(),
             },
             clearance: self.clearance,
             law: law.clone(),
@@ -224,15 +239,14 @@ impl SliderYoke {
             SliderYokeGeometry::BothEnds => vec![joint("bearing", 0), joint("bearing_2", n)],
             SliderYokeGeometry::MidSpan => vec![joint("bearing", n / 2)],
         };
-        let model = Model {
+        for (i, j) in joints.iter().enumerate() {
+            check_non_negative(&format!("joints[{i}].clearance"), j.clearance, "m")?;
+            j.law.validate(&format!("joints[{i}].law"))?;
+        }
+        Ok(Mechanism {
             links: vec![slider],
-            bodies: vec![RigidBody {
-                name: "yoke".into(),
-                motion,
-            }],
             joints,
-        };
-        model.validate()?;
-        Ok(model)
+            ..Default::default()
+        })
     }
 }

@@ -3,7 +3,6 @@ keyword and its allowed range."""
 
 from __future__ import annotations
 
-import math
 from typing import Any, Optional
 
 import numpy as np
@@ -16,18 +15,6 @@ def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
     e = InvalidParameterError(f"invalid parameter `{parameter}` = {value}: allowed {allowed}")
     e.parameter, e.value, e.allowed = parameter, str(value), allowed
     return e
-
-
-def _positive(**kw: Any) -> None:
-    for name, v in kw.items():
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise _bad(name, v, "a finite number > 0")
-
-
-def _finite(**kw: Any) -> None:
-    for name, v in kw.items():
-        if not (isinstance(v, (int, float)) and math.isfinite(v)):
-            raise _bad(name, v, "a finite number")
 
 
 def _real(v: Any) -> bool:
@@ -70,5 +57,17 @@ def _elements(name: str, n: Any) -> int:
     return n
 
 
-#: Beam data of the two classic spin-up problems, SI: length (m), E (Pa), rho (kg/m^3), A (m^2),
-#: I (m^4), final hub rate W (rad/s), ramp time T (s).
+def _bearing_parameters(bearing: dict, derived: dict) -> dict:
+    """The ``parameters`` entries of a scene's clearance joint: the bearing keywords as given
+    (``bearing``) with the stiffness, damping and effective mass the Rust scene derived."""
+    return dict(
+        clearance=bearing["clearance"],
+        bearing_stiffness=derived["bearing_stiffness"],
+        bearing_damping=derived["bearing_damping"],
+        pin_radius=bearing["pin_radius"],
+        poisson_ratio=bearing["poisson_ratio"],
+        reference_penetration=bearing["reference_penetration"],
+        bearing_damping_ratio=bearing["bearing_damping_ratio"],
+        effective_mass=derived["effective_mass"],
+        damping_law=bearing["damping_law"],
+    )

@@ -3,24 +3,11 @@ pin."""
 
 from __future__ import annotations
 
-import math
 from typing import Any, Optional
 
-from ..errors import ModelError
-from ..frames import Frame, Rotation
+from .. import _core
 from ..model import Model
-from ._checks import _bad, _elements, _finite, _positive, _types
-
-
-def _hertz_stiffness(*, youngs_modulus, poisson_ratio, pin_radius, clearance, reference_penetration) -> float:
-    """The derived bearing stiffness of :func:`slider_crank`, for scenes built in Python: the
-    secant stiffness ``K_h sqrt(delta_ref)`` (N/m) of a Hertz contact of a journal of
-    ``pin_radius`` in a bearing of radius ``pin_radius + clearance``
-    (``K_h = (4/3) E* sqrt(R (R + c) / c)``, ``E* = E / (2 (1 - nu^2))``)."""
-    e_star = youngs_modulus / (2.0 * (1.0 - poisson_ratio**2))
-    c = max(clearance, 1e-12)
-    k_h = 4.0 / 3.0 * e_star * math.sqrt(pin_radius * (pin_radius + c) / c)
-    return k_h * math.sqrt(reference_penetration)
+from ._checks import _bearing_parameters, _types
 
 
 def four_bar(
@@ -117,6 +104,18 @@ def four_bar(
         Links ``"coupler"`` (and ``"rocker"``), pins or clearance joints ``"crank_pin"`` and
         ``"rocker_pin"``; ``parameters`` holds the inputs and ``area``, ``inertia`` (and the
         derived bearing data with a clearance joint).
+
+    Raises
+    ------
+    InvalidParameterError
+        A keyword of the wrong type or out of its range (named, with the range).
+    ModelError
+        The loop does not close over a crank turn.
+
+    Notes
+    -----
+    The mechanism is built by the Rust scene ``flexclear::scenes::FlexibleFourBar``, which also
+    derives the bearing data and checks every range; this function checks the keywords' types.
     """
     _types(
         numbers=dict(
@@ -130,52 +129,7 @@ def four_bar(
         strings=dict(damping_law=damping_law),
         flags=dict(flexible_rocker=flexible_rocker),
     )
-    _positive(
-        ground_length=ground_length,
-        crank_length=crank_length,
-        coupler_length=coupler_length,
-        rocker_length=rocker_length,
-        youngs_modulus=youngs_modulus,
-        density=density,
-        width=width,
-        depth=depth,
-    )
-    _finite(crank_speed=crank_speed, damping=damping)
-    if damping < 0:
-        raise _bad("damping", damping, ">= 0 Pa s")
-    if branch not in (1, -1):
-        raise _bad("branch", branch, "+1 (open) or -1 (crossed)")
-    if clearance_at not in (None, "crank_pin", "rocker_pin"):
-        raise _bad("clearance_at", clearance_at, 'None, "crank_pin" or "rocker_pin"')
-    _elements("elements", elements)
-    n_rocker = _elements("rocker_elements", elements if rocker_elements is None else rocker_elements)
-    driver = Rotation.constant(float(crank_speed))
-    lengths = (float(ground_length), float(crank_length), float(coupler_length), float(rocker_length))
-
-    def frame(link: str) -> Frame:
-        return Frame.four_bar(*lengths, driver, link, float(branch))
-
-    period = 2.0 * math.pi / abs(crank_speed) if crank_speed != 0 else 1.0
-    try:
-        frame("coupler").check(period)
-    except ModelError as e:
-        raise ModelError(
-            f"four_bar(ground_length={ground_length}, crank_length={crank_length}, "
-            f"coupler_length={coupler_length}, rocker_length={rocker_length}): the loop does not close "
-            f"over a crank turn: {e}"
-        ) from None
-    area, inertia = width * depth, width * depth * depth * depth / 12.0
-    if not (math.isfinite(area) and math.isfinite(inertia) and area > 0 and inertia > 0):
-        raise _bad(
-            "depth",
-            depth,
-            f"a section whose area width depth and inertia width depth^3 / 12 are finite and > 0 (here "
-            f"width = {width:g} m: {area:g} m^2, {inertia:g} m^4)",
-        )
-    section = dict(
-        youngs_modulus=youngs_modulus, density=density, area=area, inertia=inertia, damping=damping
-    )
-    params: dict[str, Any] = dict(
+    inputs: dict[str, Any] = dict(
         ground_length=ground_length,
         crank_length=crank_length,
         coupler_length=coupler_length,
@@ -188,71 +142,27 @@ def four_bar(
         depth=depth,
         elements=elements,
         flexible_rocker=flexible_rocker,
-        rocker_elements=n_rocker if flexible_rocker else None,
+        rocker_elements=rocker_elements,
         damping=damping,
-        area=area,
-        inertia=inertia,
         clearance_at=clearance_at,
     )
-    bearing: dict[str, Any] = {}
+    bearing = dict(
+        clearance=clearance,
+        bearing_stiffness=bearing_stiffness,
+        bearing_damping=bearing_damping,
+        pin_radius=pin_radius,
+        poisson_ratio=poisson_ratio,
+        reference_penetration=reference_penetration,
+        bearing_damping_ratio=bearing_damping_ratio,
+        damping_law=damping_law,
+    )
+    core, derived = _core.four_bar(**inputs, **bearing)
+    params = {k: v for k, v in inputs.items() if k != "clearance_at"}
+    params["rocker_elements"] = derived["rocker_elements"] if flexible_rocker else None
+    params.update(area=derived["area"], inertia=derived["inertia"], clearance_at=clearance_at)
     if clearance_at is not None:
-        _positive(pin_radius=pin_radius, reference_penetration=reference_penetration)
-        _finite(clearance=clearance, bearing_damping_ratio=bearing_damping_ratio)
-        if not 0.0 <= poisson_ratio < 0.5:
-            raise _bad("poisson_ratio", poisson_ratio, "0 <= nu < 0.5")
-        coupler_mass = density * area * coupler_length
-        if not (math.isfinite(coupler_mass) and coupler_mass > 0):
-            raise _bad(
-                "density",
-                density,
-                f"a density whose coupler mass rho A L is finite and > 0 (here {coupler_mass:g} kg with "
-                f"A = {area:g} m^2, L = {coupler_length:g} m)",
-            )
-        m_eff = 0.5 * coupler_mass
-        if clearance_at == "rocker_pin" and flexible_rocker:
-            m_rocker = 0.5 * density * area * rocker_length
-            m_eff = m_eff * m_rocker / (m_eff + m_rocker)
-        k_b = bearing_stiffness
-        if k_b is None:
-            k_b = _hertz_stiffness(
-                youngs_modulus=youngs_modulus,
-                poisson_ratio=poisson_ratio,
-                pin_radius=pin_radius,
-                clearance=clearance,
-                reference_penetration=reference_penetration,
-            )
-        c_b = bearing_damping
-        if c_b is None:
-            c_b = 2.0 * bearing_damping_ratio * math.sqrt(max(k_b, 0.0) * m_eff)
-        bearing = dict(clearance=clearance, stiffness=k_b, damping=c_b, damping_law=damping_law)
-        params.update(
-            clearance=clearance,
-            bearing_stiffness=k_b,
-            bearing_damping=c_b,
-            pin_radius=pin_radius,
-            poisson_ratio=poisson_ratio,
-            reference_penetration=reference_penetration,
-            bearing_damping_ratio=bearing_damping_ratio,
-            effective_mass=m_eff,
-            damping_law=damping_law,
-        )
-
-    def connect(name: str, link: str, node: int, **side) -> None:
-        if clearance_at == name:
-            m.add_joint(name, link, node, **side, **bearing)
-        else:
-            m.add_pin(name, link, node, **side)
-
-    m = Model()
-    m.add_body("crank", frame=frame("crank"))
-    m.add_link("coupler", length=coupler_length, elements=elements, frame=frame("coupler"), **section)
-    connect("crank_pin", "coupler", 0, body="crank", point=(float(crank_length), 0.0))
-    if flexible_rocker:
-        m.add_link("rocker", length=rocker_length, elements=n_rocker, frame=frame("rocker"), **section)
-        m.add_support("rocker", 0, u=True, v=True, theta=False)
-        connect("rocker_pin", "coupler", elements, target=("rocker", n_rocker))
-    else:
-        m.add_body("rocker", frame=frame("rocker"))
-        connect("rocker_pin", "coupler", elements, body="rocker", point=(float(rocker_length), 0.0))
-    m.parameters = params
-    return m
+        params.update(_bearing_parameters(bearing, derived))
+    model = Model._wrap(core, params)
+    # the bodies in the scene's order (the core lists them by the joints that use them first)
+    model._body_frames = {b: model._body_frames[b] for b in ("crank", "rocker") if b in model._body_frames}
+    return model

@@ -6,7 +6,7 @@ from typing import Any, Optional
 
 from .. import _core
 from ..model import Model
-from ._checks import _types
+from ._checks import _bearing_parameters, _types
 
 
 def slider_crank(
@@ -153,15 +153,5 @@ def slider_crank(
     core, derived = _core.slider_crank(**inputs, **bearing, geometric=geometric)
     params = {**inputs, **{k: derived[k] for k in ("area", "inertia", "rod_mass")}}
     if clearance_at is not None:
-        params.update(
-            clearance=clearance,
-            bearing_stiffness=derived["bearing_stiffness"],
-            bearing_damping=derived["bearing_damping"],
-            pin_radius=pin_radius,
-            poisson_ratio=poisson_ratio,
-            reference_penetration=reference_penetration,
-            bearing_damping_ratio=bearing_damping_ratio,
-            effective_mass=derived["effective_mass"],
-            damping_law=damping_law,
-        )
+        params.update(_bearing_parameters(bearing, derived))
     return Model._wrap(core, params)

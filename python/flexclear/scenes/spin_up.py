@@ -5,34 +5,19 @@ from __future__ import annotations
 
 from typing import Any, Optional
 
-from ..frames import Frame, Rotation
+from .. import _core
+from ..frames import Rotation
 from ..model import Model
-from ._checks import _bad, _elements, _finite, _positive
+from ._checks import _bad
 
-SPIN_UP_DATA = {
-    # Kane, Ryan & Banerjee (1987), J. Guidance 10(2) 139-151, the spin-up example.
-    "kane": dict(
-        length=8.0,
-        youngs_modulus=6.8952e10,
-        density=2766.67,
-        area=7.2968e-5,
-        inertia=8.2189e-9,
-        final_rate=4.0,
-        ramp_time=15.0,
-    ),
-    # Simo & Vu-Quoc (1986), J. Appl. Mech. 53 849-863: EI = 1.4e4 N m^2, rho A = 1.2 kg/m,
-    # EA = 2.8e7 N, L = 10 m, W = 6 rad/s (T = 15 s). They give only these products; E = 7e10 Pa
-    # is our choice, giving A = 4e-4 m^2, I = 2e-7 m^4, rho = 3000 kg/m^3 (same EI, EA, rho A).
-    "simo": dict(
-        length=10.0,
-        youngs_modulus=7.0e10,
-        density=3000.0,
-        area=4.0e-4,
-        inertia=2.0e-7,
-        final_rate=6.0,
-        ramp_time=15.0,
-    ),
-}
+#: Beam data of the two classic spin-up problems, SI: length (m), E (Pa), rho (kg/m^3), A (m^2),
+#: I (m^4), final hub rate W (rad/s), ramp time T (s); defined by the Rust scene
+#: (``flexclear::scenes::SpinUpData``). ``"kane"``: Kane, Ryan & Banerjee (1987), J. Guidance 10(2)
+#: 139-151, the spin-up example. ``"simo"``: Simo & Vu-Quoc (1986), J. Appl. Mech. 53 849-863:
+#: EI = 1.4e4 N m^2, rho A = 1.2 kg/m, EA = 2.8e7 N, L = 10 m, W = 6 rad/s (T = 15 s); they give
+#: only these products, E = 7e10 Pa is our choice, giving A = 4e-4 m^2, I = 2e-7 m^4,
+#: rho = 3000 kg/m^3.
+SPIN_UP_DATA: dict[str, dict[str, float]] = _core.spin_up_data()
 
 
 def spin_up(
@@ -104,6 +89,17 @@ def spin_up(
     -------
     Model
         One link ``"beam"``; ``parameters`` holds the data used.
+
+    Raises
+    ------
+    InvalidParameterError
+        ``data`` unknown, a value out of its range (named, with the range), ``rotation`` not a
+        :class:`~flexclear.Rotation`.
+
+    Notes
+    -----
+    The mechanism is built by the Rust scene ``flexclear::scenes::SpinUp``, which checks the
+    ranges; this function resolves ``parameters``.
     """
     if not isinstance(data, str) or data not in SPIN_UP_DATA:
         raise _bad("data", repr(data), 'one of "kane", "simo"')
@@ -116,27 +112,9 @@ def spin_up(
         final_rate=final_rate,
         ramp_time=ramp_time,
     )
-    p: dict[str, Any] = {**SPIN_UP_DATA[data], **{k: v for k, v in given.items() if v is not None}}
-    _positive(**{k: p[k] for k in ("length", "youngs_modulus", "density", "area", "inertia", "ramp_time")})
-    _finite(final_rate=p["final_rate"], damping=damping)
-    _elements("elements", elements)
-    if rotation is None:
-        rotation = Rotation.spin_up(final_rate=float(p["final_rate"]), ramp_time=float(p["ramp_time"]))
-    elif not isinstance(rotation, Rotation):
-        raise _bad("rotation", repr(rotation), "a flexclear.Rotation")
-    m = Model()
-    m.add_link(
-        "beam",
-        length=p["length"],
-        elements=elements,
-        youngs_modulus=p["youngs_modulus"],
-        density=p["density"],
-        area=p["area"],
-        inertia=p["inertia"],
-        frame=Frame.rotating(rotation),
-        damping=damping,
-        geometric=bool(geometric),
+    core = _core.spin_up(
+        data=data, **given, elements=elements, geometric=bool(geometric), damping=damping, rotation=rotation
     )
-    m.add_clamp("beam", 0)
-    m.parameters = {**p, "data": data, "elements": elements, "geometric": bool(geometric), "damping": damping}
-    return m
+    p: dict[str, Any] = {**SPIN_UP_DATA[data], **{k: v for k, v in given.items() if v is not None}}
+    params = {**p, "data": data, "elements": elements, "geometric": bool(geometric), "damping": damping}
+    return Model._wrap(core, params)
