@@ -18,6 +18,7 @@ use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Support, Terms};
+use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
@@ -30,13 +31,15 @@ fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
     Mechanism {
         links: vec![Link {
             name: "beam".into(),
-            length: 8.0,
-            elements,
-            youngs_modulus: 6.8952e10,
-            density: 2766.67,
-            damping: 0.0,
-            area: 7.2968e-5,
-            inertia: 8.2189e-9,
+            section: BeamSection {
+                length: 8.0,
+                elements,
+                youngs_modulus: 6.8952e10,
+                density: 2766.67,
+                damping: 0.0,
+                area: 7.2968e-5,
+                inertia: 8.2189e-9,
+            },
             frame,
             terms,
             rotary_inertia: false,
@@ -217,8 +220,15 @@ fn spinning_in_a_bearing() -> Mechanism {
     );
     let a = 0.008f64;
     let l = &mut m.links[0];
-    (l.length, l.youngs_modulus, l.density, l.damping, l.area, l.inertia) =
-        (0.3, 2e11, 7870.0, 2e6, a * a, a.powi(4) / 12.0);
+    let sec = &mut l.section;
+    (
+        sec.length,
+        sec.youngs_modulus,
+        sec.density,
+        sec.damping,
+        sec.area,
+        sec.inertia,
+    ) = (0.3, 2e11, 7870.0, 2e6, a * a, a.powi(4) / 12.0);
     l.initial_velocity = Some(
         (0..21)
             .map(|k| if k % 3 == 1 { 0.2 * (k / 3) as f64 / 6.0 } else { 0.0 })

@@ -18,6 +18,7 @@ use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Support, Terms};
+use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
@@ -44,13 +45,15 @@ fn spinning_beam() -> Mechanism {
     Mechanism {
         links: vec![Link {
             name: "beam".into(),
-            length: 0.3,
-            elements: n,
-            youngs_modulus: 2e11,
-            density: 7870.0,
-            damping: 2e6,
-            area: a * a,
-            inertia: a.powi(4) / 12.0,
+            section: BeamSection {
+                length: 0.3,
+                elements: n,
+                youngs_modulus: 2e11,
+                density: 7870.0,
+                damping: 2e6,
+                area: a * a,
+                inertia: a.powi(4) / 12.0,
+            },
             frame: hub(spin.clone()),
             terms: Terms {
                 geometric: Some(false),

@@ -8,6 +8,7 @@ use flexclear::element::BeamElement;
 use flexclear::kinematics::{RotatingFrame, Rotation};
 use flexclear::linalg::Cholesky;
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism};
+use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::plan::assembly::System;
 use flexclear::plan::translating::Model;
@@ -107,13 +108,15 @@ fn at_rest() -> Arc<RotatingFrame> {
 fn beam(elements: usize) -> Link {
     Link {
         name: "beam".into(),
-        length: 1.0,
-        elements,
-        youngs_modulus: 2e11,
-        density: 7800.0,
-        damping: 0.0,
-        area: 1e-4,
-        inertia: 1e-9,
+        section: BeamSection {
+            length: 1.0,
+            elements,
+            youngs_modulus: 2e11,
+            density: 7800.0,
+            damping: 0.0,
+            area: 1e-4,
+            inertia: 1e-9,
+        },
         frame: at_rest(),
         terms: Default::default(),
         rotary_inertia: false,
@@ -137,7 +140,8 @@ fn free_free_beam_frequencies_within_0p1_percent_at_10_elements() {
     let link = beam(10);
     let model = translating(vec![link.clone()]);
     let f = flexclear::modes::natural_frequencies(&model, 3).unwrap();
-    let c = (link.youngs_modulus * link.inertia / (link.density * link.area)).sqrt() / link.length.powi(2);
+    let c = (link.section.youngs_modulus * link.section.inertia / (link.section.density * link.section.area)).sqrt()
+        / link.section.length.powi(2);
     for (fi, bl) in f.iter().zip([4.730041, 7.853205, 10.995608]) {
         let exact = bl * bl * c / (2.0 * std::f64::consts::PI);
         assert!(close(*fi, exact, 1e-3), "{fi} vs {exact}");
@@ -165,7 +169,7 @@ fn cantilever_tip_deflection_is_pl3_over_3ei() {
     let p = 100.0;
     f[n - 3 - 2] = p; // transverse force at the tip
     let u = kr.lu().solve(&f).unwrap();
-    let exact = p * link.length.powi(3) / (3.0 * link.youngs_modulus * link.inertia);
+    let exact = p * link.section.length.powi(3) / (3.0 * link.section.youngs_modulus * link.section.inertia);
     assert!(close(u[n - 3 - 2], exact, 1e-10), "{} vs {exact}", u[n - 5]);
 }
 
@@ -237,7 +241,7 @@ fn indefinite_matrix_is_reported_not_solved() {
 /// Undamped free vibration of a free-free beam started with a smooth velocity field.
 fn free_vibration(dt: f64, t_end: f64) -> (flexclear::RunOutput, Model) {
     let mut link = beam(10);
-    let n = link.elements + 1;
+    let n = link.section.elements + 1;
     let mut v0 = vec![0.0; 3 * n];
     for i in 0..n {
         let x = i as f64 / (n - 1) as f64;
@@ -503,8 +507,8 @@ fn general_damping_path_matches_proportional_path_link_by_link() {
     let mk = |name: &str, eta: f64| {
         let mut l = beam(6);
         l.name = name.into();
-        l.damping = eta;
-        let n = l.elements + 1;
+        l.section.damping = eta;
+        let n = l.section.elements + 1;
         l.initial_velocity = Some(
             (0..3 * n)
                 .map(|i| if i % 3 == 1 { (i as f64 * 0.4).sin() } else { 0.0 })

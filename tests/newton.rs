@@ -14,6 +14,7 @@ use flexclear::kinematics::{
     FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
 };
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support, Terms};
+use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
@@ -49,13 +50,15 @@ fn link(
 ) -> Link {
     Link {
         name: name.into(),
-        length,
-        elements,
-        youngs_modulus: e,
-        density: rho,
-        damping: 0.0,
-        area,
-        inertia,
+        section: BeamSection {
+            length,
+            elements,
+            youngs_modulus: e,
+            density: rho,
+            damping: 0.0,
+            area,
+            inertia,
+        },
         frame,
         terms: Terms::default(),
         rotary_inertia: false,
@@ -486,10 +489,10 @@ fn balance(mech: &Mechanism, out: &RunOutput, geometric: bool) -> Balance {
     };
     let mut prev: Option<(Vec<f64>, Vec<f64>)> = None;
     for (k, w) in h.displacements.chunks(per).enumerate() {
-        let mut forces = vec![0.0; l.elements];
-        let mut vq = vec![0.0; l.elements];
+        let mut forces = vec![0.0; l.section.elements];
+        let mut vq = vec![0.0; l.section.elements];
         let mut v_geo = 0.0;
-        for el in 0..l.elements {
+        for el in 0..l.section.elements {
             let q = nalgebra::SVector::<f64, 6>::from_column_slice(&w[3 * el..3 * el + 6]);
             let du = (q[3] - q[0]) / le;
             forces[el] = ea * du;
@@ -502,7 +505,7 @@ fn balance(mech: &Mechanism, out: &RunOutput, geometric: bool) -> Balance {
             let rate = |i: usize| h.frame[i][3];
             b.drive
                 .push(b.drive[k - 1] + 0.5 * (rate(k - 1) + rate(k)) * (h.momentum[k] - h.momentum[k - 1]));
-            let p: f64 = (0..l.elements)
+            let p: f64 = (0..l.section.elements)
                 .map(|el| (forces[el] - f0[el]) * 0.25 * (vq[el] + vq0[el]))
                 .sum();
             b.nonconservative.push(b.nonconservative[k - 1] + p);

@@ -615,7 +615,9 @@ impl<'a> NewtonRun<'a> {
                 eta_e: e.damping / e.youngs_modulus,
                 ea_l: e.youngs_modulus * e.area / le,
                 loads: if active.load {
-                    (0..l.elements).map(|k| e.inertia_load_vectors(k as f64 * le)).collect()
+                    (0..l.section.elements)
+                        .map(|k| e.inertia_load_vectors(k as f64 * le))
+                        .collect()
                 } else {
                     Vec::new()
                 },
@@ -675,7 +677,7 @@ impl<'a> NewtonRun<'a> {
         }
         let limit = settings
             .divergence_limit
-            .unwrap_or(10.0 * mech.links.iter().fold(0.0f64, |s, l| s.max(l.length)));
+            .unwrap_or(10.0 * mech.links.iter().fold(0.0f64, |s, l| s.max(l.section.length)));
         let mut stats = RunStats {
             stepper: "newton",
             unknowns: n,
@@ -685,12 +687,12 @@ impl<'a> NewtonRun<'a> {
         for (l, ld) in mech.links.iter().zip(&links) {
             let a = ld.active;
             let mut t = vec!["M", "K1"];
-            if l.damping > 0.0 {
+            if l.section.damping > 0.0 {
                 t.push("D1");
             }
             if a.geometric {
                 t.extend(["K2", "K3"]);
-                if l.damping > 0.0 {
+                if l.section.damping > 0.0 {
                     t.push("D2");
                 }
             }
@@ -1262,7 +1264,7 @@ impl<'a> NewtonRun<'a> {
             let fr = self.frames[li];
             let fs = if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] };
             let d2 = ld.k2u * ld.eta_e;
-            for e in 0..self.mech.links[li].elements {
+            for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
                 let wn = Self::local(&next, &self.y, &self.yd, &self.ydd);
                 let (q, qd, qdd) = (
@@ -1500,7 +1502,7 @@ impl<'a> NewtonRun<'a> {
         for li in 0..self.links.len() {
             let ld = &self.links[li];
             let mut prev = self.nt(li, 0);
-            for e in 0..self.mech.links[li].elements {
+            for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
                 let mut kg = None;
                 let fax = if ld.active.geometric {
@@ -1986,13 +1988,13 @@ impl<'a> NewtonRun<'a> {
                 let ld = &self.links[li];
                 let e = l.element();
                 if ch.axial_force {
-                    for k in 0..l.elements {
+                    for k in 0..l.section.elements {
                         hist.axial_force.push(ld.ea_l * (buf[k + 1][0][0] - buf[k][0][0]));
                     }
                 }
                 if ch.midspan {
-                    let xm = 0.5 * l.elements as f64;
-                    let k = (xm.floor() as usize).min(l.elements - 1);
+                    let xm = 0.5 * l.section.elements as f64;
+                    let k = (xm.floor() as usize).min(l.section.elements - 1);
                     let xi = xm - k as f64;
                     let q = element_vec(&buf[k], &buf[k + 1], 0);
                     let vm = e.transverse_at(xi, &q);
@@ -2006,7 +2008,7 @@ impl<'a> NewtonRun<'a> {
                     ];
                     let (mut te, mut ve, mut he) = (0.0, 0.0, 0.0);
                     let le = l.element_length();
-                    for k in 0..l.elements {
+                    for k in 0..l.section.elements {
                         let (q, qd) = (
                             element_vec(&buf[k], &buf[k + 1], 0),
                             element_vec(&buf[k], &buf[k + 1], 1),

@@ -37,20 +37,8 @@ pub struct Terms {
 pub struct Link {
     /// Name, unique among links.
     pub name: String,
-    /// Length L, m.
-    pub length: f64,
-    /// Number of elements N, 1 ..= [`MAX_ELEMENTS`](super::MAX_ELEMENTS).
-    pub elements: usize,
-    /// Young's modulus E, Pa.
-    pub youngs_modulus: f64,
-    /// Density rho, kg/m^3.
-    pub density: f64,
-    /// Kelvin-Voigt damping eta, Pa s.
-    pub damping: f64,
-    /// Section area A, m^2.
-    pub area: f64,
-    /// Second moment of area I, m^4.
-    pub inertia: f64,
+    /// Length, element count and section (SI units).
+    pub section: BeamSection,
     /// Prescribed motion of the link frame.
     pub frame: Arc<dyn FrameKinematics>,
     /// Term selection (automatic by default).
@@ -65,32 +53,19 @@ pub struct Link {
 }
 
 impl Link {
-    /// Length, element count and section.
-    pub fn section(&self) -> BeamSection {
-        BeamSection {
-            length: self.length,
-            elements: self.elements,
-            youngs_modulus: self.youngs_modulus,
-            density: self.density,
-            damping: self.damping,
-            area: self.area,
-            inertia: self.inertia,
-        }
-    }
-
     /// Element length l = L / N, m.
     pub fn element_length(&self) -> f64 {
-        self.section().element_length()
+        self.section.element_length()
     }
 
     /// The element all of whose copies make up the link (no rotary inertia).
     pub fn element(&self) -> BeamElement {
-        self.section().element(false)
+        self.section.element(false)
     }
 
     /// Number of nodes N + 1.
     pub fn nodes(&self) -> usize {
-        self.elements + 1
+        self.section.elements + 1
     }
 }
 
@@ -263,7 +238,7 @@ impl Mechanism {
     /// finite) and the first instant where it exceeds the closure tolerance (`CLOSURE_TOL` of
     /// the longest link), if any.
     fn separation(&self, a: &Endpoint, b: &Endpoint, t_end: f64) -> Option<(f64, f64)> {
-        let scale = self.links.iter().fold(0.0f64, |s, l| s.max(l.length));
+        let scale = self.links.iter().fold(0.0f64, |s, l| s.max(l.section.length));
         (0..=200).map(|k| t_end * k as f64 / 200.0).find_map(|t| {
             let (pa, pb) = (self.nominal_position(a, t), self.nominal_position(b, t));
             let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2)).sqrt();
@@ -318,7 +293,7 @@ impl Mechanism {
     /// Checks that link #`link` exists and has node `node`; a missing node is an
     /// [`Error::InvalidParameter`] named `name`.
     pub fn check_node(&self, name: &str, link: usize, node: usize) -> Result<()> {
-        let links = self.links.iter().map(|l| (l.name.as_str(), l.elements));
+        let links = self.links.iter().map(|l| (l.name.as_str(), l.section.elements));
         section::check_node(name, "mechanism", links, link, node)
     }
 
@@ -356,7 +331,7 @@ impl Mechanism {
         check_finite("gravity[1]", self.gravity[1], "m/s^2")?;
         for (i, l) in self.links.iter().enumerate() {
             let prefix = format!("links[{i}].");
-            let section = l.section();
+            let section = l.section;
             section.validate(&prefix)?;
             l.frame.check(&format!("{prefix}frame"), t_end)?;
             section.validate_initial_state(

@@ -278,7 +278,7 @@ impl Mechanism {
             }
             model.links.push(FlexibleLink {
                 name: l.name.clone(),
-                section: l.section(),
+                section: l.section,
                 rotary_inertia: l.rotary_inertia,
                 angle,
                 motion: motion.clone(),

@@ -15,6 +15,7 @@ use crate::model::check_elements;
 use crate::model::mechanism::{
     Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, PointMass, Slider, Support, Terms,
 };
+use crate::model::section::BeamSection;
 use crate::plan::StepperKind;
 use crate::record::{LinkChannels, RecordSpec};
 use crate::run::{NewtonSettings, Settings};
@@ -133,13 +134,15 @@ impl PyMechanism {
         }
         let link = Link {
             name,
-            length,
-            elements,
-            youngs_modulus,
-            density,
-            damping,
-            area,
-            inertia,
+            section: BeamSection {
+                length,
+                elements,
+                youngs_modulus,
+                density,
+                damping,
+                area,
+                inertia,
+            },
             frame: frame.inner.clone(),
             terms: Terms {
                 coriolis,
@@ -151,9 +154,7 @@ impl PyMechanism {
             initial_displacement: vec_opt(initial_displacement)?,
             initial_velocity: vec_opt(initial_velocity)?,
         };
-        link.section()
-            .validate(&format!("links[{i}]."))
-            .map_err(|e| err(py, e))?;
+        link.section.validate(&format!("links[{i}].")).map_err(|e| err(py, e))?;
         self.inner.links.push(link);
         Ok(i)
     }
@@ -316,13 +317,13 @@ impl PyMechanism {
     /// Element counts per link.
     #[getter]
     fn link_elements(&self) -> Vec<usize> {
-        self.inner.links.iter().map(|l| l.elements).collect()
+        self.inner.links.iter().map(|l| l.section.elements).collect()
     }
 
     /// Link lengths, m.
     #[getter]
     fn link_lengths(&self) -> Vec<f64> {
-        self.inner.links.iter().map(|l| l.length).collect()
+        self.inner.links.iter().map(|l| l.section.length).collect()
     }
 
     /// Slider names in order.
@@ -372,7 +373,11 @@ impl PyMechanism {
     /// Axial stiffness E A of each link, N.
     #[getter]
     fn link_axial_stiffness(&self) -> Vec<f64> {
-        self.inner.links.iter().map(|l| l.youngs_modulus * l.area).collect()
+        self.inner
+            .links
+            .iter()
+            .map(|l| l.section.youngs_modulus * l.section.area)
+            .collect()
     }
 
     /// The link frames, in link order.
@@ -568,7 +573,7 @@ impl PyMechanism {
         if matches!(crate::plan::Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant) {
             settings.coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
         }
-        let link_elements: Vec<usize> = mech.links.iter().map(|l| l.elements).collect();
+        let link_elements: Vec<usize> = mech.links.iter().map(|l| l.section.elements).collect();
         let (res, pending) = run_detached(py, progress, |control| crate::plan::simulate(mech, &settings, control));
         match res {
             Ok(out) => run_output(py, out, &link_elements),

@@ -25,6 +25,7 @@ use crate::error::{check_non_negative, Error, Result};
 use crate::kinematics::{FourBar, FourBarFrame, FourBarLink, FrameKinematics, Rotation};
 use crate::model::check_elements;
 use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Pin, Support, Terms};
+use crate::model::section::BeamSection;
 
 /// One of the two coupler pins of the four-bar.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -350,20 +351,22 @@ impl FlexibleFourBar {
         let add_link = |m: &mut Mechanism, name: &str, length: f64, elements: usize, link| -> Result<()> {
             let l = Link {
                 name: name.into(),
-                length,
-                elements,
-                youngs_modulus: self.youngs_modulus,
-                density: self.density,
-                damping: self.damping,
-                area: d.area,
-                inertia: d.inertia,
+                section: BeamSection {
+                    length,
+                    elements,
+                    youngs_modulus: self.youngs_modulus,
+                    density: self.density,
+                    damping: self.damping,
+                    area: d.area,
+                    inertia: d.inertia,
+                },
                 frame: frame(link),
                 terms: Terms::default(),
                 rotary_inertia: false,
                 initial_displacement: None,
                 initial_velocity: None,
             };
-            l.section().validate(&format!("links[{}].", m.links.len()))?;
+            l.section.validate(&format!("links[{}].", m.links.len()))?;
             m.links.push(l);
             Ok(())
         };

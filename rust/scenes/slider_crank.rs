@@ -25,6 +25,7 @@ use crate::error::Result;
 use crate::kinematics::{FrameKinematics, Rotation, SliderCrank, SliderCrankFrame, SliderCrankLink};
 use crate::model::check_elements;
 use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Pin, Slider, Terms};
+use crate::model::section::BeamSection;
 
 /// One of the two pins of the slider-crank.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -265,13 +266,15 @@ impl FlexibleSliderCrank {
         let mut m = Mechanism {
             links: vec![Link {
                 name: "rod".into(),
-                length: self.rod_length,
-                elements: self.elements,
-                youngs_modulus: self.youngs_modulus,
-                density: self.density,
-                damping: self.damping,
-                area: d.area,
-                inertia: d.inertia,
+                section: BeamSection {
+                    length: self.rod_length,
+                    elements: self.elements,
+                    youngs_modulus: self.youngs_modulus,
+                    density: self.density,
+                    damping: self.damping,
+                    area: d.area,
+                    inertia: d.inertia,
+                },
                 frame: frame(SliderCrankLink::Rod),
                 terms: Terms {
                     geometric: self.geometric,

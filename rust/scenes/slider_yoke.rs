@@ -15,6 +15,7 @@ use crate::contact::{DampingLaw, SpringDamper};
 use crate::error::{check_non_negative, check_positive, Error, Result};
 use crate::kinematics::{FrameKinematics, RotatingFrame, Rotation};
 use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Terms};
+use crate::model::section::BeamSection;
 use crate::model::{check_elements, Motion};
 
 /// `(beta_1 L)^2` of the first free-free bending mode.
@@ -201,20 +202,22 @@ impl SliderYoke {
         });
         let slider = Link {
             name: "slider".into(),
-            length: self.length,
-            elements: n,
-            youngs_modulus: d.youngs_modulus,
-            density: self.density,
-            damping: d.eta,
-            area: d.area,
-            inertia: d.inertia,
+            section: BeamSection {
+                length: self.length,
+                elements: n,
+                youngs_modulus: d.youngs_modulus,
+                density: self.density,
+                damping: d.eta,
+                area: d.area,
+                inertia: d.inertia,
+            },
             frame: frame.clone(),
             terms: Terms::default(),
             rotary_inertia: self.rotary_inertia,
             initial_displacement: None,
             initial_velocity: Some(v0),
         };
-        slider.section().validate("links[0].")?;
+        slider.section.validate("links[0].")?;
         motion.validate("links[0].motion")?;
         motion.validate("bodies[0].motion")?;
         let law = Arc::new(SpringDamper {

@@ -17,6 +17,7 @@ use crate::error::Result;
 use crate::kinematics::{RotatingFrame, Rotation};
 use crate::model::check_elements;
 use crate::model::mechanism::{Link, Mechanism, Support, Terms};
+use crate::model::section::BeamSection;
 use crate::model::Motion;
 
 /// The beam data of one of the two classic spin-up problems, SI units.
@@ -177,13 +178,15 @@ impl SpinUp {
         let frame = RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, rotation)?;
         let link = Link {
             name: "beam".into(),
-            length: v.length,
-            elements: self.elements,
-            youngs_modulus: v.youngs_modulus,
-            density: v.density,
-            damping: self.damping,
-            area: v.area,
-            inertia: v.inertia,
+            section: BeamSection {
+                length: v.length,
+                elements: self.elements,
+                youngs_modulus: v.youngs_modulus,
+                density: v.density,
+                damping: self.damping,
+                area: v.area,
+                inertia: v.inertia,
+            },
             frame: Arc::new(frame),
             terms: Terms {
                 geometric: Some(self.geometric),
@@ -193,7 +196,7 @@ impl SpinUp {
             initial_displacement: None,
             initial_velocity: None,
         };
-        link.section().validate("links[0].")?;
+        link.section.validate("links[0].")?;
         Ok(Mechanism {
             links: vec![link],
             supports: vec![Support {
@@ -215,7 +218,7 @@ mod tests {
     fn the_kane_beam_clamped_on_its_hub() {
         let m = SpinUp::default().build().unwrap();
         assert_eq!((m.links.len(), m.supports.len()), (1, 1));
-        assert_eq!(m.links[0].length, 8.0);
+        assert_eq!(m.links[0].section.length, 8.0);
         assert_eq!(m.links[0].terms.geometric, Some(true));
         assert!(m.validate(20.0).is_ok());
         let bad = SpinUp {
