@@ -65,7 +65,7 @@ use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
-const NONE: usize = usize::MAX;
+use crate::plan::dofs::{self, DofMap, NodeMap, Trans, NONE};
 
 /// Largest relative correction (of the displacement scale) that a step may stall at and still be
 /// accepted as converged at round-off: when a Newton correction below this level is no smaller
@@ -122,24 +122,6 @@ struct JointTrack {
     max_penetration: f64,
     max_force: f64,
     impacts: u64,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Trans {
-    /// Local unknowns (NONE where a support holds the component).
-    Local([usize; 2]),
-    /// Shared unknowns in global axes.
-    Global([usize; 2]),
-    /// One unknown along the guide of slider `slider`.
-    Slider { s: usize, slider: usize },
-    /// Held at zero.
-    Fixed,
-}
-
-#[derive(Debug, Clone, Copy)]
-struct NodeMap {
-    trans: Trans,
-    rot: usize,
 }
 
 /// Per link, what it carries.
@@ -405,30 +387,20 @@ struct EventScratch {
     rec: Option<Recorder>,
 }
 
-struct DofBuilder {
-    parent: Vec<usize>,
-}
-
-impl DofBuilder {
-    fn find(&mut self, mut i: usize) -> usize {
-        while self.parent[i] != i {
-            self.parent[i] = self.parent[self.parent[i]];
-            i = self.parent[i];
-        }
-        i
-    }
-    fn union(&mut self, a: usize, b: usize) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            self.parent[ra.max(rb)] = ra.min(rb);
-        }
-    }
-}
-
 impl<'a> NewtonRun<'a> {
     /// Validates and prepares a run. Errors: invalid parameters or model
-    /// ([`Mechanism::validate`]), an over-constrained node.
+    /// ([`Mechanism::validate`]), an over-constrained node ([`dofs::number`]).
     pub fn new(mech: &'a Mechanism, settings: &'a Settings) -> Result<Self> {
+        Self::prepare(mech, settings, None)
+    }
+
+    /// [`NewtonRun::new`] with the unknowns numbered already: `dofs` is [`dofs::number`] of
+    /// `mech` (as [`crate::plan::Plan::compile`] keeps it).
+    pub fn with_dofs(mech: &'a Mechanism, settings: &'a Settings, dofs: DofMap) -> Result<Self> {
+        Self::prepare(mech, settings, Some(dofs))
+    }
+
+    fn prepare(mech: &'a Mechanism, settings: &'a Settings, numbered: Option<DofMap>) -> Result<Self> {
         validate_settings(settings)?;
         if let Some(l) = mech.links.iter().find(|l| l.rotary_inertia) {
             return Err(Error::InvalidModel {
@@ -443,139 +415,17 @@ impl<'a> NewtonRun<'a> {
         let link_nodes: Vec<usize> = mech.links.iter().map(|l| l.nodes()).collect();
         settings.record.validate(mech.joints.len(), &link_nodes)?;
         mech.validate(settings.t_end)?;
-        // Union-find over node translations, sliders and ground.
-        let offs: Vec<usize> = mech
-            .links
-            .iter()
-            .scan(0, |acc, l| {
-                let o = *acc;
-                *acc += l.nodes();
-                Some(o)
-            })
-            .collect();
-        let total_nodes: usize = mech.links.iter().map(|l| l.nodes()).sum();
-        let ground = total_nodes + mech.sliders.len();
-        let mut uf = DofBuilder {
-            parent: (0..=ground).collect(),
+        let DofMap {
+            nodes: node_maps,
+            slider_dof,
+            n,
+            translational,
+        } = match numbered {
+            Some(d) => d,
+            None => dofs::number(mech)?,
         };
-        let item = |e: &Endpoint| match e {
-            Endpoint::Node { link, node } => offs[*link] + node,
-            Endpoint::Body { .. } => ground,
-            Endpoint::Slider(s) => total_nodes + s,
-        };
-        for p in &mech.pins {
-            uf.union(item(&p.a), item(&p.b));
-        }
-        let mut rollers = vec![[false; 3]; total_nodes];
-        for s in &mech.supports {
-            let i = offs[s.link] + s.node;
-            if s.fixed[0] && s.fixed[1] {
-                uf.union(i, ground);
-            }
-            for k in 0..3 {
-                rollers[i][k] |= s.fixed[k];
-            }
-        }
-        // Classify groups.
-        let root_ground = uf.find(ground);
-        let mut group_slider: Vec<Option<usize>> = vec![None; ground + 1];
-        let mut group_size = vec![0usize; ground + 1];
-        for i in 0..total_nodes {
-            let r = uf.find(i);
-            group_size[r] += 1;
-        }
-        for s in 0..mech.sliders.len() {
-            let r = uf.find(total_nodes + s);
-            if r == root_ground {
-                return Err(Error::InvalidModel {
-                    message: format!(
-                        "slider {:?} is pinned, through its links, to ground or a rigid body: over-constrained",
-                        mech.sliders[s].name
-                    ),
-                });
-            }
-            if let Some(o) = group_slider[r] {
-                return Err(Error::InvalidModel {
-                    message: format!(
-                        "sliders {:?} and {:?} are pinned to the same point: over-constrained",
-                        mech.sliders[o].name, mech.sliders[s].name
-                    ),
-                });
-            }
-            group_slider[r] = Some(s);
-        }
-        // Number the unknowns in link/node order.
-        let mut next = 0usize;
-        let mut group_dofs: Vec<Option<[usize; 2]>> = vec![None; ground + 1];
-        let mut slider_dof = vec![NONE; mech.sliders.len()];
         let mut links = Vec::with_capacity(mech.links.len());
-        for (li, l) in mech.links.iter().enumerate() {
-            let mut nodes = Vec::with_capacity(l.nodes());
-            for nd in 0..l.nodes() {
-                let i = offs[li] + nd;
-                let r = uf.find(i);
-                let partial = (rollers[i][0] || rollers[i][1]) && !(rollers[i][0] && rollers[i][1]);
-                let trans = if r == root_ground {
-                    Trans::Fixed
-                } else if let Some(s) = group_slider[r] {
-                    if partial {
-                        return Err(Error::InvalidModel {
-                            message: format!(
-                                "node {nd} of link {:?} has a support and is on slider {:?}: over-constrained",
-                                l.name, mech.sliders[s].name
-                            ),
-                        });
-                    }
-                    if slider_dof[s] == NONE {
-                        slider_dof[s] = next;
-                        next += 1;
-                    }
-                    Trans::Slider {
-                        s: slider_dof[s],
-                        slider: s,
-                    }
-                } else if group_size[r] > 1 {
-                    if partial {
-                        return Err(Error::InvalidModel {
-                            message: format!(
-                                "node {nd} of link {:?} has a one-direction support and is pinned to another link: not supported (over-constrained in general)",
-                                l.name
-                            ),
-                        });
-                    }
-                    let d = *group_dofs[r].get_or_insert_with(|| {
-                        next += 2;
-                        [next - 2, next - 1]
-                    });
-                    Trans::Global(d)
-                } else {
-                    let mut ix = [NONE; 2];
-                    for k in 0..2 {
-                        if !rollers[i][k] {
-                            ix[k] = next;
-                            next += 1;
-                        }
-                    }
-                    Trans::Local(ix)
-                };
-                let rot = if rollers[i][2] {
-                    NONE
-                } else {
-                    next += 1;
-                    next - 1
-                };
-                nodes.push(NodeMap { trans, rot });
-                // A slider reached only through a clearance joint gets its unknown next to the
-                // journal, for a narrow band.
-                for j in &mech.joints {
-                    if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
-                        if *link == li && *node == nd && slider_dof[*s] == NONE {
-                            slider_dof[*s] = next;
-                            next += 1;
-                        }
-                    }
-                }
-            }
+        for ((li, l), nodes) in mech.links.iter().enumerate().zip(node_maps) {
             let e = l.element();
             let rotates = l.frame.rotates();
             let moves = rotates || l.frame.translates();
@@ -626,13 +476,6 @@ impl<'a> NewtonRun<'a> {
                 nodal_load,
             });
         }
-        // A slider attached to nothing keeps no unknown: it moves along its nominal path.
-        let n = next;
-        if n == 0 {
-            return Err(Error::InvalidModel {
-                message: "the mechanism has no free elastic degree of freedom".into(),
-            });
-        }
         // Half-bandwidth from element and joint connectivity.
         let mut b = 0usize;
         let mut couple = |ids: &[usize]| {
@@ -667,14 +510,6 @@ impl<'a> NewtonRun<'a> {
             couple(&[a[0], a[1], c[0], c[1]]);
         }
         let nonlinear_geometric = links.iter().any(|l| l.active.geometric);
-        let mut translational = vec![true; n];
-        for ld in &links {
-            for m in &ld.nodes {
-                if m.rot != NONE {
-                    translational[m.rot] = false;
-                }
-            }
-        }
         let limit = settings
             .divergence_limit
             .unwrap_or(10.0 * mech.links.iter().fold(0.0f64, |s, l| s.max(l.section.length)));

@@ -11,8 +11,13 @@
 //! ([`Mechanism::to_translating`]) and records the link channels (frame, nodal displacements,
 //! axial force, midspan deflection) from its node histories, in the layout of the Newton
 //! stepper. Energy channels need the velocities: a run that records them takes the Newton stepper.
+//!
+//! For the Newton and constant-rate kinds the plan numbers the moving-frame unknowns, pins
+//! eliminated ([`dofs::number`]), keeps the numbering ([`Plan::dofs`]) and hands it to the stepper
+//! ([`NewtonRun::with_dofs`]).
 
 pub mod assembly;
+pub mod dofs;
 pub mod translating;
 
 use crate::error::Error;
@@ -56,6 +61,10 @@ pub struct Plan {
     /// for [`StepperKind::Constant`], where it is not examined).
     pub rate_reason: String,
     translating: Option<Model>,
+    /// The numbering of the moving-frame unknowns ([`dofs::number`]) for the Newton and
+    /// constant-rate kinds; `None` for the constant kind and for a model that fails validation or
+    /// numbering (its run fails with that error).
+    dofs: Option<dofs::DofMap>,
 }
 
 impl Plan {
@@ -71,13 +80,15 @@ impl Plan {
                 reason: "asked for".into(),
                 rate_reason: "asked for".into(),
                 translating: None,
+                dofs: plan.dofs.or_else(|| Self::number(mech, settings)),
             }),
-            Some(StepperKind::ConstantRate) => match Self::rate_obstacle(mech, settings) {
+            Some(StepperKind::ConstantRate) => match Self::rate_obstacle(mech, settings, plan.dofs.as_ref()) {
                 None => Ok(Plan {
                     kind: StepperKind::ConstantRate,
                     reason: "asked for".into(),
                     rate_reason: String::new(),
                     translating: None,
+                    dofs: plan.dofs.or_else(|| Self::number(mech, settings)),
                 }),
                 Some(why) => Err(Error::param(
                     "stepper",
@@ -101,9 +112,13 @@ impl Plan {
 
     /// Why the constant-rate stepper cannot run `mech` with `settings`
     /// ([`NewtonRun::constant_rate_obstacle`]; an invalid model or settings is a reason too, and
-    /// the run then fails with that error on the Newton stepper).
-    fn rate_obstacle(mech: &Mechanism, settings: &Settings) -> Option<String> {
-        match NewtonRun::new(mech, settings) {
+    /// the run then fails with that error on the Newton stepper). `dofs`: the plan's numbering.
+    fn rate_obstacle(mech: &Mechanism, settings: &Settings, dofs: Option<&dofs::DofMap>) -> Option<String> {
+        let run = match dofs {
+            Some(d) => NewtonRun::with_dofs(mech, settings, d.clone()),
+            None => NewtonRun::new(mech, settings),
+        };
+        match run {
             Ok(run) => run.constant_rate_obstacle(),
             Err(e) => Some(e.to_string()),
         }
@@ -120,25 +135,44 @@ impl Plan {
                         reason: String::new(),
                         rate_reason: String::new(),
                         translating: Some(model),
+                        dofs: None,
                     }
                 }
                 Err(reason) => reason,
             }
         };
-        match Self::rate_obstacle(mech, settings) {
+        let dofs = Self::number(mech, settings);
+        match Self::rate_obstacle(mech, settings, dofs.as_ref()) {
             None => Plan {
                 kind: StepperKind::ConstantRate,
                 reason,
                 rate_reason: String::new(),
                 translating: None,
+                dofs,
             },
             Some(rate_reason) => Plan {
                 kind: StepperKind::Newton,
                 reason,
                 rate_reason,
                 translating: None,
+                dofs,
             },
         }
+    }
+
+    /// The numbering of the moving-frame unknowns of `mech` ([`dofs::number`]), once it passes
+    /// [`Mechanism::validate`]; `None` where either fails (the Newton stepper reports the error
+    /// when it prepares the run).
+    fn number(mech: &Mechanism, settings: &Settings) -> Option<dofs::DofMap> {
+        mech.validate(settings.t_end).ok()?;
+        dofs::number(mech).ok()
+    }
+
+    /// The numbering of the moving-frame unknowns ([`dofs::number`]) that the Newton and
+    /// constant-rate steppers run on (`None` for the constant stepper, or a model that fails
+    /// validation or numbering).
+    pub fn dofs(&self) -> Option<&dofs::DofMap> {
+        self.dofs.as_ref()
     }
 }
 
@@ -154,10 +188,17 @@ pub fn simulate(
     let fail = RunFailure::before_start;
     let plan = Plan::compile(mech, settings).map_err(fail)?;
     let Some(model) = plan.translating else {
-        return match plan.kind {
-            StepperKind::ConstantRate => crate::integrator::newton::simulate_constant_rate(mech, settings, control),
-            _ => crate::integrator::newton::simulate_mechanism(mech, settings, control),
-        };
+        // the Newton and constant-rate steppers run on the plan's numbering
+        // (`simulate_mechanism`, `simulate_constant_rate` with it)
+        let mut run = match plan.dofs {
+            Some(dofs) => NewtonRun::with_dofs(mech, settings, dofs),
+            None => NewtonRun::new(mech, settings),
+        }
+        .map_err(fail)?;
+        if plan.kind == StepperKind::ConstantRate {
+            run.use_constant_rate().map_err(fail)?;
+        }
+        return run.run(control);
     };
     mech.validate(settings.t_end).map_err(fail)?;
     let ch = settings.record.links;
