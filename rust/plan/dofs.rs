@@ -264,6 +264,7 @@ mod tests {
     use crate::contact::{DampingLaw, SpringDamper};
     use crate::kinematics::{FrameKinematics, RotatingFrame, Rotation};
     use crate::model::mechanism::{Clearance, Link, Pin, Slider, Support, Terms};
+    use crate::model::section::BeamSection;
     use crate::model::Motion;
     use crate::plan::{Plan, StepperKind};
     use crate::run::Settings;
@@ -275,13 +276,15 @@ mod tests {
     fn link(name: &str, elements: usize) -> Link {
         Link {
             name: name.into(),
-            length: 0.1 * elements as f64,
-            elements,
-            youngs_modulus: 2e11,
-            density: 7850.0,
-            damping: 0.0,
-            area: 1e-4,
-            inertia: 1e-9,
+            section: BeamSection {
+                length: 0.1 * elements as f64,
+                elements,
+                youngs_modulus: 2e11,
+                density: 7850.0,
+                damping: 0.0,
+                area: 1e-4,
+                inertia: 1e-9,
+            },
             frame: frame(Rotation::Fixed { angle: 0.0 }),
             terms: Terms::default(),
             rotary_inertia: false,
