@@ -27,9 +27,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::integrator::constant::{shares_factor, Lockstep, RunResult};
+use crate::integrator::constant::{Lockstep, RunResult};
 use crate::linalg::AnalysisCache;
 use crate::model::mechanism::Mechanism;
+use crate::plan::assembly::shares_factor;
 use crate::plan::assembly::System;
 use crate::plan::translating::Model;
 use crate::plan::{Plan, StepperKind};

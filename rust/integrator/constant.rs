@@ -47,7 +47,7 @@ use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, Woodbury};
-use crate::plan::assembly::{Frames, Pattern, System};
+use crate::plan::assembly::{shares_factor, Frames, Pattern, System};
 use crate::plan::translating::Model;
 use crate::record::Recorder;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
@@ -120,41 +120,6 @@ impl<'m> NewmarkRun<'m> {
     pub fn run(self, control: &mut dyn FnMut(f64) -> bool) -> RunResult {
         self.inner.run(control).pop().expect("a one-lane run has one outcome")
     }
-}
-
-/// True when two validated runs have the same contact-free effective matrix and step, so that
-/// they can run as lanes of one [`Lockstep`]: same pattern, bitwise equal M, K and C (and the
-/// same proportional-damping ratio), the same joint DOFs and projections, the same dt, Newmark
-/// parameters and number of steps. Clearances, contact laws, couplings, motions, initial
-/// conditions and what is recorded may differ.
-pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
-    let ((sa, ta), (sb, tb)) = (a, b);
-    let bits = |x: &[f64], y: &[f64]| x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
-    !ta.events
-        && !tb.events
-        && ta.dt.to_bits() == tb.dt.to_bits()
-        && ta.newmark.beta.to_bits() == tb.newmark.beta.to_bits()
-        && ta.newmark.gamma.to_bits() == tb.newmark.gamma.to_bits()
-        && ta.steps() == tb.steps()
-        && sa.pattern.n == sb.pattern.n
-        && sa.pattern.col_ptr == sb.pattern.col_ptr
-        && sa.pattern.row_idx == sb.pattern.row_idx
-        && bits(&sa.mass, &sb.mass)
-        && bits(&sa.stiffness, &sb.stiffness)
-        && bits(&sa.damping, &sb.damping)
-        && sa.proportional_damping.map(f64::to_bits) == sb.proportional_damping.map(f64::to_bits)
-        && sa.links.len() == sb.links.len()
-        && sa
-            .links
-            .iter()
-            .zip(&sb.links)
-            .all(|(x, y)| x.offset == y.offset && x.ndof == y.ndof)
-        && sa.joints.len() == sb.joints.len()
-        && sa
-            .joints
-            .iter()
-            .zip(&sb.joints)
-            .all(|(x, y)| x.ndof == y.ndof && x.dofs == y.dofs && bits(x.coef.as_flattened(), y.coef.as_flattened()))
 }
 
 /// A symmetric matrix stored as a dense band (row `r` holds columns `r - w ..= r + w`), for the

@@ -8,6 +8,6 @@ pub mod constant;
 pub mod divergence;
 pub mod events;
 pub mod newton;
-pub mod run_loop;
+pub(crate) mod run_loop;
 
 pub use constant::{Newmark, NewmarkRun};

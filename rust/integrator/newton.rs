@@ -65,7 +65,7 @@ use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
-use crate::plan::dofs::{self, DofMap, NodeMap, Trans, NONE};
+use crate::plan::dofs::{self, DofMap, LinkTerms, NodeMap, Trans, NONE};
 
 /// Largest relative correction (of the displacement scale) that a step may stall at and still be
 /// accepted as converged at round-off: when a Newton correction below this level is no smaller
@@ -124,16 +124,6 @@ struct JointTrack {
     impacts: u64,
 }
 
-/// Per link, what it carries.
-#[derive(Debug, Clone, Copy)]
-struct Active {
-    coriolis: bool,
-    coupling: bool,
-    geometric: bool,
-    load: bool,
-    transformed: bool,
-}
-
 struct LinkData {
     nodes: Vec<NodeMap>,
     m: Mat6,
@@ -147,7 +137,7 @@ struct LinkData {
     ea_l: f64,
     /// Inertia load vectors per element: bx, by, bxx, byx.
     loads: Vec<[Vec6; 4]>,
-    active: Active,
+    active: LinkTerms,
     /// Point mass per node (kg), summed.
     point_mass: Vec<f64>,
     /// Constant nodal loads per node `[Fu, Fv, M]`.
@@ -424,23 +414,11 @@ impl<'a> NewtonRun<'a> {
             Some(d) => d,
             None => dofs::number(mech)?,
         };
+        let terms = dofs::link_terms(mech, &node_maps);
+        let b = dofs::bandwidth(mech, &node_maps, &slider_dof);
         let mut links = Vec::with_capacity(mech.links.len());
-        for ((li, l), nodes) in mech.links.iter().enumerate().zip(node_maps) {
+        for (((li, l), nodes), active) in mech.links.iter().enumerate().zip(node_maps).zip(terms) {
             let e = l.element();
-            let rotates = l.frame.rotates();
-            let moves = rotates || l.frame.translates();
-            let gravity = mech.gravity != [0.0, 0.0];
-            let axially_loaded = mech.loads.iter().any(|f| f.link == li && f.force[0] != 0.0);
-            let t = l.terms;
-            let active = Active {
-                coriolis: t.coriolis.unwrap_or(rotates),
-                coupling: t.inertia_coupling.unwrap_or(rotates),
-                geometric: t.geometric.unwrap_or(rotates || axially_loaded),
-                load: t.inertia_load.unwrap_or(moves || gravity),
-                transformed: nodes
-                    .iter()
-                    .any(|n| matches!(n.trans, Trans::Global(_) | Trans::Slider { .. })),
-            };
             let le = l.element_length();
             let mut point_mass = vec![0.0; l.nodes()];
             for pm in mech.masses.iter().filter(|m| m.link == li) {
@@ -475,39 +453,6 @@ impl<'a> NewtonRun<'a> {
                 point_mass,
                 nodal_load,
             });
-        }
-        // Half-bandwidth from element and joint connectivity.
-        let mut b = 0usize;
-        let mut couple = |ids: &[usize]| {
-            for &i in ids.iter().filter(|&&i| i != NONE) {
-                for &j in ids.iter().filter(|&&j| j != NONE) {
-                    b = b.max(i.abs_diff(j));
-                }
-            }
-        };
-        let slots = |m: &NodeMap| -> [usize; 3] {
-            match m.trans {
-                Trans::Local(ix) | Trans::Global(ix) => [ix[0], ix[1], m.rot],
-                Trans::Slider { s, .. } => [s, NONE, m.rot],
-                Trans::Fixed => [NONE, NONE, m.rot],
-            }
-        };
-        for ld in &links {
-            for w in ld.nodes.windows(2) {
-                let (a, c) = (slots(&w[0]), slots(&w[1]));
-                couple(&[a[0], a[1], a[2], c[0], c[1], c[2]]);
-            }
-        }
-        let ep_slots = |e: &Endpoint| -> [usize; 3] {
-            match e {
-                Endpoint::Node { link, node } => slots(&links[*link].nodes[*node]),
-                Endpoint::Body { .. } => [NONE; 3],
-                Endpoint::Slider(s) => [slider_dof[*s], NONE, NONE],
-            }
-        };
-        for j in &mech.joints {
-            let (a, c) = (ep_slots(&j.journal), ep_slots(&j.bearing));
-            couple(&[a[0], a[1], c[0], c[1]]);
         }
         let nonlinear_geometric = links.iter().any(|l| l.active.geometric);
         let limit = settings

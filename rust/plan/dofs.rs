@@ -1,5 +1,6 @@
 //! The numbering of the moving-frame unknowns of a [`Mechanism`] ([`number`]): which unknowns
-//! each node of each link has, with the pins eliminated, and which each slider has.
+//! each node of each link has, with the pins eliminated, and which each slider has; the terms each
+//! link carries ([`link_terms`]) and the half-bandwidth ([`bandwidth`]) that follow.
 //!
 //! Ideal pins are eliminated, not enforced: the translations of the nodes a pin joins (through
 //! any chain of pins) are one group, found by union-find over every node translation, every
@@ -71,6 +72,85 @@ pub struct DofMap {
     /// Per unknown: whether it is a displacement in metres (nodal translations, slider travel),
     /// rather than a rotation.
     pub translational: Vec<bool>,
+}
+
+/// The terms a link carries on the moving-frame steppers (docs/method.md section 2), resolved from
+/// its [`Terms`](crate::model::mechanism::Terms) (`None` = automatic) and the mechanism.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinkTerms {
+    /// Coriolis `M_COR` (automatic: the frame rotates).
+    pub coriolis: bool,
+    /// Inertia coupling `M_IC` (automatic: the frame rotates).
+    pub coupling: bool,
+    /// Geometric `K2`, `K3`, `D2` (automatic: the frame rotates or a nodal load has an axial
+    /// component).
+    pub geometric: bool,
+    /// Inertia load of the nominal motion `M_R a_R` (automatic: the frame moves, or gravity).
+    pub load: bool,
+    /// A node's translation is in global axes or on a slider (the frame's rotation transforms
+    /// it): not a term one asks for, a consequence of the numbering.
+    pub transformed: bool,
+}
+
+/// The terms each link of `mech` carries, given its numbering `nodes` ([`DofMap::nodes`]).
+pub fn link_terms(mech: &Mechanism, nodes: &[Vec<NodeMap>]) -> Vec<LinkTerms> {
+    let gravity = mech.gravity != [0.0, 0.0];
+    (mech.links.iter().enumerate().zip(nodes))
+        .map(|((li, l), nodes)| {
+            let rotates = l.frame.rotates();
+            let moves = rotates || l.frame.translates();
+            let axially_loaded = mech.loads.iter().any(|f| f.link == li && f.force[0] != 0.0);
+            let t = l.terms;
+            LinkTerms {
+                coriolis: t.coriolis.unwrap_or(rotates),
+                coupling: t.inertia_coupling.unwrap_or(rotates),
+                geometric: t.geometric.unwrap_or(rotates || axially_loaded),
+                load: t.inertia_load.unwrap_or(moves || gravity),
+                transformed: nodes
+                    .iter()
+                    .any(|n| matches!(n.trans, Trans::Global(_) | Trans::Slider { .. })),
+            }
+        })
+        .collect()
+}
+
+/// The half-bandwidth of the moving-frame matrices of `mech` numbered as `nodes` and
+/// `slider_dof` ([`DofMap`]): the largest distance between two unknowns an element (its two
+/// nodes' translations and rotations) or a clearance joint (its two sides' translations) couples.
+pub fn bandwidth(mech: &Mechanism, nodes: &[Vec<NodeMap>], slider_dof: &[usize]) -> usize {
+    let mut b = 0usize;
+    let mut couple = |ids: &[usize]| {
+        for &i in ids.iter().filter(|&&i| i != NONE) {
+            for &j in ids.iter().filter(|&&j| j != NONE) {
+                b = b.max(i.abs_diff(j));
+            }
+        }
+    };
+    let slots = |m: &NodeMap| -> [usize; 3] {
+        match m.trans {
+            Trans::Local(ix) | Trans::Global(ix) => [ix[0], ix[1], m.rot],
+            Trans::Slider { s, .. } => [s, NONE, m.rot],
+            Trans::Fixed => [NONE, NONE, m.rot],
+        }
+    };
+    for link in nodes {
+        for w in link.windows(2) {
+            let (a, c) = (slots(&w[0]), slots(&w[1]));
+            couple(&[a[0], a[1], a[2], c[0], c[1], c[2]]);
+        }
+    }
+    let ep_slots = |e: &Endpoint| -> [usize; 3] {
+        match e {
+            Endpoint::Node { link, node } => slots(&nodes[*link][*node]),
+            Endpoint::Body { .. } => [NONE; 3],
+            Endpoint::Slider(s) => [slider_dof[*s], NONE, NONE],
+        }
+    };
+    for j in &mech.joints {
+        let (a, c) = (ep_slots(&j.journal), ep_slots(&j.bearing));
+        couple(&[a[0], a[1], c[0], c[1]]);
+    }
+    b
 }
 
 struct DofBuilder {
