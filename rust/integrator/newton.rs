@@ -1992,7 +1992,7 @@ impl<'a> NewtonRun<'a> {
         self.step(t0 + h1, h - h1, k, 0)
     }
 
-    /// Runs to `t_end` in the one run loop ([`super::run_loop`]; `control(fraction)` every
+    /// Runs to `t_end` in the one run loop (`integrator/run_loop.rs`; `control(fraction)` every
     /// [`NEWTON_CONTROL_STRIDE`] steps; `false` stops the run with [`Error::Interrupted`]).
     /// Failures carry everything recorded until then. With [`Settings::events`] each step goes
     /// through `step_with_events`; a step without a status change is the fixed step.
