@@ -11,82 +11,13 @@
 //! runs with the scene's defaults of `flexclear.scenes.slider_crank(clearance_at="crank_pin")`
 //! (8 elements, 26 unknowns, geometric terms on, implicit contact iterated to `iter_tol` 1e-10).
 
-use std::sync::Arc;
 use std::time::Instant;
 
-use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
+use flexclear::contact::Coupling;
 use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
-use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
-use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Support, Terms};
-use flexclear::model::section::BeamSection;
-use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
-use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
+use flexclear::scenes::{spinning_beam_in_a_bearing, FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Settings;
-
-fn spinning_beam() -> Mechanism {
-    let spin = Rotation::Constant {
-        angle0: 0.3,
-        rate: 30.0,
-    };
-    let hub = |r: Rotation| -> Arc<dyn FrameKinematics> {
-        Arc::new(RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, r).unwrap())
-    };
-    let (a, n) = (0.008f64, 6);
-    let v0 = (0..3 * (n + 1))
-        .map(|k| {
-            if k % 3 == 1 {
-                0.2 * (k / 3) as f64 / n as f64
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    Mechanism {
-        links: vec![Link {
-            name: "beam".into(),
-            section: BeamSection {
-                length: 0.3,
-                elements: n,
-                youngs_modulus: 2e11,
-                density: 7870.0,
-                damping: 2e6,
-                area: a * a,
-                inertia: a.powi(4) / 12.0,
-            },
-            frame: hub(spin.clone()),
-            terms: Terms {
-                geometric: Some(false),
-                ..Terms::default()
-            },
-            rotary_inertia: false,
-            initial_displacement: None,
-            initial_velocity: Some(v0),
-        }],
-        supports: vec![Support {
-            link: 0,
-            node: 0,
-            fixed: [true; 3],
-        }],
-        joints: vec![Clearance {
-            name: "tip".into(),
-            journal: Endpoint::Node { link: 0, node: n },
-            bearing: Endpoint::Body {
-                frame: hub(spin),
-                point: [0.3, 0.0],
-                name: "hub".into(),
-            },
-            clearance: 1e-4,
-            law: Arc::new(SpringDamper {
-                stiffness: 1e7,
-                damping: 20.0,
-                damping_law: DampingLaw::Viscous,
-                no_tension: false,
-            }),
-        }],
-        ..Default::default()
-    }
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -115,7 +46,7 @@ fn main() {
         }
         .build()
         .expect("slider-crank scene"),
-        "spin-newton" | "spin-rate" => spinning_beam(),
+        "spin-newton" | "spin-rate" => spinning_beam_in_a_bearing(),
         other => panic!("unknown case {other:?}: crank-pin, spin-newton or spin-rate"),
     };
     let t0 = Instant::now();

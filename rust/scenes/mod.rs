@@ -1,7 +1,7 @@
 //! The test mechanisms flexclear ships (`docs/scenes.md`), every one built here as the one user
 //! model, a [`Mechanism`], so that Rust tests, benches and the Python API (`flexclear.scenes`,
 //! thin wrappers over these) share one definition: the slider-yoke, the flexible slider-crank,
-//! the four-bar and the spin-up.
+//! the four-bar, the spin-up and the spinning beam in a bearing.
 //!
 //! [`Mechanism`]: crate::model::mechanism::Mechanism
 
@@ -10,12 +10,14 @@ pub mod four_bar;
 pub mod slider_crank;
 pub mod slider_yoke;
 pub mod spin_up;
+pub mod spinning_beam;
 
 pub use bearing::{hertz_secant, BearingDerived};
 pub use four_bar::{FlexibleFourBar, FourBarPin};
 pub use slider_crank::{FlexibleSliderCrank, SliderCrankPin};
 pub use slider_yoke::{SliderYoke, SliderYokeGeometry};
 pub use spin_up::{SpinUp, SpinUpData, SpinUpValues};
+pub use spinning_beam::spinning_beam_in_a_bearing;
 
 use crate::error::{Error, Result};
 
