@@ -13,6 +13,7 @@ radial clearance uniform in [0, 1e-3] m, 0.5 s at dt 1e-5 s, 1000 samples, modif
    by side.
 
     python benches/montecarlo.py [--samples 1000] [--repeats 3] [--exudyn-samples 8] [--lanes 1,8]
+    python benches/montecarlo.py --study slider-crank [--samples 256] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -26,23 +27,32 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-STUDY_FILE = os.path.join(HERE, "studies", "table1_clearance.toml")
+#: The reference studies (``--study``): the Table 1 slider-yoke (the default) and Simeon's
+#: slider-crank with a crank-pin clearance (issue 14 item 5; its samples run on the Newton
+#: stepper, one lane each: there is no lockstep for moving frames yet, and no Exudyn counterpart
+#: of its varied bearing stiffness and crank speed in benches/exudyn_crank_scene.py).
+STUDIES = {
+    "table1": os.path.join(HERE, "studies", "table1_clearance.toml"),
+    "slider-crank": os.path.join(HERE, "studies", "slider_crank_clearance.toml"),
+}
+STUDY_FILE = STUDIES["table1"]
 
 
-def reference_study(samples: int, t_end: float = 0.5, dt: float = 1e-5):
+def reference_study(samples: int, t_end: float = 0.5, dt: float = 1e-5, study_file: str = STUDY_FILE):
     from flexclear.study import Study, load
 
-    base = load(STUDY_FILE)
+    base = load(study_file)
     d = base.to_dict()
     d.update(samples=samples, t_end=t_end, dt=dt)
     return Study.from_dict(d)
 
 
-def throughput(samples: int, repeats: int, lanes: list[int]) -> dict:
+def throughput(samples: int, repeats: int, lanes: list[int], study_file: str = STUDY_FILE) -> dict:
     """Samples/s on 1 and 2 threads for each lockstep lane count (1 = every sample alone), the
     configurations alternating (their order reversed every other repeat) so that load from other
     processes spreads over all of them; medians over the repeats."""
-    study = reference_study(samples)
+    t_end = 0.1 if study_file == STUDIES["slider-crank"] else 0.5
+    study = reference_study(samples, t_end=t_end, study_file=study_file)
     configs = [(th, ln) for ln in lanes for th in (1, 2)]
     times: dict = {c: [] for c in configs}
     frames = {}
@@ -129,6 +139,13 @@ def exudyn_subset(frame, count: int) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=1000)
+    ap.add_argument(
+        "--study",
+        choices=sorted(STUDIES),
+        default="table1",
+        help="the reference study: the Table 1 slider-yoke (default) or the crank-pin slider-crank "
+        "(throughput only: no memory or Exudyn part)",
+    )
     ap.add_argument("--repeats", type=int, default=3, help="alternating 1- and 2-thread runs")
     ap.add_argument("--exudyn-samples", type=int, default=8, help="0 skips Exudyn")
     ap.add_argument("--skip-memory", action="store_true")
@@ -141,11 +158,14 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     import flexclear
 
-    print(f"flexclear {flexclear.__version__}; reference study {STUDY_FILE}")
-    print(f"== throughput: {args.samples} samples, T = 0.5 s, dt = 1e-5 s (5e4 steps each)")
+    study_file = STUDIES[args.study]
+    crank = args.study == "slider-crank"
+    print(f"flexclear {flexclear.__version__}; reference study {study_file}")
+    steps = "T = 0.1 s, dt = 1e-5 s (1e4 steps each)" if crank else "T = 0.5 s, dt = 1e-5 s (5e4 steps each)"
+    print(f"== throughput: {args.samples} samples, {steps}")
     print(f"load average before: {os.getloadavg()}")
     lanes = sorted({int(x) for x in args.lanes.split(",")})
-    tp = throughput(args.samples, args.repeats, lanes)
+    tp = throughput(args.samples, args.repeats, lanes, study_file)
     for ln in lanes:
         r1, r2 = tp["rate"][(1, ln)], tp["rate"][(2, ln)]
         print(
@@ -159,6 +179,8 @@ def main(argv=None) -> int:
             f"lockstep gain (lanes={max(lanes)} vs {min(lanes)}): 1 thread {g[1]:.2f}x, 2 threads {g[2]:.2f}x"
         )
     print(f"load average after: {os.getloadavg()}")
+    if crank:
+        return 0
     if not args.skip_memory:
         print("== memory (peak RSS of fresh processes, 2 threads)")
         m = memory()
