@@ -14,13 +14,14 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
+use flexclear::contact::Coupling;
 use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
-use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Support, Terms};
+use flexclear::model::mechanism::{Link, Mechanism, Support, Terms};
 use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
+use flexclear::scenes::spinning_beam_in_a_bearing;
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::{Settings, SolverMode};
 
@@ -192,7 +193,7 @@ fn contact(c: &mut Criterion) {
     g.bench_function("(a) slider-crank crank pin, Newton refactorizing", |b| {
         b.iter(|| run(black_box(&crank), &refactor))
     });
-    let spin = spinning_in_a_bearing();
+    let spin = spinning_beam_in_a_bearing();
     g.bench_function("(b) spinning beam in a bearing, constant-rate", |b| {
         b.iter(|| simulate_constant_rate(black_box(&spin), &s, &mut |_| true).expect("bench run failed"))
     });
@@ -200,57 +201,6 @@ fn contact(c: &mut Criterion) {
         b.iter(|| run(black_box(&spin), &refactor))
     });
     g.finish();
-}
-
-/// The cantilever of tests/constant_rate.rs: 0.3 m steel, 6 elements, clamped to a hub at 30
-/// rad/s, geometric terms off, its tip in a bearing (0.1 mm, 1e7 N/m, 20 N s/m) on the hub,
-/// starting with a transverse velocity of 0.2 m/s at the tip.
-fn spinning_in_a_bearing() -> Mechanism {
-    let spin = Rotation::Constant {
-        angle0: 0.3,
-        rate: 30.0,
-    };
-    let mut m = cantilever(
-        6,
-        spin.clone(),
-        Terms {
-            geometric: Some(false),
-            ..Default::default()
-        },
-    );
-    let a = 0.008f64;
-    let l = &mut m.links[0];
-    let sec = &mut l.section;
-    (
-        sec.length,
-        sec.youngs_modulus,
-        sec.density,
-        sec.damping,
-        sec.area,
-        sec.inertia,
-    ) = (0.3, 2e11, 7870.0, 2e6, a * a, a.powi(4) / 12.0);
-    l.initial_velocity = Some(
-        (0..21)
-            .map(|k| if k % 3 == 1 { 0.2 * (k / 3) as f64 / 6.0 } else { 0.0 })
-            .collect(),
-    );
-    m.joints.push(Clearance {
-        name: "tip".into(),
-        journal: Endpoint::Node { link: 0, node: 6 },
-        bearing: Endpoint::Body {
-            frame: Arc::new(RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, spin).unwrap()),
-            point: [0.3, 0.0],
-            name: "hub".into(),
-        },
-        clearance: 1e-4,
-        law: Arc::new(SpringDamper {
-            stiffness: 1e7,
-            damping: 20.0,
-            damping_law: DampingLaw::Viscous,
-            no_tension: false,
-        }),
-    });
-    m
 }
 
 criterion_group!(benches, step_terms, runs, scaling, contact);
