@@ -90,7 +90,7 @@ def _batch(fc, lanes):
     )
     assert pending is None
     keys = ("max_penetration", "max_force", "impacts", "contact_time", "max_impact_velocity", "rms_force")
-    return {f"{k}[{i}]": o["extremes"][0][k] for i, o in enumerate(outs) for k in keys}
+    return {f"{k}[{i}]": getattr(o["extremes"][0], k) for i, o in enumerate(outs) for k in keys}
 
 
 def _moving(fc, build, link, joint, t_end, dt, **kw):

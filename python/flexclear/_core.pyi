@@ -488,7 +488,7 @@ def run_batch(
     `iterate`, `tol`, `max_iter` None = that stepper's default, as in `Model.simulate`.
 
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes
-    (the keys of `Mechanism.simulate`'s extremes), time, joints), the batch counters (analyses,
+    (one `JointExtremes` per joint), time, joints), the batch counters (analyses,
     threads, lockstep_groups, lockstep_samples) and the exception that stopped the batch
     (KeyboardInterrupt, or one raised by `progress(done)`), else None. `lanes` is the largest
     lockstep group (0 = default 8, 1 = none, at most 8). `joint_position` also keeps the

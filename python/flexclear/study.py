@@ -1303,7 +1303,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
         for j, ji in zip(study.joints, study._joint_indices):
             ext = out["extremes"][ji] if out["extremes"] and status == "ok" else None
             for o in study.outputs:
-                rec[f"{j}.{o}"] = float(ext[o]) if ext is not None else float("nan")
+                rec[f"{j}.{o}"] = float(getattr(ext, o)) if ext is not None else float("nan")
             if hist:
                 h = next((h for h in out["joints"] if h["joint"] == ji), None) if status == "ok" else None
                 rec[f"{j}.penetration_history"] = h["penetration"] if h is not None else np.empty(0)
@@ -1363,10 +1363,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
                 else "invalid"
             )
             return _outcome(status, str(e), dt, retries, time.perf_counter() - t0)
-        extremes = []
-        for name in model.joint_names:
-            j = res.joint(name)
-            extremes.append({o: getattr(j, o) for o in study.outputs})
+        extremes = list(res._raw.extremes)  # the JointExtremes of the batch's rows, joint order
         joints = []
         if hist:
             for ji, name in zip(study._joint_indices, study.joints):

@@ -9,7 +9,7 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use super::output::{extremes_list, joint_histories};
+use super::output::{extremes_objects, joint_histories};
 use super::{err, mechanism, parse_coupling, parse_solver};
 use crate::batch::{run_batch as run_batch_core, BatchOptions, Retry, SampleOutcome};
 use crate::error::Error;
@@ -124,7 +124,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     let out = out.unwrap_or_default();
     d.set_item("steps", out.stats.steps)?;
     d.set_item("t", out.time)?;
-    d.set_item("extremes", extremes_list(py, &out.record.extremes)?)?;
+    d.set_item("extremes", extremes_objects(py, &out.record.extremes)?)?;
     let rec = out.record;
     d.set_item("time", PyArray1::from_vec(py, rec.time))?;
     d.set_item("joints", joint_histories(py, rec.joints)?)?;

@@ -1,8 +1,9 @@
 //! A run's output as Python objects: one [`PyRunOutput`] (`flexclear._core.RunOutput`) for every
 //! stepper, whose parts are objects too (`JointExtremes`, `JointHistory`, `ImpactLog`,
 //! `NodeHistory`, `LinkHistory`, `SliderHistory`), with numpy arrays for the series;
-//! `flexclear.Result` reads their attributes. The per-sample rows of a study batch
-//! ([`extremes_list`], [`joint_histories`]) are dicts, the rows of the study's table.
+//! `flexclear.Result` reads their attributes. The per-sample rows of a study batch are dicts (the
+//! rows of the study's table) holding the same `JointExtremes` objects ([`extremes_objects`]) and
+//! the joint histories as dicts ([`joint_histories`]).
 
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, ToPyArray};
@@ -138,29 +139,10 @@ fn arr(py: Python<'_>, v: Vec<f64>) -> Py<PyArray1<f64>> {
     PyArray1::from_vec(py, v).unbind()
 }
 
-/// The running extremes of every joint as a list of dicts (the keys of `flexclear.JointResult`):
-/// the per-sample extremes of a study batch.
-pub(super) fn extremes_list<'py>(py: Python<'py>, extremes: &[JointExtremes]) -> PyResult<Bound<'py, PyList>> {
-    let ext = PyList::empty(py);
-    for e in extremes {
-        let x = PyDict::new(py);
-        let p = PyJointExtremes::from(e);
-        x.set_item("max_penetration", p.max_penetration)?;
-        x.set_item("time_of_max_penetration", p.time_of_max_penetration)?;
-        x.set_item("max_force", p.max_force)?;
-        x.set_item("impacts", p.impacts)?;
-        x.set_item("contact_time", p.contact_time)?;
-        x.set_item("max_velocity", p.max_velocity)?;
-        x.set_item("max_impact_velocity", p.max_impact_velocity)?;
-        x.set_item("rms_penetration", p.rms_penetration)?;
-        x.set_item("rms_force", p.rms_force)?;
-        x.set_item("free_flight_fraction", p.free_flight_fraction)?;
-        x.set_item("impact_fraction", p.impact_fraction)?;
-        x.set_item("continuous_fraction", p.continuous_fraction)?;
-        x.set_item("dissipated_energy", p.dissipated_energy)?;
-        ext.append(x)?;
-    }
-    Ok(ext)
+/// The running extremes of every joint as [`PyJointExtremes`] objects, in joint order (a run's
+/// output, and the per-sample extremes of a study batch).
+pub(super) fn extremes_objects(py: Python<'_>, extremes: &[JointExtremes]) -> PyResult<Vec<Py<PyJointExtremes>>> {
+    extremes.iter().map(|e| Py::new(py, PyJointExtremes::from(e))).collect()
 }
 
 /// Joint histories as a list of dicts (`joint`, `penetration` m, `force` N, `qx`, `qy` m; the
@@ -266,9 +248,7 @@ pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]
             Py::new(py, s)
         })
         .collect::<PyResult<_>>()?;
-    let extremes = (rec.extremes.iter())
-        .map(|e| Py::new(py, PyJointExtremes::from(e)))
-        .collect::<PyResult<_>>()?;
+    let extremes = extremes_objects(py, &rec.extremes)?;
     let impact_log = (rec.impacts.into_iter())
         .map(|(joint, log)| {
             let col = |f: fn(&Impact) -> f64| arr(py, log.iter().map(f).collect());
