@@ -2024,8 +2024,10 @@ impl<'a> NewtonRun<'a> {
         self.track_sliders(0.0, true);
         self.record(0.0);
         let events = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
+        let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let mut lp = NewtonLoop {
             run: &mut self,
+            steps,
             events,
             outcome: None,
         };
@@ -2071,6 +2073,8 @@ pub const NEWTON_CONTROL_STRIDE: u64 = 256;
 /// time, or the error and the time of the last completed step).
 struct NewtonLoop<'r, 'a> {
     run: &'r mut NewtonRun<'a>,
+    /// Steps of the run, `t_end / dt` rounded (at least 1).
+    steps: u64,
     events: Option<EventScratch>,
     outcome: Option<std::result::Result<f64, (Error, f64)>>,
 }
@@ -2079,7 +2083,7 @@ impl Stepper for NewtonLoop<'_, '_> {
     const CONTROL_STRIDE: u64 = NEWTON_CONTROL_STRIDE;
 
     fn steps(&self) -> u64 {
-        (self.run.settings.t_end / self.run.settings.dt).round().max(1.0) as u64
+        self.steps
     }
 
     fn dt(&self) -> f64 {
@@ -2091,7 +2095,7 @@ impl Stepper for NewtonLoop<'_, '_> {
     }
 
     fn advance(&mut self, k: u64, t1: f64) {
-        let last = k == self.steps();
+        let last = k == self.steps;
         let r = &mut *self.run;
         let h = r.settings.dt;
         let t0 = (k - 1) as f64 * h;
@@ -2121,7 +2125,7 @@ impl Stepper for NewtonLoop<'_, '_> {
     }
 
     fn record(&mut self, k: u64, t1: f64) {
-        let last = k == self.steps();
+        let last = k == self.steps;
         let r = &mut *self.run;
         let every = r.settings.record.every as u64;
         if self.outcome.is_none() && (k.is_multiple_of(every) || last) {
