@@ -77,3 +77,24 @@ def test_montecarlo_cli_draws_orbits(tmp_path):
     )
     report = (out / "report.md").read_text()
     assert "## Journal orbits (crank_pin)" in report and (out / "orbits.png").exists()
+
+
+def test_the_four_bar_study_file_runs_from_the_cli(tmp_path):
+    # benches/studies/four_bar_clearance.toml, reduced to 4 samples of 10 ms: a four-bar with a
+    # clearance joint runs as a study from a study file (issue 14, "Done when")
+    from pathlib import Path
+
+    from flexclear.cli import main
+
+    ref = (Path(__file__).parent.parent / "benches" / "studies" / "four_bar_clearance.toml").read_text()
+    small = ref.replace("samples = 128", "samples = 4").replace("t_end = 0.126 ", "t_end = 0.01 ")
+    assert small != ref
+    (tmp_path / "s.toml").write_text(small)
+    out = tmp_path / "out"
+    assert (
+        main(["montecarlo", str(tmp_path / "s.toml"), "--out", str(out), "--no-progress", "--orbits", "2"])
+        == 0
+    )
+    report = (out / "report.md").read_text()
+    assert "## Journal orbits (rocker_pin)" in report and (out / "orbits.png").exists()
+    assert "- 4 samples: 4 ok" in report and "| rocker_pin.max_force | 4 |" in report
