@@ -47,6 +47,38 @@ pub struct Settings {
     /// The stepper to use for a [`crate::model::mechanism::Mechanism`]; `None` = chosen from
     /// the model ([`crate::plan::Plan::compile`]).
     pub stepper: Option<crate::plan::StepperKind>,
+    /// Adaptive steps with local error control (`None` = the fixed step `dt`). `dt` is then the
+    /// output grid and the longest step; the Newton stepper runs such a model
+    /// ([`crate::integrator::newton`], "Adaptive steps").
+    pub adaptive: Option<Adaptive>,
+}
+
+/// Local error control of adaptive steps: a step is accepted when the Zienkiewicz-Xie estimate
+/// of its local displacement error, `|beta - 1/6| h^2 |a_(n+1) - a_n|` per unknown, is at most
+/// `atol + rtol |y|` for every unknown (m for translations, rad for rotations and the same
+/// number as a tolerance).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Adaptive {
+    /// Relative local error tolerance (> 0).
+    pub rtol: f64,
+    /// Absolute local error tolerance, m (> 0).
+    pub atol: f64,
+    /// Shortest step, s (> 0, at most `dt`): a step that fails the error test or does not
+    /// converge at this length is accepted (counted in `RunStats::floor_steps`) or, when its
+    /// iterations did not converge, fails the run.
+    pub h_min: f64,
+}
+
+impl Adaptive {
+    fn validate(&self, dt: f64) -> Result<()> {
+        check_positive("rtol", self.rtol, "(relative)")?;
+        check_positive("atol", self.atol, "m")?;
+        check_positive("h_min", self.h_min, "s")?;
+        if self.h_min > dt {
+            return Err(Error::param("h_min", self.h_min, format!("<= dt = {dt} s")));
+        }
+        Ok(())
+    }
 }
 
 /// Iterations of a step of the moving-frame (Newton) stepper.
@@ -100,6 +132,7 @@ impl Settings {
             events: false,
             newton: NewtonSettings::default(),
             stepper: None,
+            adaptive: None,
         }
     }
 
@@ -123,6 +156,9 @@ impl Settings {
         self.coupling.validate()?;
         if let Some(l) = self.divergence_limit {
             check_positive("divergence_limit", l, "m")?;
+        }
+        if let Some(a) = &self.adaptive {
+            a.validate(self.dt)?;
         }
         self.newton.validate()
     }
@@ -202,6 +238,18 @@ pub struct RunStats {
     pub unknowns: usize,
     /// Half-bandwidth of the Newton Jacobian (0 for the constant stepper).
     pub bandwidth: usize,
+    /// Adaptive steps: steps accepted (substeps of the output grid, event cuts included).
+    pub adaptive_steps: u64,
+    /// Adaptive steps: steps rejected by the error test or redone shorter after their
+    /// iterations did not converge.
+    pub rejected_steps: u64,
+    /// Adaptive steps: steps accepted at the shortest step `h_min` although their error
+    /// estimate exceeded the tolerance.
+    pub floor_steps: u64,
+    /// Adaptive steps: the shortest and longest accepted step, s (0 without adaptive steps).
+    pub min_step: f64,
+    /// See `min_step`.
+    pub max_step: f64,
 }
 
 /// What a run produced.

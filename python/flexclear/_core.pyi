@@ -169,6 +169,8 @@ class Mechanism:
     @property
     def joint_names(self) -> list[str]: ...
     @property
+    def joint_clearances(self) -> list[float]: ...
+    @property
     def pin_names(self) -> list[str]: ...
     @property
     def link_elements(self) -> list[int]: ...
@@ -229,6 +231,7 @@ class Mechanism:
         gap_damping: float = ...,
         nodes: list[tuple[int, int]] = ...,
         contact_modes: bool = ...,
+        adaptive: Optional[tuple[float, float, float]] = ...,
     ) -> RunOutput:
         """Runs the model; returns its output (what `flexclear.Result` reads). A failed run raises
         the matching `flexclear` exception with what it recorded as `exc.partial` (a

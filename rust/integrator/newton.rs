@@ -50,6 +50,14 @@
 //! path refreshes it whenever the contact changes, so the two differ within the iteration
 //! tolerance.
 //!
+//! Adaptive steps ([`Settings::adaptive`](crate::run::Settings::adaptive), the `tol=` runs of
+//! Python): the output grid `dt` is kept and each of its intervals is crossed by steps of
+//! `dt / 2^m` chosen by the Zienkiewicz-Xie local error estimate, with every contact entry and
+//! exit located by a cut (`NewtonRun::adaptive_advance`). The cut aims just short of the circle,
+//! so the substep to it carries no force of the new status (a substep ending inside would spread
+//! the dashpot's entry jump over its length at first order), and the step after it starts from
+//! the restarted accelerations and is sized by the estimate, which sees the jump.
+//!
 //! Nothing allocates inside the time loop.
 
 use nalgebra::Matrix6;
@@ -321,6 +329,10 @@ pub struct NewtonRun<'a> {
     /// contact: [`evaluation::iterated_terms`]).
     switches: Vec<u8>,
     contact_was: Vec<bool>,
+    /// Per joint, a radius (m) at which [`Self::evaluate_contacts`] evaluates the law from the
+    /// step start instead of the joint's own (its state projected radially): the new side of the
+    /// circle at an adaptive step's cut, `NaN` otherwise.
+    status_hint: Vec<f64>,
     /// Approach speed of each joint's current contact episode, m/s (`None` while open; only
     /// for laws that need it).
     episode: Vec<Option<f64>>,
@@ -534,6 +546,7 @@ impl<'a> NewtonRun<'a> {
             implicit_contact: matches!(settings.coupling, Coupling::Modified { iterate: true, .. })
                 && !mech.joints.is_empty(),
             contact_was: vec![false; mech.joints.len()],
+            status_hint: vec![f64::NAN; mech.joints.len()],
             episode: vec![None; mech.joints.len()],
             nominal_offset: (0..nj).map(|j| mech.joint_moves_apart(j, settings.t_end)).collect(),
             t_frames: 0.0,
@@ -1449,11 +1462,18 @@ impl<'a> NewtonRun<'a> {
             self.switches.fill(0);
         }
         for j in 0..self.mech.joints.len() {
-            let (q, qd) = if from_start {
+            let (mut q, qd) = if from_start {
                 self.joint_state(j, &self.y_pred, &self.v_pred)
             } else {
                 self.joint_state(j, &self.y, &self.yd)
             };
+            let hint = self.status_hint[j];
+            if from_start && hint.is_finite() {
+                let r = q[0].hypot(q[1]);
+                if r > 0.0 {
+                    q = [q[0] * hint / r, q[1] * hint / r];
+                }
+            }
             let jt = &self.mech.joints[j];
             let mut terms = self.law_terms(j, q, qd);
             if self.implicit_contact {
@@ -1992,6 +2012,162 @@ impl<'a> NewtonRun<'a> {
         self.step(t0 + h1, h - h1, k, 0)
     }
 
+    /// The Zienkiewicz-Xie estimate of the local displacement error of the step of length `h`
+    /// (s) just taken from accelerations `a0`, `c |a_(n+1) - a_n| h^2` with `c = |beta - 1/6|`
+    /// (at least 1/24), over the tolerance `atol + rtol |y|`, largest over the unknowns
+    /// (infinite when not finite).
+    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
+        let c = (self.settings.newmark.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h;
+        let mut e = 0.0f64;
+        for i in 0..self.n {
+            let r = c * (self.ydd[i] - a0[i]).abs() / (tol.atol + tol.rtol * self.y[i].abs());
+            if r.is_nan() || r > e {
+                e = if r.is_finite() { r } else { f64::INFINITY };
+            }
+        }
+        e
+    }
+
+    /// Puts back the state saved in `ad` (the start of a trial step at `t`, s).
+    fn restore_adaptive(&mut self, ad: &AdaptiveScratch, t: f64) {
+        self.y.copy_from_slice(&ad.y);
+        self.yd.copy_from_slice(&ad.yd);
+        self.ydd.copy_from_slice(&ad.ydd);
+        self.update_frames(t);
+    }
+
+    /// Adaptive steps from `t0` to the output instant `t1` (s), step `k` of the output grid:
+    /// trial steps of `dt / 2^m`; a step whose error estimate ([`Self::local_error`]) exceeds
+    /// the tolerance, or whose iterations do not converge, is redone shorter (`m` raised by
+    /// what the estimate asks, the local error being of order `h^3`); a step that changes a
+    /// clearance joint's status is cut at the located crossing (just short of the circle, see
+    /// the module documentation; accelerations restarted there), so no contact entry or exit is
+    /// stepped across unlocated; after a step whose error is
+    /// below a tenth of the tolerance the next is twice as long, up to `dt`. Step lengths are
+    /// powers of two below `dt` (besides the cuts and the last step to `t1`), so the Jacobian's
+    /// factorization is reused where only the step changed it and it comes back. The joints
+    /// are tracked at every accepted substep.
+    fn adaptive_advance(&mut self, t0: f64, t1: f64, k: u64, ad: &mut AdaptiveScratch) -> Result<()> {
+        let tol = self.settings.adaptive.expect("adaptive settings");
+        let dt = self.settings.dt;
+        let max_level = ((dt / tol.h_min).log2().floor().max(0.0) as u32).min(30);
+        let mut t = t0;
+        while t1 - t > 1e-9 * dt {
+            let rest = t1 - t;
+            let mut h = dt / f64::from(1u32 << ad.level.min(30));
+            if h >= rest || rest - h < 1e-3 * h {
+                h = rest;
+            }
+            ad.y.copy_from_slice(&self.y);
+            ad.yd.copy_from_slice(&self.yd);
+            ad.ydd.copy_from_slice(&self.ydd);
+            self.penetrations(&mut ad.p0);
+            let at_floor = ad.level >= max_level;
+            let mut err = match self.step(t, h, k, 0) {
+                Ok(()) => self.local_error(h, &ad.ydd, &tol),
+                Err(e @ Error::NotConverged { .. }) => {
+                    if at_floor {
+                        return Err(e);
+                    }
+                    f64::INFINITY
+                }
+                Err(e) => return Err(e),
+            };
+            // a step that changes a joint's status is cut at the crossing first: the error of
+            // the substep to it is the one to judge (the whole step carries the jump of the
+            // contact force, which the step after the cut resolves)
+            let mut taken = h;
+            let mut cut = None;
+            if err.is_finite() {
+                self.penetrations(&mut ad.p1);
+                if let Some((theta, j)) = earliest_crossing(&ad.p0, &ad.p1) {
+                    taken = self.adaptive_cut(t, h, k, ad, theta, j)?;
+                    err = self.local_error(taken, &ad.ydd, &tol);
+                    cut = Some(j);
+                }
+            }
+            if err > 1.0 && !at_floor {
+                self.restore_adaptive(ad, t);
+                self.stats.rejected_steps += 1;
+                // the local error goes as h^3: the level that brings it to 0.9 of the tolerance
+                let up = if err.is_finite() {
+                    ((err / 0.729).log2() / 3.0).ceil().max(1.0) as u32
+                } else {
+                    2
+                };
+                ad.level = (ad.level + up).min(max_level);
+                continue;
+            }
+            if err > 1.0 {
+                self.stats.floor_steps += 1;
+            }
+            if cut.is_some() {
+                // the accelerations and the recorded force at the cut are the right limit: each
+                // joint at its crossing there is taken on the new side of its circle (the
+                // dashpot's entry force acts from the cut on, as on the constant stepper)
+                for (jj, jt) in self.mech.joints.iter().enumerate() {
+                    let (p0, p1, pc) = (ad.p0[jj], ad.p1[jj], ad.pc[jj]);
+                    let band = 1e-3 * (p1 - p0).abs();
+                    if (p0 > 0.0) != (p1 > 0.0) && pc.abs() <= band {
+                        let eps = 1e-6 * (p1 - p0).abs();
+                        self.status_hint[jj] = jt.clearance + if p1 > 0.0 { eps } else { -eps };
+                    }
+                }
+                // (the joints are tracked below with these terms: the right-limit force at the
+                // cut enters the extremes)
+                let restarted = self.restart_accelerations(t + taken);
+                self.status_hint.fill(f64::NAN);
+                restarted?;
+                self.stats.event_steps += 1;
+            } else if err <= 0.1 && ad.level > 0 && h == dt / f64::from(1u32 << ad.level.min(30)) {
+                ad.level -= 1;
+            }
+            t = if taken == rest { t1 } else { t + taken };
+            self.stats.adaptive_steps += 1;
+            self.stats.min_step = if self.stats.min_step > 0.0 {
+                self.stats.min_step.min(taken)
+            } else {
+                taken
+            };
+            self.stats.max_step = self.stats.max_step.max(taken);
+            if t < t1 {
+                self.track_joints(t, None);
+                if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
+                    let name = &self.mech.joints[j].name;
+                    return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The cut of an adaptive step of length `h` (s) from `t` at first estimate `theta`
+    /// (fraction of `h`) for joint `jstar`: the first substep's length (s), ending just short of
+    /// the circle (regula falsi as in [`Self::cut_step`]).
+    fn adaptive_cut(
+        &mut self,
+        t: f64,
+        h: f64,
+        k: u64,
+        ad: &mut AdaptiveScratch,
+        mut theta: f64,
+        jstar: usize,
+    ) -> Result<f64> {
+        let mut search = CutSearch::new(ad.p0[jstar], ad.p1[jstar], false);
+        let mut h1 = theta * h;
+        for it in 0..EVENT_MAX_CUTS {
+            h1 = theta * h;
+            self.restore_adaptive(ad, t);
+            self.step(t, h1, k, 0)?;
+            self.penetrations(&mut ad.pc);
+            match search.next(theta, ad.pc[jstar], it + 1 == EVENT_MAX_CUTS) {
+                Some(next) => theta = next,
+                None => break,
+            }
+        }
+        Ok(h1)
+    }
+
     /// Runs to `t_end` in the one run loop (`integrator/run_loop.rs`; `control(fraction)` every
     /// [`NEWTON_CONTROL_STRIDE`] steps; `false` stops the run with [`Error::Interrupted`]).
     /// Failures carry everything recorded until then. With [`Settings::events`] each step goes
@@ -2023,12 +2199,23 @@ impl<'a> NewtonRun<'a> {
             .collect();
         self.track_sliders(0.0, true);
         self.record(0.0);
-        let events = (self.settings.events && !self.mech.joints.is_empty()).then(EventScratch::default);
+        let adaptive = self.settings.adaptive.is_some().then(|| AdaptiveScratch {
+            y: vec![0.0; self.n],
+            yd: vec![0.0; self.n],
+            ydd: vec![0.0; self.n],
+            p0: Vec::with_capacity(self.mech.joints.len()),
+            p1: Vec::with_capacity(self.mech.joints.len()),
+            pc: Vec::with_capacity(self.mech.joints.len()),
+            level: 0,
+        });
+        let events =
+            (self.settings.events && !self.mech.joints.is_empty() && adaptive.is_none()).then(EventScratch::default);
         let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let mut lp = NewtonLoop {
             run: &mut self,
             steps,
             events,
+            adaptive,
             outcome: None,
         };
         run_loop::run(&mut lp, control);
@@ -2076,7 +2263,22 @@ struct NewtonLoop<'r, 'a> {
     /// Steps of the run, `t_end / dt` rounded (at least 1).
     steps: u64,
     events: Option<EventScratch>,
+    /// Adaptive steps ([`NewtonRun::adaptive_advance`]), `None` for the fixed step.
+    adaptive: Option<AdaptiveScratch>,
     outcome: Option<std::result::Result<f64, (Error, f64)>>,
+}
+
+/// The adaptive controller's state: the start of the trial step and the penetrations at its
+/// start, end and cut (allocated before the time loop), and the level `m` of the next step
+/// `dt / 2^m`.
+struct AdaptiveScratch {
+    y: Vec<f64>,
+    yd: Vec<f64>,
+    ydd: Vec<f64>,
+    p0: Vec<f64>,
+    p1: Vec<f64>,
+    pc: Vec<f64>,
+    level: u32,
 }
 
 impl Stepper for NewtonLoop<'_, '_> {
@@ -2099,9 +2301,10 @@ impl Stepper for NewtonLoop<'_, '_> {
         let r = &mut *self.run;
         let h = r.settings.dt;
         let t0 = (k - 1) as f64 * h;
-        let res = match self.events.as_mut() {
-            Some(ev) => r.step_with_events(t0, h, k, ev),
-            None => r.step(t0, h, k, 0),
+        let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
+            (Some(ad), _) => r.adaptive_advance(t0, t1, k, ad),
+            (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
+            (None, None) => r.step(t0, h, k, 0),
         };
         if let Err(e) = res {
             self.outcome = Some(Err((e, t0)));

@@ -82,6 +82,13 @@ impl Plan {
                 translating: None,
                 dofs: plan.dofs.or_else(|| Self::number(mech, settings)),
             }),
+            Some(kind @ (StepperKind::ConstantRate | StepperKind::Constant)) if settings.adaptive.is_some() => {
+                Err(Error::param(
+                    "stepper",
+                    format!("{:?}", kind.name()),
+                    "\"newton\" or None with adaptive steps (a tolerance instead of a step)",
+                ))
+            }
             Some(StepperKind::ConstantRate) => match Self::rate_obstacle(mech, settings, plan.dofs.as_ref()) {
                 None => Ok(Plan {
                     kind: StepperKind::ConstantRate,
@@ -125,6 +132,16 @@ impl Plan {
     }
 
     fn choose(mech: &Mechanism, settings: &Settings) -> Plan {
+        if settings.adaptive.is_some() {
+            let why = "adaptive steps (a tolerance instead of a step) run on the Newton stepper";
+            return Plan {
+                kind: StepperKind::Newton,
+                reason: why.into(),
+                rate_reason: why.into(),
+                translating: None,
+                dofs: Self::number(mech, settings),
+            };
+        }
         let reason = if settings.record.links.energy {
             "the run records link energies".into()
         } else {

@@ -309,6 +309,12 @@ impl PyMechanism {
     }
 
     /// Ideal pin names, in order.
+    /// Radial clearance of each clearance joint, m, in the order of `joint_names`.
+    #[getter]
+    fn joint_clearances(&self) -> Vec<f64> {
+        self.inner.joints.iter().map(|j| j.clearance).collect()
+    }
+
     #[getter]
     fn pin_names(&self) -> Vec<String> {
         self.inner.pins.iter().map(|p| p.name.clone()).collect()
@@ -478,7 +484,7 @@ impl PyMechanism {
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
-                        nodes=Vec::new(), contact_modes=false))]
+                        nodes=Vec::new(), contact_modes=false, adaptive=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -511,6 +517,7 @@ impl PyMechanism {
         gap_damping: f64,
         nodes: Vec<(usize, usize)>,
         contact_modes: bool,
+        adaptive: Option<(f64, f64, f64)>,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -567,6 +574,7 @@ impl PyMechanism {
                 contact_modes,
             },
             stepper,
+            adaptive: adaptive.map(|(rtol, atol, h_min)| crate::run::Adaptive { rtol, atol, h_min }),
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;

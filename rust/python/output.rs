@@ -187,6 +187,11 @@ fn stats_dict(py: Python<'_>, s: RunStats) -> PyResult<Bound<'_, PyDict>> {
     st.set_item("event_fallbacks", s.event_fallbacks)?;
     st.set_item("unknowns", s.unknowns)?;
     st.set_item("bandwidth", s.bandwidth)?;
+    st.set_item("adaptive_steps", s.adaptive_steps)?;
+    st.set_item("rejected_steps", s.rejected_steps)?;
+    st.set_item("floor_steps", s.floor_steps)?;
+    st.set_item("min_step", s.min_step)?;
+    st.set_item("max_step", s.max_step)?;
     Ok(st)
 }
 

@@ -1,0 +1,162 @@
+"""Adaptive steps driven by a tolerance (issue 17, items 2 and 3): ``Model.simulate(t_end,
+tol=...)`` against an exact piecewise-analytic solution.
+
+The impact oscillator: a 1 kg point mass on an axial spring (a massless bar, k = EA/L = 100 N/m,
+omega_0 = 10 rad/s) whose root moves with the base, ``x_b = X sin(Omega t)`` (X = 0.05 m, Omega =
+7 rad/s), and a stop fixed in space on either side of the mass's rest position (radial clearance
+c = 1 cm, a linear spring stop K_s = 1e4 N/m without damping). With ``u`` the spring's extension
+and ``q = x_b + u`` the mass's position relative to the stop,
+
+    u'' + omega_0^2 u = X Omega^2 sin(Omega t) - (K_s / m) s (|q| - c)      (s = sign q, |q| > c)
+
+is linear in each phase (free, or on the stop on either side), so each phase has the closed form
+``A cos(w (t - t0)) + B sin(w (t - t0)) + particular``; the phase changes where ``|q| = c``,
+located by bracketing and Brent's method to 1e-14 s. The run's ``u(2 s)`` (the node's axial
+displacement) must be within ``tol * max|u|`` of the exact one, the issue's target.
+"""
+
+from __future__ import annotations
+
+import math
+
+import flexclear as fc
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+M, K, X, OMEGA, C, KS = 1.0, 100.0, 0.05, 7.0, 0.01, 1e4
+L, AREA = 1.0, 1e-4
+E = K * L / AREA
+
+
+def oscillator() -> fc.Model:
+    """The impact oscillator with flexclear's public API (a 1-element bar, axial DOF only)."""
+    m = fc.Model().add_body("stop", fc.motion.fixed((L, 0.0)))
+    m.add_link(
+        "spring", length=L, elements=1, youngs_modulus=E, density=1e-9, area=AREA, inertia=1e-8,
+        damping=0.0, motion=fc.motion.harmonic((X, 0.0), OMEGA / (2 * math.pi)),
+    )  # fmt: skip
+    m.add_clamp("spring", 0)
+    m.add_support("spring", 1, u=False, v=True, theta=True)
+    m.add_mass("spring", 1, M)
+    m.add_joint("stop", "spring", 1, body="stop", clearance=C, stiffness=KS, damping=0.0)
+    return m
+
+
+def exact(t_end: float) -> tuple[float, float]:
+    """(u(t_end), max |u| over [0, t_end]) of the impact oscillator, from rest."""
+    w0 = math.sqrt(K / M)
+    w1 = math.sqrt((K + KS) / M)
+
+    def phase(s: int):
+        w = w0 if s == 0 else w1
+        amp = (X * OMEGA**2 - (KS / M) * X * abs(s)) / (w * w - OMEGA**2)
+        const = s * KS * C / M / (w * w)
+        return w, amp, const
+
+    t0, u0, v0, umax = 0.0, 0.0, 0.0, 0.0
+    s = 0
+    while True:
+        w, amp, const = phase(s)
+        a = u0 - amp * math.sin(OMEGA * t0) - const
+        b = (v0 - amp * OMEGA * math.cos(OMEGA * t0)) / w
+
+        def u(t, a=a, b=b, w=w, amp=amp, const=const, t0=t0):
+            return a * math.cos(w * (t - t0)) + b * math.sin(w * (t - t0)) + amp * math.sin(OMEGA * t) + const
+
+        def v(t, a=a, b=b, w=w, amp=amp, t0=t0):
+            free = -a * w * math.sin(w * (t - t0)) + b * w * math.cos(w * (t - t0))
+            return free + amp * OMEGA * math.cos(OMEGA * t)
+
+        def gap(t, u=u):  # > 0 in contact
+            return abs(X * math.sin(OMEGA * t) + u(t)) - C
+
+        # the next phase change: the first sign change of the gap (sampled at 1/400 of the
+        # phase's period, fine against both frequencies), refined by Brent's method
+        dt = 2 * math.pi / max(w, OMEGA) / 400
+        ts = np.arange(t0 + dt, t_end + dt, dt)
+        inside = (lambda t: gap(t) > 0) if s else (lambda t: gap(t) <= 0)
+        end = t_end
+        prev = t0 + 1e-12
+        for t in ts:
+            t = min(t, t_end)
+            umax = max(umax, abs(u(t)))
+            if not inside(t):
+                end = brentq(gap, prev, t, xtol=1e-14, rtol=1e-15)
+                break
+            prev = t
+            if t >= t_end:
+                break
+        if end >= t_end:
+            return u(t_end), umax
+        u0, v0 = u(end), v(end)
+        q = X * math.sin(OMEGA * end) + u0
+        s = 0 if s else (1 if q > 0 else -1)
+        t0 = end
+
+
+def test_the_exact_solution_has_impacts_on_both_stops():
+    u_end, umax = exact(2.0)
+    assert C < umax < 0.2 and abs(u_end) < umax
+    # and it is the limit of the fixed-step runs (converging at second order)
+    errs = []
+    for dt in (4e-5, 2e-5):
+        r = oscillator().simulate(2.0, dt, iterate=True, events=True, stepper="newton")
+        errs.append(abs(r.node("spring", 1).u[-1] - u_end))
+    assert errs[1] < errs[0] / 2.5
+
+
+@pytest.mark.parametrize("tol", [1e-3, 1e-5])
+def test_a_tolerance_run_meets_its_tolerance_at_two_seconds(tol):
+    u_end, umax = exact(2.0)
+    r = oscillator().simulate(2.0, tol=tol)
+    assert r.stats["stepper"] == "newton" and r.stats["adaptive_steps"] > 0
+    assert r.joint("stop").impacts >= 2
+    assert abs(r.node("spring", 1).u[-1] - u_end) <= tol * umax
+    assert r.time[-1] == pytest.approx(2.0)
+
+
+def test_adaptive_steps_grow_in_free_flight_and_shrink_into_contact():
+    r = oscillator().simulate(2.0, tol=1e-5)
+    s = r.stats
+    assert s["max_step"] > 10 * s["min_step"]
+    assert s["event_steps"] >= 2 * r.joint("stop").impacts - 1  # every entry and exit located
+
+
+def test_tolerance_errors_name_the_parameter():
+    m = oscillator()
+    for bad in (0.0, -1e-3, 1.0, float("nan"), "1e-3"):
+        with pytest.raises(fc.InvalidParameterError, match="tol"):
+            m.simulate(1.0, tol=bad)
+    with pytest.raises(fc.InvalidParameterError, match="dt"):
+        m.simulate(1.0)
+    with pytest.raises(fc.InvalidParameterError, match="stepper"):
+        m.simulate(1.0, tol=1e-3, stepper="constant")
+    with pytest.raises(fc.InvalidParameterError, match="method"):
+        m.simulate(1.0, tol=1e-3, method="force")
+
+
+def _reference(scene: str, quantity: str) -> float:
+    from pathlib import Path
+
+    rows = (Path(__file__).parent / "data" / "accuracy_references.csv").read_text().splitlines()
+    body = [r.split(",") for r in rows if r and not r.startswith("#")][1:]
+    return next(float(v) for s, q, v in body if s == scene and q == quantity)
+
+
+@pytest.mark.parametrize(
+    "scene, build, t_end, joint",
+    [
+        ("slider-yoke", lambda: fc.scenes.slider_yoke(clearance=1e-4), 0.03, None),
+        ("slider-crank", lambda: fc.scenes.slider_crank(clearance_at="crank_pin"), 0.04189, "crank_pin"),
+    ],
+)
+def test_a_one_percent_run_meets_one_percent_on_the_contact_peaks(scene, build, t_end, joint):
+    # the accuracy report's scenes against their converged references (tests/data): tol=0.01
+    # gives the peak contact force (the dashpot's spike at an entry, located and taken as the
+    # right limit at the cut) and the peak penetration within 1 %
+    m = build()
+    r = m.simulate(t_end, tol=0.01, record=fc.Record(histories=False))
+    j = r.joint(joint or m.joint_names[0])
+    assert j.max_force == pytest.approx(_reference(scene, "peak_force"), rel=0.01)
+    assert j.max_penetration == pytest.approx(_reference(scene, "peak_penetration"), rel=0.01)
