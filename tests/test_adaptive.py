@@ -160,3 +160,34 @@ def test_a_one_percent_run_meets_one_percent_on_the_contact_peaks(scene, build, 
     j = r.joint(joint or m.joint_names[0])
     assert j.max_force == pytest.approx(_reference(scene, "peak_force"), rel=0.01)
     assert j.max_penetration == pytest.approx(_reference(scene, "peak_penetration"), rel=0.01)
+
+
+def test_a_study_with_a_tolerance_runs_a_pilot_and_keeps_it_in_its_store(tmp_path):
+    from flexclear.study import Study
+
+    vary = {"clearance": {"distribution": "uniform", "low": 1e-4, "high": 5e-4}}
+    st = Study("slider_crank", vary, fixed={"clearance_at": "crank_pin"}, samples=5, t_end=0.004, tol=0.01)
+    assert st.dt == pytest.approx(0.004 / 1000) and st.to_dict()["tol"] == 0.01
+    res = st.run(tmp_path / "s", threads=1, progress=False)
+    assert (res.frame["status"] == "ok").all()
+    acc = res.accuracy
+    assert acc["tol"] == 0.01 and acc["samples"] == 4 and acc["settings"]["stepper"] == "newton"
+    # the pilot's two runs (tol and tol/10) agree on the contact peaks within the tolerance
+    assert acc["met"] and acc["accuracy"]["crank_pin.max_force"] <= 0.01
+    assert (tmp_path / "s" / "pilot.json").exists()
+    again = Study.from_dict(st.to_dict()).run(tmp_path / "s", threads=1, progress=False)
+    assert again.accuracy["accuracy"] == acc["accuracy"]  # read back from the store, not rerun
+    # each sample is the single tolerance run of its model
+    one = fc.scenes.slider_crank(clearance_at="crank_pin", clearance=float(res.frame["clearance"].iloc[0]))
+    r = one.simulate(0.004, tol=0.01, record=fc.Record(histories=False))
+    assert res.frame["crank_pin.max_force"].iloc[0] == r.joint("crank_pin").max_force
+
+
+def test_study_tolerance_errors():
+    from flexclear.study import Study
+
+    for bad in (0, 1.5, "x", True):
+        with pytest.raises(fc.InvalidParameterError, match="tol"):
+            Study("slider_crank", fixed={"clearance_at": "crank_pin"}, tol=bad)
+    with pytest.raises(fc.InvalidParameterError, match="method"):
+        Study("slider_crank", fixed={"clearance_at": "crank_pin"}, tol=0.01, method="force")

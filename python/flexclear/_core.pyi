@@ -169,8 +169,6 @@ class Mechanism:
     @property
     def joint_names(self) -> list[str]: ...
     @property
-    def joint_clearances(self) -> list[float]: ...
-    @property
     def pin_names(self) -> list[str]: ...
     @property
     def link_elements(self) -> list[int]: ...
@@ -201,6 +199,7 @@ class Mechanism:
         """`(M, C, K, r)` at time `t` (s) and state `y` (velocities `yd`, zero when None)."""
     @property
     def stepper(self) -> str: ...
+    def tolerance_settings(self, tol: float, dt: float) -> tuple[float, float, float]: ...
     def simulate(
         self,
         t_end: float,
@@ -485,6 +484,7 @@ def run_batch(
     events: bool = ...,
     joint_position: bool = ...,
     contact_modes: bool = ...,
+    accuracy: Optional[float] = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released, each on the
     stepper its plan picks (lockstep lanes for the constant stepper, one lane each otherwise);

@@ -1170,17 +1170,10 @@ class Model:
 
     #: Output points of a tolerance-driven run without ``dt``: ``dt = t_end / TOL_OUTPUT_POINTS``.
     TOL_OUTPUT_POINTS = 1000
-    #: The local error tolerance per step of a tolerance-driven run is ``(tol / TOL_GLOBAL) ** 1.5``
-    #: (relative; absolute: times the smallest positive clearance, m): Newmark's global error
-    #: goes as the local one to the power 2/3, and on the impact oscillator of
-    #: ``tests/test_adaptive.py`` (exact solution) the global error at 2 s was 4.6 times the local
-    #: tolerance to the 2/3 (local tolerances 1e-8 to 1e-6): 10 leaves a factor of about 2 (a
-    #: calibration on that one problem; other measures of accuracy are checked per scene in the
-    #: accuracy report).
-    TOL_GLOBAL = 10.0
 
     def _tolerance_plan(self, t_end, dt, tol, method, iterate, stepper):
-        """The run settings a tolerance asks for: ``(dt, adaptive, iterate, stepper)``."""
+        """The run settings a tolerance asks for: ``(dt, (rtol, atol, h_min), iterate, stepper)``;
+        the local tolerances come from the core (``Adaptive::for_tolerance``)."""
         if not (_is_number(tol) and np.isfinite(tol) and 0 < tol < 1):
             raise _bad("tol", tol, "a relative accuracy in (0, 1), e.g. 1e-3")
         if not (_is_number(t_end) and np.isfinite(t_end) and t_end > 0):
@@ -1193,11 +1186,10 @@ class Model:
             raise _bad("stepper", stepper, 'None or "newton" with tol= (adaptive steps run on Newton)')
         if dt is None:
             dt = float(t_end) / self.TOL_OUTPUT_POINTS
-        clearances = [c for c in self._core.joint_clearances if c > 0]
-        scale = min(clearances) if clearances else 1e-3
-        local = (float(tol) / self.TOL_GLOBAL) ** 1.5
-        h_min = max(float(dt) * 2.0**-30, 1e-14)
-        return float(dt), (local, local * scale, h_min), True, "newton"
+        elif not (_is_number(dt) and np.isfinite(dt) and 0 < dt <= t_end):
+            raise _bad("dt", dt, f"the output grid, 0 < dt <= t_end = {t_end} s")
+        adaptive = tuple(self._core.tolerance_settings(float(tol), float(dt)))
+        return float(dt), adaptive, True, "newton"
 
     def _result(
         self, raw: dict, chosen: dict, rec: Record, displacements: bool, dt, t0, error=None

@@ -46,6 +46,7 @@ from typing import Any, Callable, Optional, Union
 import numpy as np
 
 from . import _core, scenes
+from . import model as _model
 from .errors import (
     FlexclearError,
     InvalidParameterError,
@@ -477,7 +478,15 @@ class Study:
     levels : int
         Quantile levels per distribution in a grid design.
     t_end, dt : float
-        Simulated time and step, s (unless varied).
+        Simulated time and step, s (unless varied); ``dt`` defaults to 1e-5 s, or with ``tol``
+        is the output grid and longest step (default ``t_end / 1000``).
+    tol : float, optional
+        The relative accuracy of every sample, in (0, 1), instead of a step: each sample runs
+        as ``Model.simulate(t_end, tol=tol)`` (adaptive steps on the Newton stepper, implicit
+        contact, every contact entry and exit located). Before the samples, a pilot
+        (:meth:`pilot`) runs the first :attr:`PILOT_SAMPLES` at ``tol`` and ``tol / 10`` and
+        reports the achieved accuracy per output in :attr:`StudyResult.accuracy` (kept in the
+        store as ``pilot.json``; a resumed study reads it back).
     method : {"modified", "force", "gap"}
         Clearance coupling; ``run_options`` passes any other :meth:`flexclear.Model.simulate`
         setting (``iterate``, ``beta``, ``gamma``, ``solver``, ``events``, ...). With
@@ -524,7 +533,7 @@ class Study:
         seed: int = 0,
         levels: int = 5,
         t_end: float = 0.5,
-        dt: float = 1e-5,
+        dt: Optional[float] = None,
         method: str = "modified",
         joints: Union[str, Sequence[str], None] = None,
         outputs: Optional[Sequence[str]] = None,
@@ -535,6 +544,7 @@ class Study:
         retries: int = 0,
         retry_factor: float = 0.5,
         run_options: Optional[Mapping[str, Any]] = None,
+        tol: Optional[float] = None,
     ) -> None:
         self.build, self._scene_fn = _resolve_build(build)
         sig = inspect.signature(self._scene_fn)
@@ -605,6 +615,17 @@ class Study:
                     f"the grid of levels = {self.levels} over {list(self.vary)} has {size:.3g} samples; "
                     f"allowed: at most {MAX_SAMPLES:,} (fewer levels or values)"
                 )
+        if tol is not None and not (
+            isinstance(tol, (int, float, np.floating)) and not isinstance(tol, bool) and 0 < tol < 1
+        ):
+            raise InvalidParameterError(
+                f"tol = {tol!r} is not allowed; allowed: None or a relative accuracy in (0, 1), e.g. 0.01"
+            )
+        #: The relative accuracy of every sample's run (adaptive steps), or None (fixed ``dt``).
+        self.tol = None if tol is None else float(tol)
+        if dt is None:
+            t = t_end if isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0 else 1.0
+            dt = 1e-5 if tol is None else t / _model.Model.TOL_OUTPUT_POINTS
         for name, v in (("t_end", t_end), ("dt", dt)):
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
@@ -612,6 +633,11 @@ class Study:
         if not isinstance(method, str) or method not in ("modified", "force", "gap"):
             raise InvalidParameterError(
                 f"method = {method!r} is not allowed; allowed: one of ['modified', 'force', 'gap']"
+            )
+        if self.tol is not None and method != "modified":
+            raise InvalidParameterError(
+                f"method = {method!r} is not allowed with tol; allowed: 'modified' (the tolerance "
+                "chooses implicit contact with adaptive steps)"
             )
         self.method = method
         outputs = list(DEFAULT_OUTPUTS) if outputs is None else list(outputs)
@@ -750,6 +776,7 @@ class Study:
             "retries": self.retries,
             "retry_factor": self.retry_factor,
             "run_options": self.run_options,
+            **({"tol": self.tol} if self.tol is not None else {}),
         }
 
     @classmethod
@@ -971,7 +998,14 @@ class Study:
         bar = None
         frames: list = []
         t0 = time.perf_counter()
+        accuracy = None
         try:
+            if self.tol is not None:
+                accuracy = store_.read_pilot() if store_ else None
+                if accuracy is None:
+                    accuracy = self.pilot(inputs, threads=threads)
+                    if store_:
+                        store_.write_pilot(accuracy)
             parts = store_.read() if store_ else []
             done_ids = set()
             for p in parts:
@@ -987,14 +1021,63 @@ class Study:
             else:
                 self._run_local(inputs, chunks, (threads, lanes), store_, frames, bar)
         except (SimulationInterrupted, StoreError) as exc:
-            exc.partial = StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
+            exc.partial = StudyResult(self, _concat(frames, self), time.perf_counter() - t0, accuracy)
             raise
         finally:
             if bar is not None:
                 bar.close()
             if store_ is not None:
                 store_.close()
-        return StudyResult(self, _concat(frames, self), time.perf_counter() - t0)
+        return StudyResult(self, _concat(frames, self), time.perf_counter() - t0, accuracy)
+
+    #: Samples of the pilot of a study with ``tol``.
+    PILOT_SAMPLES = 4
+
+    def pilot(self, inputs=None, *, threads: int = 0) -> dict:
+        """The pilot of a study with ``tol``: its first :attr:`PILOT_SAMPLES` samples run at
+        ``tol`` and at ``tol / 10``; the achieved accuracy of each output is the largest
+        relative difference between the two over those samples (relative to the largest
+        magnitude of the output there). Returns a dict: ``tol``, ``samples``, ``accuracy``
+        (output column -> relative difference; NaN where a pilot sample failed), ``met`` (the
+        peak force and penetration columns within ``tol``), ``settings`` (what ran: stepper,
+        implicit contact, adaptive steps with their local tolerances) and ``cpu`` (s, both
+        runs). :meth:`run` makes it before the samples and keeps it in the store
+        (``pilot.json``) and in :attr:`StudyResult.accuracy`."""
+        if self.tol is None:
+            raise InvalidParameterError("pilot: the study has no tol (a pilot checks a tolerance)")
+        inputs = self.inputs() if inputs is None else inputs
+        k = min(self.PILOT_SAMPLES, len(inputs))
+        ids = list(range(k))
+        rows = [inputs.iloc[i].to_dict() for i in ids]
+        fine = Study.from_dict({**self.to_dict(), "tol": self.tol / 10})
+        t0 = time.process_time()
+        a, _ = _run_rows(self, ids, rows, (threads, 1))
+        b, _ = _run_rows(fine, ids, rows, (threads, 1))
+        cpu = time.process_time() - t0
+        accuracy = {}
+        for c in self.output_columns:
+            x, y = a[c].to_numpy(float), b[c].to_numpy(float)
+            scale = np.nanmax(np.abs(y)) if np.isfinite(y).any() else float("nan")
+            ok = (a["status"] == "ok").all() and (b["status"] == "ok").all()
+            accuracy[c] = float(np.max(np.abs(x - y)) / scale) if ok and scale > 0 else float("nan")
+        key = [c for c in accuracy if c.endswith((".max_force", ".max_penetration"))]
+        met = bool(key) and all(accuracy[c] <= self.tol for c in key)
+        probe = self._scene_fn(**self._scene_kwargs(rows[0] if rows else {}))
+        rtol, atol, h_min = probe._core.tolerance_settings(
+            self.tol, float(rows[0].get("dt", self.dt)) if rows else self.dt
+        )
+        return {
+            "tol": self.tol,
+            "samples": k,
+            "accuracy": accuracy,
+            "met": met,
+            "settings": {
+                "stepper": "newton",
+                "iterate": True,
+                "adaptive": {"rtol": rtol, "atol": atol, "h_min": h_min, "output_dt": self.dt},
+            },
+            "cpu": cpu,
+        }
 
     def memory_estimate(self) -> int:
         """Bytes the histories of every sample would take in the result (``history_every``: two
@@ -1283,6 +1366,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             start=study.start,
             progress=progress,
             step_halving=halving,
+            accuracy=study.tol,
             **batch_options,
         )
         for (k, *_), out in zip(batch, outs):
@@ -1344,6 +1428,8 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
     t0 = time.perf_counter()
     while True:
         try:
+            if study.tol is not None:
+                options = {**options, "tol": study.tol}
             res = model.simulate(t_end, dt, study.method, record=record, progress=False, **options)
         except FlexclearError as e:
             from .errors import ConvergenceError, SimulationDivergedError, SingularMatrixError
@@ -1525,6 +1611,15 @@ class _Store:
         except BaseException:
             self.close()
             raise
+
+    def read_pilot(self) -> Optional[dict]:
+        """The pilot kept in the store (``pilot.json``), or None."""
+        f = self.path / "pilot.json"
+        return json.loads(f.read_text()) if f.exists() else None
+
+    def write_pilot(self, pilot: dict) -> None:
+        """Keeps the pilot of a study with ``tol`` in the store (``pilot.json``)."""
+        _write_text(self.path / "pilot.json", json.dumps(pilot, indent=2, default=float))
 
     def _check_definition(self, meta: Path) -> None:
         study = self.study
@@ -1934,10 +2029,13 @@ class StudyResult:
         Wall-clock time of this call, s.
     """
 
-    def __init__(self, study: Study, frame, wall_time: float) -> None:
+    def __init__(self, study: Study, frame, wall_time: float, accuracy: Optional[dict] = None) -> None:
         self.study = study
         self.frame = frame
         self.wall_time = wall_time
+        #: The pilot of a study with ``tol`` (see :meth:`Study.pilot`): the achieved accuracy
+        #: per output and the settings that ran; None without ``tol``.
+        self.accuracy = accuracy
 
     @property
     def ok(self):

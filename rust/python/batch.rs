@@ -40,6 +40,8 @@ struct Shared<'a> {
     divergence_limit: Option<f64>,
     record: RecordSpec,
     events: bool,
+    /// Relative accuracy of adaptive runs (`Study(tol=...)`), `None` for the fixed step.
+    accuracy: Option<f64>,
 }
 
 /// The settings of one sample, resolved as `flexclear.Model.simulate` resolves them for the
@@ -79,6 +81,13 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
         stepper: None,
         ..Settings::new(t_end, dt)
     };
+    if let Some(tol) = c.accuracy {
+        // a tolerance: adaptive steps on Newton with implicit contact (`Model.simulate(tol=)`)
+        let clearances = mech.joints.iter().map(|j| j.clearance);
+        settings.adaptive = Some(crate::run::Adaptive::for_tolerance(tol, clearances, dt).map_err(|e| err(py, e))?);
+        settings.coupling = coupling(true, 1e-10, 50)?;
+        return Ok(settings);
+    }
     let constant = matches!(Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant);
     settings.coupling = if constant {
         coupling(
@@ -158,7 +167,7 @@ fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>) -> PyResult<Mecha
                     tol=None, max_iter=None, step_halving=0, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
                     progress=None, events=false, joint_position=false,
-                    contact_modes=false))]
+                    contact_modes=false, accuracy=None))]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run_batch<'py>(
     py: Python<'py>,
@@ -188,6 +197,7 @@ pub(super) fn run_batch<'py>(
     events: bool,
     joint_position: bool,
     contact_modes: bool,
+    accuracy: Option<f64>,
 ) -> PyResult<(Bound<'py, PyList>, Bound<'py, PyDict>, Option<PyErr>)> {
     let n = models.len();
     if t_end.len() != n || dt.len() != n {
@@ -248,6 +258,7 @@ pub(super) fn run_batch<'py>(
         record,
         // event-aware runs step alone (never a lockstep lane: `shares_factor` is false for them)
         events,
+        accuracy,
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {

@@ -309,10 +309,12 @@ impl PyMechanism {
     }
 
     /// Ideal pin names, in order.
-    /// Radial clearance of each clearance joint, m, in the order of `joint_names`.
-    #[getter]
-    fn joint_clearances(&self) -> Vec<f64> {
-        self.inner.joints.iter().map(|j| j.clearance).collect()
+    /// The adaptive settings `(rtol, atol, h_min)` of a run of this model asked for the relative
+    /// accuracy `tol` with output grid `dt` (s) (`crate::run::Adaptive::for_tolerance`).
+    fn tolerance_settings(&self, py: Python<'_>, tol: f64, dt: f64) -> PyResult<(f64, f64, f64)> {
+        let a = crate::run::Adaptive::for_tolerance(tol, self.inner.joints.iter().map(|j| j.clearance), dt)
+            .map_err(|e| err(py, e))?;
+        Ok((a.rtol, a.atol, a.h_min))
     }
 
     #[getter]
