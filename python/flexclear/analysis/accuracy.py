@@ -89,6 +89,32 @@ KED_COUPLINGS = (
     ("force", {"method": "force"}),
 )
 CRANK_METRICS = METRICS + ("midspan_peak", "midspan_rms")
+
+#: The tolerance-driven runs (``Model.simulate(t_end, tol=...)``: adaptive steps on the Newton
+#: stepper, implicit contact, contact entries and exits located). Swept over
+#: :data:`ADAPTIVE_TOLS` instead of steps; in the tables its "dt" is the tolerance.
+ADAPTIVE = ("tol= (adaptive)", {"adaptive": True})
+ADAPTIVE_TOLS = (1e-1, 3e-2, 1e-2, 3e-3, 1e-3)
+
+
+def _is_adaptive(label: str) -> bool:
+    return label == ADAPTIVE[0]
+
+
+def _step(label: str, dt: float) -> str:
+    """How a run's step reads in the report: ``dt = 1e-05 s``, or ``tol = 1e-02`` for the
+    adaptive method."""
+    return f"tol = {dt:.0e}" if _is_adaptive(label) else f"dt = {dt:.0e} s"
+
+
+def simulate_kw(kw: dict, dt: float) -> tuple:
+    """``(dt, kwargs)`` for ``Model.simulate``: the adaptive method runs ``tol=dt`` on the
+    default output grid."""
+    if kw.get("adaptive"):
+        return None, {k: v for k, v in kw.items() if k != "adaptive"} | {"tol": dt}
+    return dt, kw
+
+
 TIP_METRICS = ("tip_peak", "tip_max", "tip_rms")
 
 
@@ -281,7 +307,7 @@ def _log_case(log, scene: Scene, c: Case) -> None:
     if log:
         err = c.errors[scene.metric]
         what = c.failure if c.diverged else f"cpu={c.cpu:.3g}s {scene.metric} err={err:.3g}"
-        log(f"{scene.key}: {c.coupling:26s} dt={c.dt:.0e} n={c.elements} {what}")
+        log(f"{scene.key}: {c.coupling:26s} {_step(c.coupling, c.dt)} n={c.elements} {what}")
 
 
 def sweep(
@@ -297,7 +323,7 @@ def sweep(
     ref = scene.run(dt_ref, scene.reference[1], True)
     cases = []
     for label, kw in methods or scene.methods:
-        for dt in dts:
+        for dt in ADAPTIVE_TOLS if kw.get("adaptive") else dts:
             cases.append(run_case(scene, ref, label, kw, dt, repeats))
             _log_case(log, scene, cases[-1])
     return ref, cases
@@ -364,6 +390,7 @@ def _kw(model: Model, kw: dict) -> dict:
 
 
 def _history(model: Model, t_end: float, dt: float, kw: dict):
+    dt, kw = simulate_kw(kw, dt)
     res = model.simulate(t_end, dt, record=Record(impact_log=True), divergence_limit=1.0, **_kw(model, kw))
     j = res.joint("bearing")
     return res.time, j.penetration, j.force, j.max_force, j.impact_log
@@ -392,6 +419,7 @@ def yoke_scene(
     def run(dt: float, kw: dict, histories: bool):
         if histories:
             return _history(model, t_end, dt, kw)
+        dt, kw = simulate_kw(kw, dt)
         model.simulate(t_end, dt, record=Record(histories=False), divergence_limit=1.0, **_kw(model, kw))
         return None
 
@@ -405,7 +433,7 @@ def yoke_scene(
         ),
         metrics=METRICS,
         plot_metrics=("peak_force", "window_force", "fig6_std"),
-        methods=tuple(couplings),
+        methods=tuple(couplings) + (ADAPTIVE,),
         reference=reference,
         run=run,
         errors=errors_against,
@@ -434,13 +462,15 @@ def slider_crank_scene(
         n = int(kw.pop("elements", elements))
         if n not in mechs:
             mechs[n] = scenes.slider_crank(clearance_at="crank_pin", elements=n, **scene_kw)
+        step, kw = simulate_kw(kw, dt)
+        grid = step if step is not None else t_end / Model.TOL_OUTPUT_POINTS
         res = mechs[n].simulate(
             t_end,
-            dt,
+            step,
             record=Record(
                 displacements=histories,
                 midspan=histories,
-                every=1 if histories else max(1, int(round(t_end / dt))),
+                every=1 if histories else max(1, int(round(t_end / grid))),
             ),
             divergence_limit=divergence_limit,
             **kw,
@@ -459,7 +489,7 @@ def slider_crank_scene(
         keys=(("peak_force", "peak contact force"), ("midspan_peak", "peak rod midspan deflection")),
         metrics=CRANK_METRICS,
         plot_metrics=("peak_force", "window_force", "midspan_peak"),
-        methods=tuple(couplings),
+        methods=tuple(couplings) + (ADAPTIVE,),
         reference=KED_COUPLINGS[1],
         run=run,
         errors=crank_errors,
@@ -680,7 +710,8 @@ def _margin(cases, r: dict) -> str:
     nxt = min(coarser, key=lambda c: c.dt) if coarser else None
     if nxt is None or not nxt.diverged:
         return ""
-    return f"; careful: the next coarser step, {nxt.dt:.0e} s, failed ({nxt.failure})"
+    what = "tolerance" if _is_adaptive(nxt.coupling) else "step"
+    return f"; careful: the next coarser {what}, {_step(nxt.coupling, nxt.dt)}, failed ({nxt.failure})"
 
 
 #: Runs whose CPU times differ by less than this factor are a tie on the shared machine.
@@ -697,7 +728,7 @@ def _ties(rows: list[dict], r: dict) -> str:
     if not tied:
         return ""
     return "; a tie within the timing noise with " + ", ".join(
-        f"{o['coupling']} at {o['dt']:.0e} s ({o['cpu']:.3g} s)" for o in tied
+        f"{o['coupling']} at {_step(o['coupling'], o['dt'])} ({o['cpu']:.3g} s)" for o in tied
     )
 
 
@@ -716,18 +747,19 @@ def _recommendation(scene: Scene, cases) -> tuple[list[str], dict]:
                 lines.append(f"- for {target:.0%} error: no method met it on this grid;")
             else:
                 lines.append(
-                    f"- for {target:.0%} error in the {quantity} use **{r['coupling']}** at dt = "
-                    f"{r['dt']:.0e} s; cost {r['cpu']:.3g} s CPU per run "
+                    f"- for {target:.0%} error in the {quantity} use **{r['coupling']}** at "
+                    f"{_step(r['coupling'], r['dt'])}; cost {r['cpu']:.3g} s CPU per run "
                     f"(measured error {r['error']:.3g}){_margin(cases, r)}{_ties(rows, r)};"
                 )
         lines += [
             "",
-            "| target | method | dt (s) | CPU per run (s) | measured error |",
+            "| target | method | step or tolerance | CPU per run (s) | measured error |",
             "|---|---|---|---|---|",
         ]
         for r in rows:
             lines.append(
-                f"| {r['target']:.0%} | {r['coupling']} | {_fmt(r['dt'], '{:.0e}')} | {_fmt(r['cpu'])} "
+                f"| {r['target']:.0%} | {r['coupling']} | "
+                f"{'-' if r['dt'] is None else _step(r['coupling'], r['dt'])} | {_fmt(r['cpu'])} "
                 f"| {_fmt(r['error'])} |"
             )
         lines.append("")
@@ -783,14 +815,14 @@ def _section(
         "",
         "### All runs",
         "",
-        "| method | dt (s) | elements | CPU (s) | " + " | ".join(scene.metrics) + " |",
+        "| method | step or tolerance | elements | CPU (s) | " + " | ".join(scene.metrics) + " |",
         "|---|---|---|---|" + "---|" * len(scene.metrics),
     ]
     for label, dt, errs in checks:
-        lines.append(f"| reference check: {label} | {dt:.0e} | | | {_err_row(errs, scene.metrics)} |")
+        lines.append(f"| reference check: {label} | dt = {dt:.0e} s | | | {_err_row(errs, scene.metrics)} |")
     for c in cases:
         lines.append(
-            f"| {c.coupling} | {c.dt:.0e} | {c.elements} | {_fmt(c.cpu)} | "
+            f"| {c.coupling} | {_step(c.coupling, c.dt)} | {c.elements} | {_fmt(c.cpu)} | "
             f"{_err_row(c.errors, scene.metrics, c.failure if c.diverged else '')} |"
         )
     lines += ["", f"![Pareto front, {scene.key}]({png})", ""]
@@ -1100,7 +1132,7 @@ def _summary_cell(r: Optional[dict], cases) -> str:
     if r is None:
         return "none on the grid"
     edge = " (the next coarser step failed)" if _margin(cases, r) else ""
-    return f"{r['coupling']}, dt {r['dt']:.0e} s: {r['cpu']:.3g} s{edge}"
+    return f"{r['coupling']}, {_step(r['coupling'], r['dt'])}: {r['cpu']:.3g} s{edge}"
 
 
 def write_report(out, quick: bool = False, log=print, scene_keys: Optional[Sequence[str]] = None) -> Path:
