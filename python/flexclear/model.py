@@ -997,7 +997,8 @@ class Model:
         memory_limit: Optional[float] = None,
         stepper: Optional[str] = None,
     ) -> Result:
-        """Runs the model from t = 0 to ``t_end`` with Newmark at fixed step ``dt``.
+        """Runs the model from t = 0 to ``t_end`` at fixed step ``dt`` (Newmark by default, or a
+        generalized-alpha scheme: ``integrator``).
 
         Parameters
         ----------
