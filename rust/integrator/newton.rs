@@ -1996,7 +1996,9 @@ impl<'a> NewtonRun<'a> {
         ev.y.clone_from(&self.y);
         ev.yd.clone_from(&self.yd);
         ev.ydd.clone_from(&self.ydd);
-        ev.aa.clone_from(&self.aa);
+        if self.settings.newmark.is_alpha() {
+            ev.aa.clone_from(&self.aa);
+        }
         self.step(t0, h, k, 0)?;
         self.penetrations(&mut ev.p1);
         let Some((theta, jstar)) = earliest_crossing(&ev.p0, &ev.p1) else {
