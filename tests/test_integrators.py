@@ -338,3 +338,23 @@ def test_newton_stepper_with_a_clearance_joint_converges_to_the_same_peak():
         assert res.stats["stepper"] == "newton"
         fb, fr = base.joint("crank_pin").max_force, res.joint("crank_pin").max_force
         assert abs(fr - fb) < 5e-3 * fb, (fr, fb)
+
+
+def test_slider_acceleration_noise_after_impacts_drops_on_the_newton_stepper():
+    # slider-crank with a clearance crank pin, 30 ms at dt = 1e-5 (Newton stepper): the slider's
+    # acceleration noise (RMS of its second difference) drops by more than half at rho_inf = 0.5
+    # and HHT alpha = -0.3 (measured: 2138 -> 830 m/s^2), the peak contact force stays within 5 %
+    # (7984 -> 7775 N) and the peak slider acceleration does not grow (7.36e4 -> 6.89e4 m/s^2;
+    # 5.69e4 converged, dt = 2.5e-6)
+    model = scenes.slider_crank(clearance_at="crank_pin")
+    base = model.simulate(0.03, 1e-5, progress=False)
+
+    def noise(res) -> float:
+        return float(np.sqrt(np.mean(np.diff(res.slider("slider").acceleration, 2) ** 2)))
+
+    for scheme in (dict(integrator="generalized-alpha", rho_inf=0.5), dict(integrator="hht", hht_alpha=-0.3)):
+        res = model.simulate(0.03, 1e-5, progress=False, **scheme)
+        assert noise(res) < 0.5 * noise(base), (noise(res), noise(base))
+        fb, fr = base.joint("crank_pin").max_force, res.joint("crank_pin").max_force
+        assert abs(fr - fb) < 0.05 * fb
+        assert res.slider("slider").max_acceleration <= base.slider("slider").max_acceleration
