@@ -26,7 +26,8 @@ pub struct Settings {
     pub t_end: f64,
     /// Time step, s (> 0, at most `t_end`).
     pub dt: f64,
-    /// Newmark parameters.
+    /// The time integration scheme: Newmark (beta, gamma) or a member of the generalized-alpha
+    /// family (Chung-Hulbert, HHT: [`Newmark::generalized_alpha`], [`Newmark::hht`]).
     pub newmark: Newmark,
     /// How contact enters the step.
     pub coupling: Coupling,

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use flexclear::contact::{Coupling, SpringDamper};
 use flexclear::element::BeamElement;
+use flexclear::integrator::Newmark;
 use flexclear::kinematics::{RotatingFrame, Rotation};
 use flexclear::linalg::Cholesky;
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism};
@@ -240,6 +241,11 @@ fn indefinite_matrix_is_reported_not_solved() {
 
 /// Undamped free vibration of a free-free beam started with a smooth velocity field.
 fn free_vibration(dt: f64, t_end: f64) -> (flexclear::RunOutput, Model) {
+    free_vibration_with(dt, t_end, Newmark::default())
+}
+
+/// As [`free_vibration`], under the scheme `nm`.
+fn free_vibration_with(dt: f64, t_end: f64, nm: Newmark) -> (flexclear::RunOutput, Model) {
     let mut link = beam(10);
     let n = link.section.elements + 1;
     let mut v0 = vec![0.0; 3 * n];
@@ -254,6 +260,7 @@ fn free_vibration(dt: f64, t_end: f64) -> (flexclear::RunOutput, Model) {
     link.initial_velocity = Some(v0);
     let model = translating(vec![link]);
     let mut s = Settings::new(t_end, dt);
+    s.newmark = nm;
     s.record.nodes = vec![(0, 10)];
     (simulate(&model, &s, &mut |_| true).unwrap(), model)
 }
@@ -296,6 +303,61 @@ fn newmark_converges_at_second_order() {
         assert!(
             (3.5..4.6).contains(&ratio),
             "error ratio {ratio} for halved dt, errors {errs:?}"
+        );
+    }
+}
+
+#[test]
+fn generalized_alpha_and_hht_converge_at_second_order() {
+    // as `newmark_converges_at_second_order`, the reference the scheme's own run at dt/16
+    let t_end = 0.002;
+    let tip = |o: &flexclear::RunOutput| *o.record.nodes[0].v.last().unwrap();
+    let schemes = [
+        Newmark::generalized_alpha(0.8).unwrap(),
+        Newmark::generalized_alpha(0.0).unwrap(),
+        Newmark::hht(-0.3).unwrap(),
+    ];
+    for nm in schemes {
+        let r = tip(&free_vibration_with(1.25e-7 / 16.0, t_end, nm).0);
+        let errs: Vec<f64> = [5e-7, 2.5e-7, 1.25e-7]
+            .iter()
+            .map(|&dt| (tip(&free_vibration_with(dt, t_end, nm).0) - r).abs())
+            .collect();
+        for w in errs.windows(2) {
+            let ratio = w[0] / w[1];
+            assert!(
+                (3.5..4.6).contains(&ratio),
+                "{nm:?}: error ratio {ratio} for halved dt, errors {errs:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn generalized_alpha_parameters_follow_chung_hulbert() {
+    // rho_inf = 1 and HHT alpha = 0 are average acceleration (the default, bitwise)
+    assert_eq!(Newmark::generalized_alpha(1.0).unwrap(), Newmark::default());
+    assert_eq!(Newmark::hht(0.0).unwrap(), Newmark::default());
+    // rho_inf = 0.5: alpha_m = 0, alpha_f = 1/3, gamma = 5/6, beta = (4/3)^2/4 = 4/9
+    let g = Newmark::generalized_alpha(0.5).unwrap();
+    assert!((g.alpha_m - 0.0).abs() < 1e-15 && (g.alpha_f - 1.0 / 3.0).abs() < 1e-15);
+    assert!((g.gamma - 5.0 / 6.0).abs() < 1e-15 && (g.beta - 4.0 / 9.0).abs() < 1e-15);
+    g.validate().unwrap();
+    let h = Newmark::hht(-0.3).unwrap();
+    assert_eq!((h.alpha_m, h.alpha_f), (0.0, 0.3));
+    assert!((h.gamma - 0.8).abs() < 1e-15 && (h.beta - 0.4225).abs() < 1e-15);
+    h.validate().unwrap();
+    for (e, name) in [
+        (Newmark::generalized_alpha(1.5).unwrap_err(), "rho_inf"),
+        (Newmark::generalized_alpha(f64::NAN).unwrap_err(), "rho_inf"),
+        (Newmark::hht(-0.5).unwrap_err(), "hht_alpha"),
+        (Newmark::hht(0.1).unwrap_err(), "hht_alpha"),
+        (Newmark { gamma: 0.6, ..g }.validate().unwrap_err(), "gamma"),
+        (Newmark { alpha_f: 0.7, ..g }.validate().unwrap_err(), "alpha_f"),
+    ] {
+        assert!(
+            matches!(&e, Error::InvalidParameter { name: n, .. } if n == name),
+            "{e}"
         );
     }
 }

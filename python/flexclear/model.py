@@ -93,6 +93,51 @@ def _num(parameter: str, value: Any, allowed: str = "a finite number") -> float:
     return float(value)
 
 
+#: Time integrators of :meth:`Model.simulate` (``integrator=``).
+INTEGRATORS = ("newmark", "generalized-alpha", "hht")
+#: Default ``rho_inf`` of ``integrator="generalized-alpha"`` and ``hht_alpha`` of ``"hht"``.
+INTEGRATOR_DEFAULTS = {"rho_inf": 0.8, "hht_alpha": -0.1}
+
+
+def _scheme(
+    integrator: Any, rho_inf: Any, hht_alpha: Any, beta: Any, gamma: Any, prefix: str = ""
+) -> dict[str, Any]:
+    """The integrator settings as the core takes them: ``beta``, ``gamma``, ``alpha_m``,
+    ``alpha_f`` (Chung-Hulbert convention, both 0 for Newmark) and a description of the scheme for
+    ``stats``. Checks every parameter, naming it (``prefix`` is prepended: ``run_options.``)."""
+    if integrator not in INTEGRATORS:
+        raise _bad(prefix + "integrator", integrator, f"one of {INTEGRATORS}")
+    others = {"newmark": ("beta", "gamma"), "generalized-alpha": ("rho_inf",), "hht": ("hht_alpha",)}
+    given = {"rho_inf": rho_inf, "hht_alpha": hht_alpha, "beta": beta, "gamma": gamma}
+    for name, value in given.items():
+        if value is not None and name not in others[integrator]:
+            owner = next(k for k, v in others.items() if name in v)
+            allowed = f'None unless integrator="{owner}" (integrator is "{integrator}")'
+            raise _bad(prefix + name, value, allowed)
+    if integrator == "newmark":
+        b = _num(prefix + "beta", 0.25 if beta is None else beta, "0 < beta <= 0.5")
+        g = _num(prefix + "gamma", 0.5 if gamma is None else gamma, "0.5 <= gamma <= 1")
+        return dict(beta=b, gamma=g, alpha_m=0.0, alpha_f=0.0, integrator="newmark")
+    if integrator == "generalized-alpha":
+        rho = INTEGRATOR_DEFAULTS["rho_inf"] if rho_inf is None else rho_inf
+        if not (_is_number(rho) and 0 <= rho <= 1):
+            raise _bad(prefix + "rho_inf", rho_inf, "a number in [0, 1] (1: no numerical dissipation)")
+        rho = float(rho)
+        if rho == 1.0:  # alpha_m = alpha_f = 1/2 is average-acceleration Newmark, bitwise
+            am = af = 0.0
+        else:
+            am, af = (2 * rho - 1) / (rho + 1), rho / (rho + 1)
+        label = f"generalized-alpha, rho_inf = {rho:g}"
+    else:
+        alpha = INTEGRATOR_DEFAULTS["hht_alpha"] if hht_alpha is None else hht_alpha
+        if not (_is_number(alpha) and -1 / 3 <= alpha <= 0):
+            raise _bad(prefix + "hht_alpha", hht_alpha, "a number in [-1/3, 0] (0: no numerical dissipation)")
+        am, af = 0.0, (0.0 - float(alpha))
+        label = f"hht, alpha = {float(alpha):g}"
+    g = 0.5 - am + af
+    return dict(beta=0.25 * (g + 0.5) * (g + 0.5), gamma=g, alpha_m=am, alpha_f=af, integrator=label)
+
+
 def _switch(parameter: str, value: Any) -> Optional[bool]:
     """A term switch: ``None`` (automatic) or a bool."""
     if value is None or isinstance(value, (bool, np.bool_)):
@@ -945,8 +990,11 @@ class Model:
         record: Union[Record, dict, None] = None,
         gap_stiffness: Optional[float] = None,
         gap_damping: float = 0.0,
-        beta: float = 0.25,
-        gamma: float = 0.5,
+        beta: Optional[float] = None,
+        gamma: Optional[float] = None,
+        integrator: str = "newmark",
+        rho_inf: Optional[float] = None,
+        hht_alpha: Optional[float] = None,
         solver: str = "woodbury",
         step_halving: int = 0,
         divergence_limit: Optional[float] = None,
@@ -955,8 +1003,9 @@ class Model:
         memory_limit: Optional[float] = None,
         stepper: Optional[str] = None,
     ) -> Result:
-        """Runs the model from t = 0 to ``t_end`` with Newmark at fixed step ``dt``, or with
-        adaptive steps that meet the accuracy ``tol``.
+        """Runs the model from t = 0 to ``t_end`` at fixed step ``dt`` (Newmark by default, or a
+        generalized-alpha scheme: ``integrator``), or with adaptive steps that meet the accuracy
+        ``tol``.
 
         Parameters
         ----------
@@ -1002,11 +1051,25 @@ class Model:
         gap_stiffness, gap_damping : float, optional
             Gap element (``method="gap"``): stiffness (N/m; default 1000 x 12 E I / l^3 of the
             element at the joint) and radial damping (N s/m).
-        beta, gamma : float
-            Newmark parameters; default average acceleration (1/4, 1/2). Parameters with
-            ``2 beta < gamma`` are only conditionally stable: a
-            :class:`~flexclear.NewmarkStabilityWarning` states the step limit
+        beta, gamma : float, optional
+            Newmark parameters (``integrator="newmark"`` only); default (None) average
+            acceleration (1/4, 1/2). Parameters with ``2 beta < gamma`` are only conditionally
+            stable: a :class:`~flexclear.NewmarkStabilityWarning` states the step limit
             ``dt_crit = 1/(omega_max sqrt(gamma/2 - beta))``.
+        integrator : {"newmark", "generalized-alpha", "hht"}
+            Time integrator, on every stepper: Newmark (``beta``, ``gamma``), Chung-Hulbert
+            generalized-alpha (``rho_inf``) or HHT-alpha (``hht_alpha``), the alpha schemes in
+            the form of Arnold & Bruls (2007): the equations of motion hold at the step's end
+            and an acceleration-like variable carries the numerical dissipation (second order;
+            see the method docs, "Integrators"). ``stats["integrator"]`` says what ran.
+        rho_inf : float, optional
+            ``integrator="generalized-alpha"``: spectral radius at infinite frequency, in
+            [0, 1] (default 0.8): modes with ``omega dt >> 1`` (the ringing after an impact)
+            lose a factor ``rho_inf`` per step; 1 is average-acceleration Newmark (bitwise the
+            default run), 0 annihilates them in one step.
+        hht_alpha : float, optional
+            ``integrator="hht"``: the HHT alpha, in [-1/3, 0] (default -0.1); spectral radius at
+            infinite frequency ``(1 + alpha)/(1 - alpha)``; 0 is average-acceleration Newmark.
         solver : {"woodbury", "refactor"}
             Contact terms by a low-rank correction of the contact-free factorization (fast) or
             by numeric refactorization (reference). On the Newton stepper, ``"woodbury"``
@@ -1070,7 +1133,8 @@ class Model:
         check_window(rec.start, t_end, dt, "record.start")
         if solver not in ("woodbury", "refactor"):
             raise _bad("solver", solver, 'one of "woodbury", "refactor"')
-        beta, gamma = _num("beta", beta, "0 < beta <= 0.5"), _num("gamma", gamma, "0.5 <= gamma <= 1")
+        scheme = _scheme(integrator, rho_inf, hht_alpha, beta, gamma)
+        beta, gamma = scheme["beta"], scheme["gamma"]
         gap_damping = _num("gap_damping", gap_damping, "a finite number >= 0, N s/m")
         if gap_stiffness is not None:
             gap_stiffness = _num("gap_stiffness", gap_stiffness, "None or a finite number > 0, N/m")
@@ -1110,6 +1174,7 @@ class Model:
         cb, bar = _progress_callback(progress)
         chosen = dict(
             engine=kind,
+            integrator=scheme["integrator"],
             method=method,
             iterate=bool(iterate),
             iter_tol=float(iter_tol),
@@ -1140,6 +1205,8 @@ class Model:
                 step_halving=int(step_halving),
                 beta=float(beta),
                 gamma=float(gamma),
+                alpha_m=scheme["alpha_m"],
+                alpha_f=scheme["alpha_f"],
                 divergence_limit=None if divergence_limit is None else float(divergence_limit),
                 every=int(rec.every),
                 displacements=displacements,

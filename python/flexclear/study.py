@@ -248,6 +248,9 @@ RUN_OPTIONS = (
     "gap_damping",
     "beta",
     "gamma",
+    "integrator",
+    "rho_inf",
+    "hht_alpha",
     "solver",
     "step_halving",
     "divergence_limit",
@@ -441,6 +444,24 @@ def _check_run_options(options: Mapping[str, Any]) -> None:
             e = InvalidParameterError(f"invalid parameter `run_options.{key}` = {value!r}: allowed {allowed}")
             e.parameter, e.value, e.allowed = f"run_options.{key}", repr(value), allowed
             raise e
+    _batch_scheme(options, "run_options.")
+
+
+def _batch_scheme(options: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """The integrator keys of ``options`` (``integrator``, ``rho_inf``, ``hht_alpha``, ``beta``,
+    ``gamma``) as the core's ``beta``, ``gamma``, ``alpha_m``, ``alpha_f``
+    (:func:`flexclear.model._scheme`, which checks them)."""
+    from .model import _scheme
+
+    scheme = _scheme(
+        options.get("integrator", "newmark"),
+        options.get("rho_inf"),
+        options.get("hht_alpha"),
+        options.get("beta"),
+        options.get("gamma"),
+        prefix,
+    )
+    return {k: scheme[k] for k in ("beta", "gamma", "alpha_m", "alpha_f")}
 
 
 class Study:
@@ -489,7 +510,8 @@ class Study:
         store as ``pilot.json``; a resumed study reads it back).
     method : {"modified", "force", "gap"}
         Clearance coupling; ``run_options`` passes any other :meth:`flexclear.Model.simulate`
-        setting (``iterate``, ``beta``, ``gamma``, ``solver``, ``events``, ...). With
+        setting (``iterate``, ``integrator``, ``rho_inf``, ``hht_alpha``, ``beta``, ``gamma``,
+        ``solver``, ``events``, ...). With
         ``{"iterate": True, "events": True}`` the largest contact force is the dashpot jump at
         entry located within the step (docs/stability.md section 6): accurate at steps ~10x
         larger than fixed steps need; event-aware samples are never stepped in lockstep.
@@ -1323,6 +1345,10 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     batch_options = {k: v for k, v in simulate_options.items() if v is not None}
     if "iter_tol" in batch_options:
         batch_options["tol"] = batch_options.pop("iter_tol")
+    scheme = _batch_scheme(batch_options)
+    for key in ("integrator", "rho_inf", "hht_alpha"):
+        batch_options.pop(key, None)
+    batch_options.update(scheme)
     halving = batch_options.pop("step_halving", 0)
     if halving:
         # the constant stepper has no Newton iteration to halve: refused per sample, as

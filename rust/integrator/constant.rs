@@ -6,6 +6,10 @@
 //! u_{n+1} = u~ + beta dt^2 a_{n+1},               v_{n+1} = v~ + gamma dt a_{n+1}
 //! ```
 //!
+//! The generalized-alpha family ([`Newmark`]: Chung-Hulbert, HHT, in the Arnold-Bruls form)
+//! runs the same step with `beta`, `gamma` replaced by [`Newmark::coefficients`] and predictors
+//! that carry the acceleration-like variable; plain Newmark keeps the code above, bitwise.
+//!
 //! The contact-free effective matrix `A0 = M + gamma dt C + beta dt^2 K` is factorized once. A
 //! clearance joint adds `P^T (beta dt^2 k + gamma dt c) P` on its 2 (or 4) DOFs (modified and gap
 //! couplings); that is solved with the `A0` factorization and a Sherman-Morrison-Woodbury
@@ -53,30 +57,162 @@ use crate::record::Recorder;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 use std::sync::Arc;
 
-/// Newmark parameters. Default: average acceleration (beta 1/4, gamma 1/2), unconditionally
-/// stable for linear systems and without numerical damping.
+/// Parameters of the Newmark family of schemes: plain Newmark (beta, gamma), and the
+/// generalized-alpha family (Chung & Hulbert 1993; HHT-alpha, Hilber, Hughes & Taylor 1977, as
+/// its `alpha_m = 0` member) in the form of Arnold & Bruls (2007) with an acceleration-like
+/// variable `aa`:
+///
+/// ```text
+/// y_{n+1} = y_n + h v_n + h^2 (1/2 - beta) aa_n + h^2 beta aa_{n+1}
+/// v_{n+1} = v_n + h (1 - gamma) aa_n + h gamma aa_{n+1}
+/// (1 - alpha_m) aa_{n+1} + alpha_m aa_n = (1 - alpha_f) a_{n+1} + alpha_f a_n,   aa_0 = a_0
+/// ```
+///
+/// where `a_{n+1}` is the true acceleration, which satisfies the equations of motion at
+/// `t_{n+1}` (contact, frames and geometric terms evaluated there as for Newmark). Each step
+/// still solves for `a_{n+1}`: `y = y~ + beta' h^2 a`, `v = v~ + gamma' h a` with
+/// `beta' = beta (1 - alpha_f)/(1 - alpha_m)`, `gamma' = gamma (1 - alpha_f)/(1 - alpha_m)`
+/// ([`Newmark::coefficients`]) and predictors `y~`, `v~` that carry `aa_n` and
+/// `b = (alpha_f a_n - alpha_m aa_n)/(1 - alpha_m)`. On linear problems this is the
+/// Chung-Hulbert scheme (same spectral radius, second order when
+/// `gamma = 1/2 - alpha_m + alpha_f`). With `alpha_m = alpha_f = 0`, `aa = a` and the step is
+/// plain Newmark, bitwise.
+///
+/// Default: average acceleration (beta 1/4, gamma 1/2, no alpha), unconditionally stable for
+/// linear systems and without numerical damping.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Newmark {
-    /// beta, in (0, 1/2].
+    /// beta: in (0, 1/2] for plain Newmark; `(1 - alpha_m + alpha_f)^2 / 4` for the alpha schemes.
     pub beta: f64,
-    /// gamma, in [1/2, 1].
+    /// gamma: in [1/2, 1] for plain Newmark; `1/2 - alpha_m + alpha_f` for the alpha schemes.
     pub gamma: f64,
+    /// alpha_m (Chung-Hulbert convention; 0 for Newmark and HHT): in [-1, 1/2].
+    pub alpha_m: f64,
+    /// alpha_f (Chung-Hulbert convention; 0 for Newmark, `-alpha` for HHT): in [alpha_m, 1/2].
+    pub alpha_f: f64,
 }
 
 impl Default for Newmark {
     fn default() -> Self {
-        Newmark { beta: 0.25, gamma: 0.5 }
+        Newmark {
+            beta: 0.25,
+            gamma: 0.5,
+            alpha_m: 0.0,
+            alpha_f: 0.0,
+        }
     }
 }
 
 impl Newmark {
-    /// Checks the parameters.
-    pub fn validate(&self) -> Result<()> {
-        if !(self.beta > 0.0 && self.beta <= 0.5) {
-            return Err(Error::param("beta", self.beta, "in (0, 0.5]"));
+    /// Chung-Hulbert generalized-alpha with spectral radius `rho_inf` at infinite frequency
+    /// (in [0, 1]; 1 = average acceleration, no dissipation; 0 = asymptotic annihilation):
+    /// `alpha_m = (2 rho - 1)/(rho + 1)`, `alpha_f = rho/(rho + 1)`,
+    /// `gamma = 1/2 - alpha_m + alpha_f`, `beta = (1 - alpha_m + alpha_f)^2 / 4`.
+    /// `rho_inf = 1` (`alpha_m = alpha_f = 1/2`, for which `aa = a` at every step) is returned
+    /// as the plain average-acceleration Newmark it is, which runs bitwise as the default.
+    pub fn generalized_alpha(rho_inf: f64) -> Result<Self> {
+        if !(0.0..=1.0).contains(&rho_inf) {
+            return Err(Error::param("rho_inf", rho_inf, "in [0, 1]"));
         }
-        if !(self.gamma >= 0.5 && self.gamma <= 1.0) {
-            return Err(Error::param("gamma", self.gamma, "in [0.5, 1]"));
+        if rho_inf == 1.0 {
+            return Ok(Newmark::default());
+        }
+        let alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0);
+        let alpha_f = rho_inf / (rho_inf + 1.0);
+        Ok(Self::alpha(alpha_m, alpha_f))
+    }
+
+    /// HHT-alpha (Hilber, Hughes & Taylor 1977) with `alpha` in [-1/3, 0] (0 = average
+    /// acceleration): `alpha_m = 0`, `alpha_f = -alpha`, `gamma = 1/2 - alpha`,
+    /// `beta = (1 - alpha)^2 / 4`; spectral radius at infinite frequency
+    /// `(1 + alpha)/(1 - alpha)`. `alpha = 0` is the default Newmark.
+    pub fn hht(alpha: f64) -> Result<Self> {
+        if !(-1.0 / 3.0..=0.0).contains(&alpha) {
+            return Err(Error::param("hht_alpha", alpha, "in [-1/3, 0]"));
+        }
+        if alpha == 0.0 {
+            return Ok(Newmark::default());
+        }
+        Ok(Self::alpha(0.0, -alpha))
+    }
+
+    /// The second-order, unconditionally stable member with `alpha_m`, `alpha_f`.
+    fn alpha(alpha_m: f64, alpha_f: f64) -> Self {
+        let g = 0.5 - alpha_m + alpha_f;
+        Newmark {
+            beta: 0.25 * (g + 0.5) * (g + 0.5),
+            gamma: g,
+            alpha_m,
+            alpha_f,
+        }
+    }
+
+    /// Whether the scheme carries the acceleration-like variable (`alpha_m` or `alpha_f`
+    /// nonzero); plain Newmark otherwise.
+    #[inline]
+    pub fn is_alpha(&self) -> bool {
+        self.alpha_m != 0.0 || self.alpha_f != 0.0
+    }
+
+    /// The coefficients `(bh2, gh)` of the unknown acceleration in a step of `h` (s):
+    /// `y = y~ + bh2 a`, `v = v~ + gh a`, i.e. `(beta h^2, gamma h)` times
+    /// `(1 - alpha_f)/(1 - alpha_m)` for the alpha schemes.
+    #[inline]
+    pub fn coefficients(&self, h: f64) -> (f64, f64) {
+        if self.is_alpha() {
+            let r = (1.0 - self.alpha_f) / (1.0 - self.alpha_m);
+            (self.beta * h * h * r, self.gamma * h * r)
+        } else {
+            (self.beta * h * h, self.gamma * h)
+        }
+    }
+
+    /// The constants of the acceleration-like update, `[alpha_f, -alpha_m, 1 - alpha_f]` over
+    /// `1 - alpha_m`: `b = c0 a_n + c1 aa_n`, `aa_{n+1} = b + c2 a_{n+1}`.
+    #[inline]
+    pub fn alpha_constants(&self) -> [f64; 3] {
+        let d = 1.0 - self.alpha_m;
+        [self.alpha_f / d, -self.alpha_m / d, (1.0 - self.alpha_f) / d]
+    }
+
+    /// Checks the parameters: plain Newmark `beta` in (0, 1/2], `gamma` in [1/2, 1]; an alpha
+    /// scheme needs `-1 <= alpha_m <= alpha_f <= 1/2`, `gamma = 1/2 - alpha_m + alpha_f`
+    /// (second order) and `beta >= gamma/2` (unconditional stability).
+    pub fn validate(&self) -> Result<()> {
+        if !self.is_alpha() {
+            if !(self.beta > 0.0 && self.beta <= 0.5) {
+                return Err(Error::param("beta", self.beta, "in (0, 0.5]"));
+            }
+            if !(self.gamma >= 0.5 && self.gamma <= 1.0) {
+                return Err(Error::param("gamma", self.gamma, "in [0.5, 1]"));
+            }
+            return Ok(());
+        }
+        if !(-1.0..=0.5).contains(&self.alpha_m) {
+            return Err(Error::param("alpha_m", self.alpha_m, "in [-1, 0.5]"));
+        }
+        if !(self.alpha_m..=0.5).contains(&self.alpha_f) {
+            return Err(Error::param(
+                "alpha_f",
+                self.alpha_f,
+                format!("in [alpha_m = {}, 0.5]", self.alpha_m),
+            ));
+        }
+        let g = 0.5 - self.alpha_m + self.alpha_f;
+        let off = (self.gamma - g).abs();
+        if off.is_nan() || off > 1e-12 {
+            return Err(Error::param(
+                "gamma",
+                self.gamma,
+                format!("1/2 - alpha_m + alpha_f = {g} (second order) with alpha_m, alpha_f set"),
+            ));
+        }
+        if !(self.beta >= 0.5 * self.gamma - 1e-12 && self.beta <= 1.0) {
+            return Err(Error::param(
+                "beta",
+                self.beta,
+                format!("in [gamma/2 = {}, 1] with alpha_m, alpha_f set", 0.5 * self.gamma),
+            ));
         }
         Ok(())
     }
@@ -353,6 +489,11 @@ struct Shared {
     c2: f64,
     bdt2: f64,
     gdt: f64,
+    /// `beta dt^2`, `gamma dt` (the alpha schemes' predictors).
+    bdt2r: f64,
+    gdtr: f64,
+    /// The alpha schemes' [`Newmark::alpha_constants`]; `None` for plain Newmark.
+    alpha: Option<[f64; 3]>,
     steps: u64,
     chol0: Cholesky,
     a0_values: Vec<f64>,
@@ -381,6 +522,8 @@ struct StepConsts {
     c2: f64,
     bdt2: f64,
     gdt: f64,
+    bdt2r: f64,
+    gdtr: f64,
     chol0: Cholesky,
     a0_values: Vec<f64>,
     zcols: Vec<f64>,
@@ -388,11 +531,12 @@ struct StepConsts {
 }
 
 impl StepConsts {
-    /// The constants of step `dt` (s) for `sys` under Newmark `(beta, gamma)`; factorizes `A0`
-    /// with `chol` (its analysis must be that of `sys.pattern`).
-    fn new(sys: &System, dt: f64, beta: f64, gamma: f64, mut chol: Cholesky) -> Result<Self> {
-        let bdt2 = beta * dt * dt;
-        let gdt = gamma * dt;
+    /// The constants of step `dt` (s) for `sys` under the scheme `nm` (`bdt2`, `gdt` its
+    /// [`Newmark::coefficients`], `bdt2r = beta dt^2`, `gdtr = gamma dt`); factorizes `A0` with
+    /// `chol` (its analysis must be that of `sys.pattern`).
+    fn new(sys: &System, dt: f64, nm: &Newmark, mut chol: Cholesky) -> Result<Self> {
+        let (bdt2, gdt) = nm.coefficients(dt);
+        let (beta, gamma) = (nm.beta, nm.gamma);
         let a0_values: Vec<f64> = (0..sys.pattern.nnz())
             .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
             .collect();
@@ -405,6 +549,8 @@ impl StepConsts {
             c2: dt * (1.0 - gamma),
             bdt2,
             gdt,
+            bdt2r: beta * dt * dt,
+            gdtr: gamma * dt,
             chol0: chol,
             a0_values,
             zcols,
@@ -421,6 +567,8 @@ impl Shared {
         std::mem::swap(&mut self.c2, &mut o.c2);
         std::mem::swap(&mut self.bdt2, &mut o.bdt2);
         std::mem::swap(&mut self.gdt, &mut o.gdt);
+        std::mem::swap(&mut self.bdt2r, &mut o.bdt2r);
+        std::mem::swap(&mut self.gdtr, &mut o.gdtr);
         std::mem::swap(&mut self.chol0, &mut o.chol0);
         std::mem::swap(&mut self.a0_values, &mut o.a0_values);
         std::mem::swap(&mut self.zcols, &mut o.zcols);
@@ -434,6 +582,7 @@ struct Snapshot {
     u: Vec<f64>,
     v: Vec<f64>,
     a: Vec<f64>,
+    aa: Vec<f64>,
     q: Vec<[f64; 2]>,
     qd: Vec<[f64; 2]>,
     pen: Vec<f64>,
@@ -521,6 +670,8 @@ pub struct Lockstep<'m, const L: usize> {
     u: Vec<[f64; L]>,
     v: Vec<[f64; L]>,
     a: Vec<[f64; L]>,
+    /// The alpha schemes' acceleration-like variable (empty for plain Newmark).
+    aa: Vec<[f64; L]>,
     r: Vec<[f64; L]>,
     tmp: Vec<[f64; L]>,
     xpad: Vec<[f64; L]>,
@@ -1148,7 +1299,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         let nj = sys.joints.len();
         let m = 2 * nj;
         let dt = settings.dt;
-        let (beta, gamma) = (settings.newmark.beta, settings.newmark.gamma);
+        let nm = settings.newmark;
         let analysis = match cache {
             Some(c) => c.get(&sys.pattern)?,
             None => Analysis::new(&sys.pattern)?,
@@ -1159,11 +1310,13 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             c2,
             bdt2,
             gdt,
+            bdt2r,
+            gdtr,
             chol0,
             a0_values,
             zcols,
             wmat,
-        } = StepConsts::new(&sys, dt, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)))
+        } = StepConsts::new(&sys, dt, &nm, Cholesky::with_analysis(Arc::clone(&analysis)))
             .map_err(|e| sys.name_pivot(runs[0].0, e))?;
         let joint_pos = sys
             .joints
@@ -1211,6 +1364,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 c2,
                 bdt2,
                 gdt,
+                bdt2r,
+                gdtr,
+                alpha: nm.is_alpha().then(|| nm.alpha_constants()),
                 steps: settings.steps(),
                 chol0,
                 a0_values,
@@ -1229,6 +1385,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             u: vec![[0.0; L]; n],
             v: vec![[0.0; L]; n],
             a: vec![[0.0; L]; n],
+            aa: Vec::new(),
             r: vec![[0.0; L]; n],
             tmp: vec![[0.0; L]; n],
             xpad: Vec::new(),
@@ -1254,6 +1411,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 Err(error) => lane.outcome = Some(Err(RunFailure::before_start(error))),
             }
             run.lanes.push(lane);
+        }
+        if run.sh.alpha.is_some() {
+            run.aa.clone_from(&run.a); // aa_0 = a_0
         }
         Ok(run)
     }
@@ -1334,7 +1494,48 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         let sh = &mut self.sh;
         let (dt, c1, c2) = (sh.dt, sh.c1, sh.c2);
         let pat = &sh.sys.pattern;
+        let alpha = sh.alpha.is_some();
+        if let Some([k0, k1, _]) = sh.alpha {
+            // the alpha schemes' predictors (Newmark::coefficients): b = k0 a_n + k1 aa_n,
+            // u~ = u + dt v + c1 aa + beta dt^2 b, v~ = v + c2 aa + gamma dt b; aa holds b until
+            // `complete`
+            let (bdt2r, gdtr) = (sh.bdt2r, sh.gdtr);
+            for (((u, v), &a), aa) in self
+                .u
+                .as_flattened_mut()
+                .iter_mut()
+                .zip(self.v.as_flattened_mut().iter_mut())
+                .zip(self.a.as_flattened())
+                .zip(self.aa.as_flattened_mut().iter_mut())
+            {
+                let b = k0 * a + k1 * *aa;
+                *u += dt * *v + c1 * *aa + bdt2r * b;
+                *v += c2 * *aa + gdtr * b;
+                *aa = b;
+            }
+        }
         match sh.sys.proportional_damping {
+            Some(c) if alpha => {
+                for ((u, v), w) in self
+                    .u
+                    .as_flattened()
+                    .iter()
+                    .zip(self.v.as_flattened())
+                    .zip(self.tmp.as_flattened_mut().iter_mut())
+                {
+                    *w = -(*u + c * *v);
+                }
+                matvec(
+                    pat,
+                    sh.k_band.as_ref(),
+                    &sh.sys.stiffness,
+                    &self.tmp,
+                    &mut self.xpad,
+                    &mut self.r,
+                    &mut self.lanes[0].col,
+                    &mut self.col_y,
+                );
+            }
             Some(c) => {
                 // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
                 // in one pass, then r = K w
@@ -1362,15 +1563,17 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 );
             }
             None => {
-                for ((u, v), &a) in self
-                    .u
-                    .as_flattened_mut()
-                    .iter_mut()
-                    .zip(self.v.as_flattened_mut().iter_mut())
-                    .zip(self.a.as_flattened())
-                {
-                    *u += dt * *v + c1 * a;
-                    *v += c2 * a;
+                if !alpha {
+                    for ((u, v), &a) in self
+                        .u
+                        .as_flattened_mut()
+                        .iter_mut()
+                        .zip(self.v.as_flattened_mut().iter_mut())
+                        .zip(self.a.as_flattened())
+                    {
+                        *u += dt * *v + c1 * a;
+                        *v += c2 * a;
+                    }
                 }
                 matvec(
                     pat,
@@ -1502,6 +1705,12 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             *u += bdt2 * a;
             *v += gdt * a;
         }
+        if let Some([_, _, k2]) = self.sh.alpha {
+            // aa_{n+1} = b + k2 a_{n+1}
+            for (aa, &a) in self.aa.as_flattened_mut().iter_mut().zip(self.a.as_flattened()) {
+                *aa += k2 * a;
+            }
+        }
         let mut failed = false;
         for (l, lane) in self.lanes.iter_mut().enumerate() {
             if self.active[l] {
@@ -1536,6 +1745,10 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             get_lane(&self.u, 0, &mut snap.u);
             get_lane(&self.v, 0, &mut snap.v);
             get_lane(&self.a, 0, &mut snap.a);
+            if self.sh.alpha.is_some() {
+                snap.aa.resize(self.sh.n, 0.0);
+                get_lane(&self.aa, 0, &mut snap.aa);
+            }
             snap.q.clone_from(&lane.q);
             snap.qd.clone_from(&lane.qd);
             snap.pen.clone_from(&lane.pen);
@@ -1555,10 +1768,10 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         ev.pen1.clone_from(&self.lanes[0].pen);
         let dt = self.sh.dt;
         let settings = &self.lanes[0].settings;
-        let (beta, gamma) = (settings.newmark.beta, settings.newmark.gamma);
+        let nm = settings.newmark;
         let analysis = Arc::clone(self.sh.chol0.analysis());
         let consts =
-            |sys: &System, h: f64| StepConsts::new(sys, h, beta, gamma, Cholesky::with_analysis(Arc::clone(&analysis)));
+            |sys: &System, h: f64| StepConsts::new(sys, h, &nm, Cholesky::with_analysis(Arc::clone(&analysis)));
         self.lanes[0].stats.event_steps += 1;
         let nan = [[f64::NAN; 2]; 2];
         // the crossing of joint `jstar` by regula falsi (Illinois) on the first substep's end
@@ -1617,6 +1830,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         set_lane(&mut self.u, 0, &snap.u);
         set_lane(&mut self.v, 0, &snap.v);
         set_lane(&mut self.a, 0, &snap.a);
+        if self.sh.alpha.is_some() {
+            set_lane(&mut self.aa, 0, &snap.aa);
+        }
         let lane = &mut self.lanes[0];
         lane.q.clone_from(&snap.q);
         lane.qd.clone_from(&snap.qd);
@@ -1686,6 +1902,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         lane.rec.record_event(t, &lane.pen, &lane.force, &lane.q, &lane.qd);
         sh.mchol.solve_in_place(&mut r);
         set_lane(&mut self.a, 0, &r);
+        if sh.alpha.is_some() {
+            set_lane(&mut self.aa, 0, &r); // the alpha schemes restart with aa = a
+        }
     }
 
     /// The divergence check of lane `l`'s state at `t` (s), step `step`.

@@ -8,7 +8,9 @@
 //! has one unknown along the guide), and clearance joints by the force or modified method.
 //!
 //! Each step solves for the accelerations `a` at `t + dt` (`y = y~ + beta dt^2 a`,
-//! `yd = v~ + gamma dt a`) by Newton iterations on the residual with the tangent Jacobian of the
+//! `yd = v~ + gamma dt a`; the generalized-alpha family of [`crate::integrator::Newmark`] with its
+//! `beta'`, `gamma'` and predictors, the residual still at `t + dt`) by Newton iterations on the
+//! residual with the tangent Jacobian of the
 //! step start (including the axial-force dependence of K2, K3, D2: a modified Newton whose rate
 //! is set by how much the axial force moves within the step). The Jacobian is refactorized only when
 //! a quantity it depends on changed (step, frame rate and acceleration, frame angle for links
@@ -316,6 +318,10 @@ pub struct NewtonRun<'a> {
     y0: Vec<f64>,
     yd0: Vec<f64>,
     ydd0: Vec<f64>,
+    /// The alpha schemes' acceleration-like variable and its start-of-step value
+    /// ([`crate::integrator::Newmark`]; unused by plain Newmark).
+    aa: Vec<f64>,
+    aa0: Vec<f64>,
     a: Vec<f64>,
     r: Vec<f64>,
     contact: Vec<ContactTerms>,
@@ -379,6 +385,7 @@ struct EventScratch {
     y: Vec<f64>,
     yd: Vec<f64>,
     ydd: Vec<f64>,
+    aa: Vec<f64>,
     /// Penetrations at the step's start, end, and the end of the current first substep, m.
     p0: Vec<f64>,
     p1: Vec<f64>,
@@ -539,6 +546,8 @@ impl<'a> NewtonRun<'a> {
             y0: vec![0.0; n],
             yd0: vec![0.0; n],
             ydd0: vec![0.0; n],
+            aa: vec![0.0; n],
+            aa0: vec![0.0; n],
             a: vec![0.0; n],
             r: vec![0.0; n],
             contact: vec![ContactTerms::default(); mech.joints.len()],
@@ -760,8 +769,8 @@ impl<'a> NewtonRun<'a> {
         let mut res = Ok(());
         if refactor {
             std::mem::swap(&mut rs.signature, &mut sig);
-            let nm = self.settings.newmark;
-            self.assemble(nm.beta * h * h, nm.gamma * h, &mut rs.lu0, true, false);
+            let (bh2, gh) = self.settings.newmark.coefficients(h);
+            self.assemble(bh2, gh, &mut rs.lu0, true, false);
             self.stats.factorizations += 1;
             rs.ready = false;
             res = rs
@@ -1267,9 +1276,9 @@ impl<'a> NewtonRun<'a> {
     /// Assembles and factorizes the Jacobian `d r / d a` at the current iterate.
     fn factorize(&mut self, h: f64) -> Result<()> {
         std::mem::swap(&mut self.signature, &mut self.sig_new);
-        let nm = self.settings.newmark;
+        let (bh2, gh) = self.settings.newmark.coefficients(h);
         let mut lu = std::mem::replace(&mut self.lu, BandLu::new(0, 0));
-        self.assemble(nm.beta * h * h, nm.gamma * h, &mut lu, true, true);
+        self.assemble(bh2, gh, &mut lu, true, true);
         let what = if h == 0.0 {
             "mass matrix of the mechanism (with the transforms)"
         } else {
@@ -1495,7 +1504,7 @@ impl<'a> NewtonRun<'a> {
     /// One Newmark step from `t` of size `h`. On failure the state is restored.
     fn step(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         let nm = self.settings.newmark;
-        let (bh2, gh) = (nm.beta * h * h, nm.gamma * h);
+        let (bh2, gh) = nm.coefficients(h);
         // State at the start (kept for contact terms and for a retry).
         for i in 0..self.n {
             self.y_pred[i] = self.y[i];
@@ -1507,14 +1516,18 @@ impl<'a> NewtonRun<'a> {
         self.yd0.copy_from_slice(&self.yd);
         self.ydd0.copy_from_slice(&self.ydd);
         self.update_frames(t + h);
-        for i in 0..self.n {
-            let (y0, v0, a0) = (self.y[i], self.yd[i], self.ydd[i]);
-            self.y_pred[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * a0;
-            self.v_pred[i] = v0 + (1.0 - nm.gamma) * h * a0;
-            self.a[i] = a0;
-            self.y[i] = self.y_pred[i] + bh2 * a0;
-            self.yd[i] = self.v_pred[i] + gh * a0;
-            self.ydd[i] = a0;
+        if nm.is_alpha() {
+            self.alpha_predictors(h);
+        } else {
+            for i in 0..self.n {
+                let (y0, v0, a0) = (self.y[i], self.yd[i], self.ydd[i]);
+                self.y_pred[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * a0;
+                self.v_pred[i] = v0 + (1.0 - nm.gamma) * h * a0;
+                self.a[i] = a0;
+                self.y[i] = self.y_pred[i] + bh2 * a0;
+                self.yd[i] = self.v_pred[i] + gh * a0;
+                self.ydd[i] = a0;
+            }
         }
         let iterate_contact = self.implicit_contact;
         let linear = !self.nonlinear_geometric && !iterate_contact;
@@ -1634,6 +1647,13 @@ impl<'a> NewtonRun<'a> {
         self.stats.iterations += iters as u64;
         self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
         if converged {
+            if nm.is_alpha() {
+                // aa_{n+1} = b + (1 - alpha_f)/(1 - alpha_m) a_{n+1}
+                let k2 = nm.alpha_constants()[2];
+                for i in 0..self.n {
+                    self.aa[i] += k2 * self.a[i];
+                }
+            }
             return Ok(());
         }
         self.restore();
@@ -1667,6 +1687,33 @@ impl<'a> NewtonRun<'a> {
         self.y.copy_from_slice(&self.y0);
         self.yd.copy_from_slice(&self.yd0);
         self.ydd.copy_from_slice(&self.ydd0);
+        if self.settings.newmark.is_alpha() {
+            self.aa.copy_from_slice(&self.aa0);
+        }
+    }
+
+    /// The alpha schemes' predictors of a step of `h` (s) from the state in `y`, `yd`, `ydd`,
+    /// `aa` ([`crate::integrator::Newmark`]): `b = (alpha_f a_n - alpha_m aa_n)/(1 - alpha_m)`,
+    /// `y~ = y + h v + h^2 (1/2 - beta) aa + beta h^2 b`, `v~ = v + h (1 - gamma) aa + gamma h b`;
+    /// the first iterate keeps `a = a_n`. Keeps `aa_n` in `aa0` and `b` in `aa` (completed
+    /// with the step's `a_{n+1}` when it converges).
+    fn alpha_predictors(&mut self, h: f64) {
+        let nm = self.settings.newmark;
+        let (bh2, gh) = nm.coefficients(h);
+        let [k0, k1, _] = nm.alpha_constants();
+        let (bh2r, ghr) = (nm.beta * h * h, nm.gamma * h);
+        self.aa0.copy_from_slice(&self.aa);
+        for i in 0..self.n {
+            let (y0, v0, a0, aa0) = (self.y[i], self.yd[i], self.ydd[i], self.aa[i]);
+            let b = k0 * a0 + k1 * aa0;
+            self.y_pred[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * aa0 + bh2r * b;
+            self.v_pred[i] = v0 + (1.0 - nm.gamma) * h * aa0 + ghr * b;
+            self.aa[i] = b;
+            self.a[i] = a0;
+            self.y[i] = self.y_pred[i] + bh2 * a0;
+            self.yd[i] = self.v_pred[i] + gh * a0;
+            self.ydd[i] = a0;
+        }
     }
 
     /// Initial state: given elastic displacements/velocities (link frame) mapped to the unknowns
@@ -1939,6 +1986,9 @@ impl<'a> NewtonRun<'a> {
         }
         self.r = dx;
         self.signature.clear();
+        if self.settings.newmark.is_alpha() {
+            self.aa.copy_from_slice(&self.ydd); // the alpha schemes (re)start with aa = a
+        }
         Ok(())
     }
 
@@ -1947,6 +1997,9 @@ impl<'a> NewtonRun<'a> {
         self.y.copy_from_slice(&ev.y);
         self.yd.copy_from_slice(&ev.yd);
         self.ydd.copy_from_slice(&ev.ydd);
+        if self.settings.newmark.is_alpha() {
+            self.aa.copy_from_slice(&ev.aa);
+        }
         self.update_frames(t);
     }
 
@@ -1963,6 +2016,9 @@ impl<'a> NewtonRun<'a> {
         ev.y.clone_from(&self.y);
         ev.yd.clone_from(&self.yd);
         ev.ydd.clone_from(&self.ydd);
+        if self.settings.newmark.is_alpha() {
+            ev.aa.clone_from(&self.aa);
+        }
         self.step(t0, h, k, 0)?;
         self.penetrations(&mut ev.p1);
         let Some((theta, jstar)) = earliest_crossing(&ev.p0, &ev.p1) else {
@@ -2033,6 +2089,7 @@ impl<'a> NewtonRun<'a> {
         self.y.copy_from_slice(&ad.y);
         self.yd.copy_from_slice(&ad.yd);
         self.ydd.copy_from_slice(&ad.ydd);
+        self.aa.copy_from_slice(&ad.aa);
         self.update_frames(t);
     }
 
@@ -2061,6 +2118,7 @@ impl<'a> NewtonRun<'a> {
             ad.y.copy_from_slice(&self.y);
             ad.yd.copy_from_slice(&self.yd);
             ad.ydd.copy_from_slice(&self.ydd);
+            ad.aa.copy_from_slice(&self.aa);
             self.penetrations(&mut ad.p0);
             let at_floor = ad.level >= max_level;
             let mut err = match self.step(t, h, k, 0) {
@@ -2203,6 +2261,7 @@ impl<'a> NewtonRun<'a> {
             y: vec![0.0; self.n],
             yd: vec![0.0; self.n],
             ydd: vec![0.0; self.n],
+            aa: vec![0.0; self.n],
             p0: Vec::with_capacity(self.mech.joints.len()),
             p1: Vec::with_capacity(self.mech.joints.len()),
             pc: Vec::with_capacity(self.mech.joints.len()),
@@ -2275,6 +2334,8 @@ struct AdaptiveScratch {
     y: Vec<f64>,
     yd: Vec<f64>,
     ydd: Vec<f64>,
+    /// The alpha schemes' acceleration-like variable at the start.
+    aa: Vec<f64>,
     p0: Vec<f64>,
     p1: Vec<f64>,
     pc: Vec<f64>,

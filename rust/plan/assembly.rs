@@ -513,7 +513,7 @@ impl crate::linalg::LowRankBlocks for [JointPlan] {
 /// True when two validated runs have the same contact-free effective matrix and step, so that
 /// they can run as lanes of one [`Lockstep`](crate::integrator::constant::Lockstep): same pattern, bitwise equal M, K and C (and the
 /// same proportional-damping ratio), the same joint DOFs and projections, the same dt, Newmark
-/// parameters and number of steps. Clearances, contact laws, couplings, motions, initial
+/// (and alpha) parameters and number of steps. Clearances, contact laws, couplings, motions, initial
 /// conditions and what is recorded may differ.
 pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
     let ((sa, ta), (sb, tb)) = (a, b);
@@ -523,6 +523,8 @@ pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
         && ta.dt.to_bits() == tb.dt.to_bits()
         && ta.newmark.beta.to_bits() == tb.newmark.beta.to_bits()
         && ta.newmark.gamma.to_bits() == tb.newmark.gamma.to_bits()
+        && ta.newmark.alpha_m.to_bits() == tb.newmark.alpha_m.to_bits()
+        && ta.newmark.alpha_f.to_bits() == tb.newmark.alpha_f.to_bits()
         && ta.steps() == tb.steps()
         && sa.pattern.n == sb.pattern.n
         && sa.pattern.col_ptr == sb.pattern.col_ptr

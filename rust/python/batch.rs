@@ -36,6 +36,8 @@ struct Shared<'a> {
     gap_damping: f64,
     beta: f64,
     gamma: f64,
+    alpha_m: f64,
+    alpha_f: f64,
     solver: &'a str,
     divergence_limit: Option<f64>,
     record: RecordSpec,
@@ -67,6 +69,8 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
         newmark: Newmark {
             beta: c.beta,
             gamma: c.gamma,
+            alpha_m: c.alpha_m,
+            alpha_f: c.alpha_f,
         },
         coupling: coupling(false, 1e-10, 50)?,
         solver: parse_solver(py, c.solver)?,
@@ -165,6 +169,7 @@ fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>) -> PyResult<Mecha
 #[pyfunction]
 #[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=None,
                     tol=None, max_iter=None, step_halving=0, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
+                    alpha_m=0.0, alpha_f=0.0,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
                     progress=None, events=false, joint_position=false,
                     contact_modes=false, accuracy=None))]
@@ -187,6 +192,8 @@ pub(super) fn run_batch<'py>(
     gap_damping: f64,
     beta: f64,
     gamma: f64,
+    alpha_m: f64,
+    alpha_f: f64,
     solver: &str,
     divergence_limit: Option<f64>,
     joints: Option<Vec<usize>>,
@@ -253,6 +260,8 @@ pub(super) fn run_batch<'py>(
         gap_damping,
         beta,
         gamma,
+        alpha_m,
+        alpha_f,
         solver,
         divergence_limit,
         record,

@@ -483,6 +483,7 @@ impl PyMechanism {
 
     /// Runs the mechanism; returns a dict of histories (see `flexclear.Mechanism.simulate`).
     #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
+                        alpha_m=0.0, alpha_f=0.0,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
@@ -500,6 +501,8 @@ impl PyMechanism {
         step_halving: i64,
         beta: f64,
         gamma: f64,
+        alpha_m: f64,
+        alpha_f: f64,
         divergence_limit: Option<f64>,
         every: i64,
         displacements: bool,
@@ -549,7 +552,12 @@ impl PyMechanism {
         // stepper's: a model planned for Newton refuses it
         let coupling = parse_coupling(py, method, iterate, 1e-10, 50, gap_stiffness, gap_damping)?;
         let mut settings = Settings {
-            newmark: Newmark { beta, gamma },
+            newmark: Newmark {
+                beta,
+                gamma,
+                alpha_m,
+                alpha_f,
+            },
             coupling,
             solver,
             divergence_limit,
