@@ -58,6 +58,10 @@ pub struct NodeMap {
     pub trans: Trans,
     /// The rotation unknown, or [`NONE`].
     pub rot: usize,
+    /// Node 1 of a rigid link: its distance from node 0 along the link, m (its local state is
+    /// node 0's translation and rotation, `[u0, v0 + lever theta, theta]`); 0 for every other
+    /// node.
+    pub lever: f64,
 }
 
 /// The numbering of a mechanism's unknowns ([`number`]).
@@ -104,7 +108,7 @@ pub fn link_terms(mech: &Mechanism, nodes: &[Vec<NodeMap>]) -> Vec<LinkTerms> {
             LinkTerms {
                 coriolis: t.coriolis.unwrap_or(rotates),
                 coupling: t.inertia_coupling.unwrap_or(rotates),
-                geometric: t.geometric.unwrap_or(rotates || axially_loaded),
+                geometric: l.rigid.is_none() && t.geometric.unwrap_or(rotates || axially_loaded),
                 load: t.inertia_load.unwrap_or(moves || gravity),
                 transformed: nodes
                     .iter()
@@ -146,11 +150,30 @@ pub fn bandwidth(mech: &Mechanism, nodes: &[Vec<NodeMap>], slider_dof: &[usize])
             Endpoint::Slider(s) => [slider_dof[*s], NONE, NONE],
         }
     };
+    // a clearance joint couples its sides' translations, and the rotation of a rigid link's
+    // node 1 (its translation turns with it)
+    let lever_rot = |e: &Endpoint| match e {
+        Endpoint::Node { link, node } if nodes[*link][*node].lever != 0.0 => nodes[*link][*node].rot,
+        _ => NONE,
+    };
     for j in &mech.joints {
         let (a, c) = (ep_slots(&j.journal), ep_slots(&j.bearing));
-        couple(&[a[0], a[1], c[0], c[1]]);
+        couple(&[a[0], a[1], lever_rot(&j.journal), c[0], c[1], lever_rot(&j.bearing)]);
     }
     b
+}
+
+/// A slider reached only through a clearance joint at node `nd` of link `li` gets its unknown
+/// next to the journal's, for a narrow band (unless a rigid loop holds it).
+fn number_joint_sliders(mech: &Mechanism, li: usize, nd: usize, held: &[bool], slider_dof: &mut [usize], next: &mut usize) {
+    for j in &mech.joints {
+        if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
+            if *link == li && *node == nd && slider_dof[*s] == NONE && !held[*s] {
+                slider_dof[*s] = *next;
+                *next += 1;
+            }
+        }
+    }
 }
 
 struct DofBuilder {
@@ -211,6 +234,49 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
             rollers[i][k] |= s.fixed[k];
         }
     }
+    // A slider pinned, through its links, to ground: over-constrained (before the rigid links
+    // close any loop).
+    for s in 0..mech.sliders.len() {
+        if uf.find(total_nodes + s) == uf.find(ground) {
+            return Err(Error::InvalidModel {
+                message: format!(
+                    "slider {:?} is pinned, through its links, to ground or a rigid body: over-constrained",
+                    mech.sliders[s].name
+                ),
+            });
+        }
+    }
+    // Rigid links: node 1 follows node 0 and the link's rotation. Node 1 pinned or supported
+    // closes a loop: allowed when node 0 is held (on ground, possibly through other such
+    // links), and then the whole link is held (no rotation unknown) and node 1 joins ground
+    // with whatever is pinned to it (the slider-crank of rigid bodies with ideal joints).
+    let attached = |li: usize, nd: usize| {
+        let on = |e: &Endpoint| matches!(e, Endpoint::Node { link, node } if *link == li && *node == nd);
+        mech.pins.iter().any(|p| on(&p.a) || on(&p.b))
+            || mech.supports.iter().any(|s| s.link == li && s.node == nd && s.fixed.iter().any(|&f| f))
+    };
+    let mut held = vec![false; mech.links.len()];
+    loop {
+        let mut changed = false;
+        for (li, l) in mech.links.iter().enumerate() {
+            if l.rigid.is_some() && !held[li] && attached(li, 1) && uf.find(offs[li]) == uf.find(ground) {
+                uf.union(offs[li] + 1, ground);
+                held[li] = true;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    if let Some(l) = (mech.links.iter().enumerate()).find(|(li, l)| l.rigid.is_some() && !held[*li] && attached(*li, 1)) {
+        return Err(Error::InvalidModel {
+            message: format!(
+                "node 1 of rigid link {:?} is pinned or supported while its node 0 is free to move: not supported (a rigid link is held by its node 0; attach its node 1 by a clearance joint, or hold node 0)",
+                l.1.name
+            ),
+        });
+    }
     // Classify groups.
     let root_ground = uf.find(ground);
     let mut group_slider: Vec<Option<usize>> = vec![None; ground + 1];
@@ -219,15 +285,13 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
         let r = uf.find(i);
         group_size[r] += 1;
     }
+    // a slider on a node that a held rigid link holds keeps no unknown (it moves on its path)
+    let mut held_slider = vec![false; mech.sliders.len()];
     for s in 0..mech.sliders.len() {
         let r = uf.find(total_nodes + s);
         if r == root_ground {
-            return Err(Error::InvalidModel {
-                message: format!(
-                    "slider {:?} is pinned, through its links, to ground or a rigid body: over-constrained",
-                    mech.sliders[s].name
-                ),
-            });
+            held_slider[s] = true;
+            continue;
         }
         if let Some(o) = group_slider[r] {
             return Err(Error::InvalidModel {
@@ -245,9 +309,20 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
     let mut slider_dof = vec![NONE; mech.sliders.len()];
     let mut links = Vec::with_capacity(mech.links.len());
     for (li, l) in mech.links.iter().enumerate() {
-        let mut nodes = Vec::with_capacity(l.nodes());
+        let mut nodes: Vec<NodeMap> = Vec::with_capacity(l.nodes());
         for nd in 0..l.nodes() {
             let i = offs[li] + nd;
+            if nd == 1 && l.rigid.is_some() {
+                // node 1 of a rigid link: node 0's unknowns, its translation turned by theta
+                let n0 = nodes[0];
+                nodes.push(NodeMap {
+                    trans: if held[li] { Trans::Fixed } else { n0.trans },
+                    rot: n0.rot,
+                    lever: l.section.length,
+                });
+                number_joint_sliders(mech, li, nd, &held_slider, &mut slider_dof, &mut next);
+                continue;
+            }
             let r = uf.find(i);
             let partial = (rollers[i][0] || rollers[i][1]) && !(rollers[i][0] && rollers[i][1]);
             let trans = if r == root_ground {
@@ -293,29 +368,22 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
                 }
                 Trans::Local(ix)
             };
-            let rot = if rollers[i][2] {
+            let rot = if rollers[i][2] || held[li] {
                 NONE
             } else {
                 next += 1;
                 next - 1
             };
-            nodes.push(NodeMap { trans, rot });
-            // A slider reached only through a clearance joint gets its unknown next to the
-            // journal, for a narrow band.
-            for j in &mech.joints {
-                if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
-                    if *link == li && *node == nd && slider_dof[*s] == NONE {
-                        slider_dof[*s] = next;
-                        next += 1;
-                    }
-                }
-            }
+            nodes.push(NodeMap { trans, rot, lever: 0.0 });
+            number_joint_sliders(mech, li, nd, &held_slider, &mut slider_dof, &mut next);
         }
         links.push(nodes);
     }
     // A slider attached to nothing keeps no unknown: it moves along its nominal path.
     let n = next;
-    if n == 0 {
+    // a mechanism of rigid bodies with ideal joints may have nothing to solve for: it follows
+    // its nominal motion
+    if n == 0 && !mech.links.iter().any(|l| l.rigid.is_some()) {
         return Err(Error::InvalidModel {
             message: "the mechanism has no free elastic degree of freedom".into(),
         });
@@ -370,6 +438,7 @@ mod tests {
             rotary_inertia: false,
             initial_displacement: None,
             initial_velocity: None,
+            rigid: None,
         }
     }
 
@@ -423,6 +492,7 @@ mod tests {
         NodeMap {
             trans: Trans::Local(ix),
             rot,
+            lever: 0.0,
         }
     }
 
@@ -430,6 +500,7 @@ mod tests {
         NodeMap {
             trans: Trans::Global(ix),
             rot,
+            lever: 0.0,
         }
     }
 
@@ -437,6 +508,7 @@ mod tests {
         NodeMap {
             trans: Trans::Fixed,
             rot,
+            lever: 0.0,
         }
     }
 
@@ -505,6 +577,7 @@ mod tests {
         let on_slider = NodeMap {
             trans: Trans::Slider { s: 7, slider: 1 },
             rot: 8,
+            lever: 0.0,
         };
         assert_eq!(
             map.nodes,

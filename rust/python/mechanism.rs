@@ -153,6 +153,7 @@ impl PyMechanism {
             rotary_inertia,
             initial_displacement: vec_opt(initial_displacement)?,
             initial_velocity: vec_opt(initial_velocity)?,
+            rigid: None,
         };
         link.section.validate(&format!("links[{i}].")).map_err(|e| err(py, e))?;
         self.inner.links.push(link);
