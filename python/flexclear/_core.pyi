@@ -85,7 +85,14 @@ class Frame:
         crank: float, rod: float, driver: Rotation, link: str, offset: Optional[float] = ...
     ) -> Frame: ...
     @staticmethod
-    def four_bar(
+    def flores_slider_crank(
+    clearance: Optional[float],
+    law: Optional[NormalLaw],
+    crank_speed: float,
+    flexible_rod: bool,
+    rod_elements: int,
+) -> tuple[Mechanism, dict[str, float]]: ...
+def four_bar(
         ground: float,
         crank: float,
         coupler: float,
@@ -124,6 +131,9 @@ class Mechanism:
         initial_displacement: Optional[npt.NDArray[np.float64]] = ...,
         initial_velocity: Optional[npt.NDArray[np.float64]] = ...,
         rotary_inertia: bool = ...,
+    ) -> int: ...
+    def add_rigid_link(
+        self, name: str, length: float, mass: float, inertia: float, centroid: float, frame: Frame
     ) -> int: ...
     def add_slider(self, name: str, mass: float, angle: float, path: Frame) -> int: ...
     def add_pin(

@@ -15,7 +15,17 @@
 //! after the journal node's, for a narrow band, and a slider attached to nothing keeps none (it
 //! moves along its nominal path).
 //!
+//! A rigid link ([`Link::rigid`](crate::model::mechanism::Link::rigid)) has node 0's unknowns
+//! only: its node 1 takes node 0's translation and rotation ([`NodeMap::lever`] = its length: the
+//! local state `[u0, v0 + L theta, theta]`). Its node 1 pinned or supported closes a loop: allowed
+//! when node 0 is held (on ground, possibly through other such links), and then the link has no
+//! rotation unknown, node 1 joins ground, and a slider pinned to it keeps no unknown (it moves on
+//! its nominal path); a mechanism with a rigid link may so have no unknown at all (it follows its
+//! nominal motion).
+//!
 //! Refused as [`Error::InvalidModel`] (messages as below, names quoted):
+//! - node 1 of a rigid link pinned or supported while its node 0 is free: `node 1 of rigid link
+//!   "r" is pinned or supported while its node 0 is free to move: not supported (...)`;
 //! - a slider pinned, through its links, to ground or a rigid body: `slider "s" is pinned, through
 //!   its links, to ground or a rigid body: over-constrained`;
 //! - two sliders pinned to one point: `sliders "a" and "b" are pinned to the same point:
@@ -24,7 +34,8 @@
 //!   slider "s": over-constrained`;
 //! - a pinned node with a one-direction support: `node 3 of link "l" has a one-direction support
 //!   and is pinned to another link: not supported (over-constrained in general)`;
-//! - nothing left to solve for: `the mechanism has no free elastic degree of freedom`.
+//! - nothing left to solve for (and no rigid link): `the mechanism has no free elastic degree of
+//!   freedom`.
 
 use crate::error::{Error, Result};
 use crate::model::mechanism::{Endpoint, Mechanism};
