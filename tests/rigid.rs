@@ -21,7 +21,15 @@ fn hub(rotation: Rotation) -> Arc<dyn FrameKinematics> {
     Arc::new(RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, rotation).unwrap())
 }
 
-fn beam(length: f64, elements: usize, e: f64, rho: f64, area: f64, inertia: f64, frame: Arc<dyn FrameKinematics>) -> Link {
+fn beam(
+    length: f64,
+    elements: usize,
+    e: f64,
+    rho: f64,
+    area: f64,
+    inertia: f64,
+    frame: Arc<dyn FrameKinematics>,
+) -> Link {
     Link {
         name: "bar".into(),
         section: BeamSection {
@@ -107,12 +115,21 @@ fn tip_load(mut mech: Mechanism, nodes: usize) -> Mechanism {
 fn a_hinged_rigid_bar_under_a_tip_load_turns_as_the_rigid_body_equation_says() {
     let b = bar_body();
     let j0 = b.inertia + b.mass * b.centroid * b.centroid;
-    for rotation in [Rotation::Fixed { angle: 0.3 }, Rotation::Constant { angle0: 0.0, rate: 50.0 }] {
+    for rotation in [
+        Rotation::Fixed { angle: 0.3 },
+        Rotation::Constant {
+            angle0: 0.0,
+            rate: 50.0,
+        },
+    ] {
         let mech = tip_load(hinged(rigid(L, b, hub(rotation.clone()))), 2);
         let (t, v) = tip_v(&mech, 0.02, 1e-4);
         for (t, v) in t.iter().zip(&v).skip(1) {
             let exact = F * L * L * t * t / (2.0 * j0);
-            assert!((v - exact).abs() <= 1e-9 * exact, "{rotation:?} t = {t}: {v} vs {exact}");
+            assert!(
+                (v - exact).abs() <= 1e-9 * exact,
+                "{rotation:?} t = {t}: {v} vs {exact}"
+            );
         }
     }
 }
@@ -159,7 +176,13 @@ fn a_hanging_rigid_pendulum_swings_at_the_pendulum_frequency() {
     let g = 9.81;
     let j0 = b.inertia + b.mass * b.centroid * b.centroid;
     let w = (b.mass * g * b.centroid / j0).sqrt();
-    let mut link = rigid(0.3, b, hub(Rotation::Fixed { angle: -std::f64::consts::FRAC_PI_2 }));
+    let mut link = rigid(
+        0.3,
+        b,
+        hub(Rotation::Fixed {
+            angle: -std::f64::consts::FRAC_PI_2,
+        }),
+    );
     let th0d = 0.01;
     link.initial_velocity = Some(vec![0.0, 0.0, th0d, 0.0, 0.0, 0.0]);
     let mut mech = hinged(link);
@@ -218,7 +241,10 @@ fn rigid_links_are_planned_on_newton_and_checked() {
     if let Endpoint::Body { point, .. } = &mut free.pins[0].b {
         *point = [L, 0.0];
     }
-    let err = NewtonRun::new(&free, &Settings::new(0.01, 1e-4)).err().unwrap().to_string();
+    let err = NewtonRun::new(&free, &Settings::new(0.01, 1e-4))
+        .err()
+        .unwrap()
+        .to_string();
     assert!(err.contains("node 1 of rigid link \"bar\""), "{err}");
     let mut bad = mech.clone();
     bad.links[0].section.elements = 2;

@@ -74,7 +74,9 @@ def test_the_clearance_run_converges_under_step_refinement():
     # the journal orbit and the peak force at dt, dt/2, dt/4
     runs = [_clearance_run(dt, 0.5) for dt in (4e-6, 2e-6, 1e-6)]
     # the orbit at the coarse run's times
-    orbit = [np.stack([r.joint("piston_pin").qx, r.joint("piston_pin").qy])[:, :: 2**k] for k, r in enumerate(runs)]
+    orbit = [
+        np.stack([r.joint("piston_pin").qx, r.joint("piston_pin").qy])[:, :: 2**k] for k, r in enumerate(runs)
+    ]
     d1 = np.max(np.abs(orbit[0] - orbit[1]))
     d2 = np.max(np.abs(orbit[1] - orbit[2]))
     assert d2 < 0.6 * d1, (d1, d2)
@@ -96,6 +98,10 @@ def test_the_ideal_crank_moment_is_the_power_balance_of_rod_and_slider():
     v_a = w * p["crank_length"] * np.stack([-np.sin(w * t), np.cos(w * t)], axis=1)
     v_g = v_a + (psid * c)[:, None] * np.stack([-np.sin(psi), np.cos(psi)], axis=1)
     v_s = res.slider("slider").velocity
-    energy = 0.5 * p["rod_mass"] * (v_g**2).sum(axis=1) + 0.5 * p["rod_inertia"] * psid**2 + 0.5 * p["slider_mass"] * v_s**2
+    energy = (
+        0.5 * p["rod_mass"] * (v_g**2).sum(axis=1)
+        + 0.5 * p["rod_inertia"] * psid**2
+        + 0.5 * p["slider_mass"] * v_s**2
+    )
     power_moment = np.gradient(energy, t) / w
     assert np.max(np.abs(power_moment - moment)) < 1e-3 * np.max(np.abs(moment))

@@ -76,7 +76,9 @@ def test_a_rigid_bar_pushed_into_a_clearance_bearing_penetrates_as_the_energy_ba
     assert joint.max_penetration == pytest.approx(d, rel=2e-3)
 
 
-@pytest.mark.parametrize("bad", [dict(mass=0.0), dict(inertia=-1.0), dict(length=-0.1), dict(centroid=np.nan)])
+@pytest.mark.parametrize(
+    "bad", [dict(mass=0.0), dict(inertia=-1.0), dict(length=-0.1), dict(centroid=np.nan)]
+)
 def test_bad_rigid_link_parameters_are_refused_by_name(bad):
     kw = dict(length=L, mass=MASS, inertia=INERTIA) | bad
     name = next(iter(bad))

@@ -85,14 +85,7 @@ class Frame:
         crank: float, rod: float, driver: Rotation, link: str, offset: Optional[float] = ...
     ) -> Frame: ...
     @staticmethod
-    def flores_slider_crank(
-    clearance: Optional[float],
-    law: Optional[NormalLaw],
-    crank_speed: float,
-    flexible_rod: bool,
-    rod_elements: int,
-) -> tuple[Mechanism, dict[str, float]]: ...
-def four_bar(
+    def four_bar(
         ground: float,
         crank: float,
         coupler: float,
@@ -421,6 +414,13 @@ def slider_crank(
     bearing_damping_ratio: float,
     damping_law: str,
     geometric: Optional[bool],
+) -> tuple[Mechanism, dict[str, float]]: ...
+def flores_slider_crank(
+    clearance: Optional[float],
+    law: Optional[NormalLaw],
+    crank_speed: float,
+    flexible_rod: bool,
+    rod_elements: int,
 ) -> tuple[Mechanism, dict[str, float]]: ...
 def four_bar(
     *,

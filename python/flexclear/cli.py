@@ -122,7 +122,9 @@ def main(argv: Optional[list] = None) -> int:
     fl.add_argument("--out", default="flores", help="output folder (default: %(default)s)")
     fl.add_argument("--dt", type=float, default=1e-6, help="time step, s (default: %(default)s)")
     fl.add_argument(
-        "--no-kelvin-voigt", action="store_true", help="leave out the Kelvin-Voigt runs of the cost comparison"
+        "--no-kelvin-voigt",
+        action="store_true",
+        help="leave out the Kelvin-Voigt runs of the cost comparison",
     )
     ac = sub.add_parser(
         "accuracy",
@@ -190,7 +192,10 @@ def _run(args) -> int:
         from .reports.flores import flores_report
 
         path = flores_report(
-            args.out, dt=args.dt, kelvin_voigt=not args.no_kelvin_voigt, log=lambda s: print(s, file=sys.stderr)
+            args.out,
+            dt=args.dt,
+            kelvin_voigt=not args.no_kelvin_voigt,
+            log=lambda s: print(s, file=sys.stderr),
         )
         print(path.read_text())
         print(f"report written to {path}", file=sys.stderr)

@@ -641,7 +641,9 @@ impl<'a> NewtonRun<'a> {
             Endpoint::Node { link, node } => match self.links[*link].nodes[*node].trans {
                 Trans::Local(ix) if ix.iter().any(|&i| i != NONE) => Some((self.frames[*link].rate, Some(*link))),
                 // node 1 of a rigid link held at node 0: its rotation turns it with the link
-                Trans::Fixed if self.links[*link].nodes[*node].lever != 0.0 && self.links[*link].nodes[*node].rot != NONE => {
+                Trans::Fixed
+                    if self.links[*link].nodes[*node].lever != 0.0 && self.links[*link].nodes[*node].rot != NONE =>
+                {
                     Some((self.frames[*link].rate, Some(*link)))
                 }
                 Trans::Global(_) | Trans::Slider { .. } => Some((0.0, None)),
@@ -667,12 +669,12 @@ impl<'a> NewtonRun<'a> {
         };
         matches!(self.settings.coupling, Coupling::Force)
             || (!self.mech.joints.iter().any(|j| mixed(&j.journal) || mixed(&j.bearing))
-                && self.mech.joints.iter().all(
-                |j| match (self.endpoint_turn(&j.journal), self.endpoint_turn(&j.bearing)) {
-                    (Some((a, _)), Some((b, _))) => a == b,
-                    _ => true,
-                },
-            ))
+                && self.mech.joints.iter().all(|j| {
+                    match (self.endpoint_turn(&j.journal), self.endpoint_turn(&j.bearing)) {
+                        (Some((a, _)), Some((b, _))) => a == b,
+                        _ => true,
+                    }
+                }))
     }
 
     /// Why the constant-rate stepper cannot run this model with these settings (`None`: it can).

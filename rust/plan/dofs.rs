@@ -176,7 +176,14 @@ pub fn bandwidth(mech: &Mechanism, nodes: &[Vec<NodeMap>], slider_dof: &[usize])
 
 /// A slider reached only through a clearance joint at node `nd` of link `li` gets its unknown
 /// next to the journal's, for a narrow band (unless a rigid loop holds it).
-fn number_joint_sliders(mech: &Mechanism, li: usize, nd: usize, held: &[bool], slider_dof: &mut [usize], next: &mut usize) {
+fn number_joint_sliders(
+    mech: &Mechanism,
+    li: usize,
+    nd: usize,
+    held: &[bool],
+    slider_dof: &mut [usize],
+    next: &mut usize,
+) {
     for j in &mech.joints {
         if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
             if *link == li && *node == nd && slider_dof[*s] == NONE && !held[*s] {
@@ -264,7 +271,10 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
     let attached = |li: usize, nd: usize| {
         let on = |e: &Endpoint| matches!(e, Endpoint::Node { link, node } if *link == li && *node == nd);
         mech.pins.iter().any(|p| on(&p.a) || on(&p.b))
-            || mech.supports.iter().any(|s| s.link == li && s.node == nd && s.fixed.iter().any(|&f| f))
+            || mech
+                .supports
+                .iter()
+                .any(|s| s.link == li && s.node == nd && s.fixed.iter().any(|&f| f))
     };
     let mut held = vec![false; mech.links.len()];
     loop {
@@ -280,7 +290,8 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
             break;
         }
     }
-    if let Some(l) = (mech.links.iter().enumerate()).find(|(li, l)| l.rigid.is_some() && !held[*li] && attached(*li, 1)) {
+    if let Some(l) = (mech.links.iter().enumerate()).find(|(li, l)| l.rigid.is_some() && !held[*li] && attached(*li, 1))
+    {
         return Err(Error::InvalidModel {
             message: format!(
                 "node 1 of rigid link {:?} is pinned or supported while its node 0 is free to move: not supported (a rigid link is held by its node 0; attach its node 1 by a clearance joint, or hold node 0)",

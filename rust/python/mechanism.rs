@@ -163,6 +163,7 @@ impl PyMechanism {
     /// Adds a rigid link (two nodes, node 0 at the frame origin, node 1 at `x = length`) of mass
     /// `mass` (kg), centroidal moment of inertia `inertia` (kg m^2) and centroid at `centroid` (m
     /// along the link); returns its index.
+    #[allow(clippy::too_many_arguments)]
     fn add_rigid_link(
         &mut self,
         py: Python<'_>,

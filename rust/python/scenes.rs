@@ -17,8 +17,8 @@ use crate::contact::DampingLaw;
 use crate::error::{check_non_negative, Error};
 use crate::model::check_elements;
 use crate::scenes::{
-    BearingDerived, FloresSliderCrank, FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin, SliderYoke, SliderYokeGeometry,
-    SpinUp, SpinUpData,
+    BearingDerived, FlexibleFourBar, FlexibleSliderCrank, FloresSliderCrank, FourBarPin, SliderCrankPin, SliderYoke,
+    SliderYokeGeometry, SpinUp, SpinUpData,
 };
 
 /// The keyword arguments of one scene call.
@@ -527,7 +527,15 @@ pub(super) fn flores_slider_crank<'py>(
     let rod_elements = check_elements("rod_elements", rod_elements).map_err(|e| err(py, e))?;
     let law = match law {
         None => None,
-        Some(l) => Some(super::contact::joint_law(py, "law", Some(l), 0.0, 0.0, "viscous", false)?),
+        Some(l) => Some(super::contact::joint_law(
+            py,
+            "law",
+            Some(l),
+            0.0,
+            0.0,
+            "viscous",
+            false,
+        )?),
     };
     let scene = FloresSliderCrank {
         clearance,

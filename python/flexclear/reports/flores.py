@@ -167,6 +167,7 @@ def flores_report(
             cpu_s=cpu,
             steps=steps,
             us_per_step=cpu / steps * 1e6,
+            iterations_per_step=res.stats["iterations"] / steps,
         )
         rows.append(row)
         runs.append((c, res, forces, win))
@@ -200,6 +201,7 @@ def flores_report(
                     cpu_s=cpu_kv,
                     steps=steps,
                     us_per_step=cpu_kv / steps * 1e6,
+                    iterations_per_step=res_kv.stats["iterations"] / steps,
                 )
             )
 
@@ -270,21 +272,23 @@ def flores_report(
         "",
         "Rigid crank (5000 rpm), rigid rod and slider; Lankarani-Nikravesh, e = 0.9, Hertz K of the pin",
         "(`pin_in_hole(R_J + c, R_J, 207e9, 0.3)`); data as commonly cited, not checked against the",
-        f"papers' own tables. Revolutions {first} to {last}, dt = {dt:g} s ({steps} steps), implicit contact.",
+        f"papers' own tables. Revolutions {first} to {last}, dt = {dt:g} s ({steps} steps), implicit "
+        "contact.",
         "",
         f"Ideal joints: slider acceleration {a_i.min():.0f} to {a_i.max():.0f} m/s^2, largest piston-pin "
         f"force {ideal_pin[win_i].max():.0f} N, crank moment {ideal_forces['moment'][win_i].min():.1f} to "
         f"{ideal_forces['moment'][win_i].max():.1f} N m, CPU {cpu_ideal:.3f} s.",
         "",
         "| c (mm) | law | stiffness | peak force (N) | max pen. (um) | impacts | free | impact | continuous "
-        "| peak crank moment (N m) | CPU (s) | us/step |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| peak crank moment (N m) | CPU (s) | us/step | iterations/step |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['clearance_mm']:g} | {r['law']} | {r['stiffness']:.3e} | {r['peak_force_N']:.0f} | "
             f"{r['max_penetration_um']:.2f} | {r['impacts']} | {r['free_flight']:.3f} | {r['impact']:.3f} | "
-            f"{r['continuous']:.3f} | {r['peak_crank_moment_Nm']:.1f} | {r['cpu_s']:.3f} | {r['us_per_step']:.2f} |"
+            f"{r['continuous']:.3f} | {r['peak_crank_moment_Nm']:.1f} | {r['cpu_s']:.3f} | "
+            f"{r['us_per_step']:.2f} | {r['iterations_per_step']:.2f} |"
         )
     lines += [
         "",

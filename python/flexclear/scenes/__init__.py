@@ -26,4 +26,9 @@ __all__ = [
     "FLORES_DATA",
     "SPIN_UP_DATA",
     "flores_slider_crank",
-    "four_bar", "slider_crank", "slider_yoke", "slider_yoke_stiff", "spin_up"]
+    "four_bar",
+    "slider_crank",
+    "slider_yoke",
+    "slider_yoke_stiff",
+    "spin_up",
+]

@@ -76,6 +76,10 @@ def flores_slider_crank(
         (density 7800 kg/m^3, square section of area 2.244e-4 m^2, side 14.98 mm,
         I = side^4 / 12 = 4.20e-9 m^4, E = 207 GPa; its own rotary inertia m L^2 / 12 =
         2.52e-4 kg m^2, the rigid rod's 2.5e-4), with the geometric terms of a rotating link.
+        It starts undeformed and undamped: the slider's inertia load then rings the rod's axial
+        mode (about 5e4 rad/s with the slider), which adds to the slider acceleration (with
+        ideal joints -43 080 to +33 246 m/s^2 over the first revolution at dt = 1e-6 s, against
+        the rigid rod's -19 419 to +9 696).
     rod_elements : int
         Elements of the flexible rod (1 ..= 1000000; not used for the rigid rod).
     crank_speed : float
