@@ -19,6 +19,7 @@ __all__ = [
     "SliderHistory",
     "slider_yoke",
     "slider_crank",
+    "flores_slider_crank",
     "four_bar",
     "spin_up",
     "spin_up_data",
