@@ -105,3 +105,11 @@ def test_flexible_bars_converge_to_the_rigid_bar_as_e_grows():
         errors.append(np.max(np.abs(flex - rigid)))
     assert errors[0] < 0.05 * abs(rigid[-1])
     assert errors[0] / errors[1] > 5 and errors[1] / errors[2] > 5, errors
+
+
+def test_a_point_mass_at_node_1_adds_m_l_squared_to_the_hinge_inertia():
+    mp = 0.3
+    model = _rigid().add_mass("bar", 1, mp).add_load("bar", 1, fv=F)
+    res = model.simulate(0.02, 1e-4)
+    exact = F * L**2 * res.time**2 / (2 * (J0 + mp * L**2))
+    np.testing.assert_allclose(res.link("bar").v[:, 1], exact, rtol=1e-9, atol=1e-15)

@@ -681,6 +681,57 @@ mod tests {
         assert_eq!(message(&m), "the mechanism has no free elastic degree of freedom");
     }
 
+    /// A rigid link's node 1 takes node 0's unknowns with the link's length as lever: pinned at
+    /// node 0 to a flexible link (a shared global pair), its node 1 has that pair and node 0's
+    /// rotation. The Flores slider-crank with an ideal piston pin (rigid rod held at node 0 by the
+    /// crank, node 1 pinned to the slider) has no unknown at all; with a clearance joint there,
+    /// the rod's rotation and the slider's travel.
+    #[test]
+    fn a_rigid_links_node_1_follows_node_0() {
+        let mut bar = link("bar", 1);
+        bar.rigid = Some(crate::model::mechanism::RigidBody {
+            mass: 1.0,
+            inertia: 0.01,
+            centroid: 0.05,
+        });
+        let mech = Mechanism {
+            links: vec![link("arm", 2), bar],
+            supports: vec![clamp(0, 0)],
+            pins: vec![pin("P", node(0, 2), node(1, 0))],
+            ..Default::default()
+        };
+        let map = number(&mech).unwrap();
+        assert_eq!(map.nodes[1][0], global([3, 4], 6));
+        assert_eq!(
+            map.nodes[1][1],
+            NodeMap {
+                trans: Trans::Global([3, 4]),
+                rot: 6,
+                lever: 0.1
+            }
+        );
+        assert_eq!(map.n, 7);
+        let ideal = crate::scenes::FloresSliderCrank {
+            clearance: None,
+            ..Default::default()
+        };
+        let map = number(&ideal.build().unwrap()).unwrap();
+        assert_eq!(map.n, 0);
+        assert_eq!(map.slider_dof, vec![NONE]);
+        assert_eq!(map.nodes[0][1].trans, Trans::Fixed);
+        let map = number(&crate::scenes::FloresSliderCrank::default().build().unwrap()).unwrap();
+        assert_eq!(map.n, 2);
+        assert_eq!(
+            map.nodes[0][1],
+            NodeMap {
+                trans: Trans::Fixed,
+                rot: 0,
+                lever: 0.12
+            }
+        );
+        assert_eq!(map.slider_dof, vec![1]);
+    }
+
     /// The plan keeps the numbering for the Newton and constant-rate kinds, not for the constant
     /// one.
     #[test]
