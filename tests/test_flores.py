@@ -105,3 +105,21 @@ def test_the_ideal_crank_moment_is_the_power_balance_of_rod_and_slider():
     )
     power_moment = np.gradient(energy, t) / w
     assert np.max(np.abs(power_moment - moment)) < 1e-3 * np.max(np.abs(moment))
+
+
+def test_the_report_writes_its_figures_and_summary(tmp_path):
+    from flexclear.reports.flores import flores_report
+
+    path = flores_report(tmp_path, clearances=(5e-4,), revolutions=(1, 1), dt=4e-6)
+    for name in (
+        "orbits.png",
+        "contact_force.png",
+        "slider_acceleration.png",
+        "crank_moment.png",
+        "flores.csv",
+    ):
+        assert (tmp_path / name).stat().st_size > 0, name
+    rows = list(csv.DictReader((tmp_path / "flores.csv").read_text().splitlines()))
+    assert [r["law"] for r in rows] == ["LankaraniNikravesh", "KelvinVoigt"]
+    assert float(rows[0]["peak_force_N"]) > DATA["max_pin_force_ideal"]
+    assert "Ideal joints: slider acceleration -19419 to 9696 m/s^2" in path.read_text()

@@ -120,7 +120,7 @@ def main(argv: Optional[list] = None) -> int:
         "against the ideal joints for clearances 0.5, 0.25, 0.1 mm",
     )
     fl.add_argument("--out", default="flores", help="output folder (default: %(default)s)")
-    fl.add_argument("--dt", type=float, default=1e-6, help="time step, s (default: %(default)s)")
+    fl.add_argument("--dt", type=float, default=2.5e-7, help="time step, s (default: %(default)s)")
     fl.add_argument(
         "--no-kelvin-voigt",
         action="store_true",

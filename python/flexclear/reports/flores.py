@@ -117,7 +117,7 @@ def flores_report(
     *,
     clearances: Sequence[float] = CLEARANCES,
     revolutions: tuple[int, int] = (2, 4),
-    dt: float = 1e-6,
+    dt: float = 2.5e-7,
     kelvin_voigt: bool = True,
     log: Callable[[str], None] = _quiet,
 ) -> Path:
@@ -153,11 +153,14 @@ def flores_report(
         j = res.joint("piston_pin")
         forces = rod_forces(res, params, _joint_force(res))
         win = res.time >= t_start - 1e-12
+        # the same run at dt / 2: how far the peak force has converged
+        half, _ = _run(model, t_end, dt / 2, Record(contact_modes=True, start=t_start, histories=False))
         row = dict(
             clearance_mm=c * 1e3,
             law="LankaraniNikravesh",
             stiffness=k,
             peak_force_N=j.max_force,
+            peak_force_half_dt_N=half.joint("piston_pin").max_force,
             max_penetration_um=j.max_penetration * 1e6,
             impacts=j.impacts,
             free_flight=j.free_flight_fraction,
@@ -192,6 +195,7 @@ def flores_report(
                     law="KelvinVoigt",
                     stiffness=kl,
                     peak_force_N=jk.max_force,
+                    peak_force_half_dt_N=float("nan"),
                     max_penetration_um=jk.max_penetration * 1e6,
                     impacts=jk.impacts,
                     free_flight=jk.free_flight_fraction,
@@ -279,13 +283,15 @@ def flores_report(
         f"force {ideal_pin[win_i].max():.0f} N, crank moment {ideal_forces['moment'][win_i].min():.1f} to "
         f"{ideal_forces['moment'][win_i].max():.1f} N m, CPU {cpu_ideal:.3f} s.",
         "",
-        "| c (mm) | law | stiffness | peak force (N) | max pen. (um) | impacts | free | impact | continuous "
+        "| c (mm) | law | stiffness | peak force (N) | at dt/2 | max pen. (um) | impacts | free | impact "
+        "| continuous "
         "| peak crank moment (N m) | CPU (s) | us/step | iterations/step |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['clearance_mm']:g} | {r['law']} | {r['stiffness']:.3e} | {r['peak_force_N']:.0f} | "
+            f"{r['peak_force_half_dt_N']:.0f} | "
             f"{r['max_penetration_um']:.2f} | {r['impacts']} | {r['free_flight']:.3f} | {r['impact']:.3f} | "
             f"{r['continuous']:.3f} | {r['peak_crank_moment_Nm']:.1f} | {r['cpu_s']:.3f} | "
             f"{r['us_per_step']:.2f} | {r['iterations_per_step']:.2f} |"
@@ -296,6 +302,10 @@ def flores_report(
         "the Lankarani-Nikravesh run's largest penetration, damping for e = 0.9 of the journal's reduced",
         "mass, tension clipped). Fractions of the time from revolution "
         f"{first} on: free flight, impacts, continuous contact.",
+        "",
+        "The impact/continuous split is sensitive to the step (episodes near the five-contact-period",
+        "threshold change class); the peak force converges once dt resolves the contact (about 2.5e-7 s",
+        "here: 29.7 and 29.6 kN at 0.5 mm for 2.5e-7 and 1.25e-7 s, 6.07 and 6.05 kN at 0.1 mm).",
         "",
         "Figures: orbits.png, contact_force.png, slider_acceleration.png, crank_moment.png.",
     ]
