@@ -46,6 +46,7 @@ fn cantilever(elements: usize, rotation: Rotation, terms: Terms) -> Mechanism {
             rotary_inertia: false,
             initial_displacement: None,
             initial_velocity: None,
+            rigid: None,
         }],
         supports: vec![Support {
             link: 0,

@@ -123,6 +123,7 @@ fn beam(elements: usize) -> Link {
         rotary_inertia: false,
         initial_displacement: None,
         initial_velocity: None,
+        rigid: None,
     }
 }
 

@@ -64,6 +64,7 @@ fn link(
         rotary_inertia: false,
         initial_displacement: None,
         initial_velocity: None,
+        rigid: None,
     }
 }
 

@@ -19,6 +19,7 @@ __all__ = [
     "SliderHistory",
     "slider_yoke",
     "slider_crank",
+    "flores_slider_crank",
     "four_bar",
     "spin_up",
     "spin_up_data",
@@ -124,6 +125,9 @@ class Mechanism:
         initial_displacement: Optional[npt.NDArray[np.float64]] = ...,
         initial_velocity: Optional[npt.NDArray[np.float64]] = ...,
         rotary_inertia: bool = ...,
+    ) -> int: ...
+    def add_rigid_link(
+        self, name: str, length: float, mass: float, inertia: float, centroid: float, frame: Frame
     ) -> int: ...
     def add_slider(self, name: str, mass: float, angle: float, path: Frame) -> int: ...
     def add_pin(
@@ -415,6 +419,13 @@ def slider_crank(
     bearing_damping_ratio: float,
     damping_law: str,
     geometric: Optional[bool],
+) -> tuple[Mechanism, dict[str, float]]: ...
+def flores_slider_crank(
+    clearance: Optional[float],
+    law: Optional[NormalLaw],
+    crank_speed: float,
+    flexible_rod: bool,
+    rod_elements: int,
 ) -> tuple[Mechanism, dict[str, float]]: ...
 def four_bar(
     *,

@@ -510,6 +510,77 @@ class Model:
         self._link_ids[name] = len(self._link_ids)
         return self
 
+    def add_rigid_link(
+        self,
+        name: str,
+        *,
+        length: float,
+        mass: float,
+        inertia: float,
+        centroid: Optional[float] = None,
+        angle: float = 0.0,
+        motion=None,
+        frame: Optional[Frame] = None,
+    ) -> Model:
+        """Adds a rigid link: a rigid body along its frame's x axis that carries only its
+        rigid-body deviation from the frame's nominal motion, not a beam.
+
+        The link has two nodes, node 0 at the frame origin and node 1 at ``x = length``; use its
+        name wherever a link name goes (pins, joints, supports, loads, masses, results). Its
+        unknowns are node 0's deviation ``(u0, v0)`` (shared with pins as for any node) and one
+        rotation ``theta``; node 1 follows as ``[u0, v0 + length theta, theta]`` (small
+        deviations, as for the beam elements). It has the inertia of the rigid body (mass,
+        Coriolis, inertia coupling, the nominal-motion load, gravity) and no stiffness or
+        damping. Rigid links run on the Newton stepper. Node 1 may carry clearance joints,
+        loads and point masses; pinning or supporting it is allowed only when node 0 is held
+        (pinned to ground or a driven body): the link then follows its nominal motion exactly
+        (a closed loop of rigid bodies, as the slider-crank with ideal joints), and a slider
+        pinned to node 1 does too.
+
+        Parameters
+        ----------
+        name : str
+            Unique link name.
+        length : float
+            Distance between the two nodes, m (> 0).
+        mass : float
+            Mass m, kg (> 0).
+        inertia : float
+            Moment of inertia about the centroid, kg m^2 (>= 0).
+        centroid : float, optional
+            Centroid position along the link from node 0, m (default ``length / 2``).
+        angle, motion, frame
+            The link frame, as for :meth:`add_link`.
+
+        Raises
+        ------
+        InvalidParameterError
+            A parameter out of range (named ``length``, ``mass``, ``inertia``, ``centroid``,
+            ``frame``, ...).
+        ModelError
+            A second link of the same name.
+        """
+        self._unique("link", name, self._link_ids)
+        if frame is not None:
+            if not isinstance(frame, Frame):
+                raise _bad("frame", frame, "a flexclear.Frame")
+            if motion is not None or angle != 0.0:
+                raise _bad("frame", frame, "either `frame` or `angle`/`motion`, not both")
+        if motion is not None and not isinstance(motion, _core.Motion):
+            raise _bad(
+                "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
+            )
+        length = _num("length", length, "a finite number > 0, m")
+        mass = _num("mass", mass, "a finite number > 0, kg")
+        inertia = _num("inertia", inertia, "a finite number >= 0, kg m^2")
+        centroid = 0.5 * length if centroid is None else _num("centroid", centroid, "a finite number, m")
+        angle = _num("angle", angle, "a finite angle, rad")
+        if frame is None:
+            frame = Frame.rotating(Rotation.fixed(float(angle)), origin=motion)
+        self._core.add_rigid_link(name, length, mass, inertia, centroid, frame)
+        self._link_ids[name] = len(self._link_ids)
+        return self
+
     def add_body(self, name: str, motion=None, *, frame: Optional[Frame] = None) -> Model:
         """Adds a rigid body with prescribed motion: its reference point follows ``motion``
         (default: fixed at the origin), or its frame follows ``frame`` (a crank, a rocker).

@@ -152,6 +152,26 @@ struct LinkData {
     point_mass: Vec<f64>,
     /// Constant nodal loads per node `[Fu, Fv, M]`.
     nodal_load: Vec<[f64; 3]>,
+    /// A rigid link: its first moment `m c` (kg m), the rotation's stiffness per unit of the
+    /// frame origin's nominal acceleration along the link, `K_thth = -m c a_x`
+    /// ([`crate::model::mechanism::RigidBody::matrices`]); `None` for a beam.
+    rigid_moment: Option<f64>,
+}
+
+/// A 6 x 6 element matrix with `a` on node 0's block (a rigid link's terms, all on node 0).
+fn node0_block(a: &[[f64; 3]; 3]) -> Mat6 {
+    let mut m = Mat6::zeros();
+    for r in 0..3 {
+        for c in 0..3 {
+            m[(r, c)] = a[r][c];
+        }
+    }
+    m
+}
+
+/// A 6-vector with `a` on node 0's entries.
+fn node0_vec(a: &[f64; 3]) -> Vec6 {
+    Vec6::new(a[0], a[1], a[2], 0.0, 0.0, 0.0)
 }
 
 /// Rotation-derived per-node transform for the current frame state: T (3x3 block, local from
@@ -204,6 +224,12 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
         }
         nt.plain = false;
     };
+    if map.lever != 0.0 {
+        // node 1 of a rigid link: v = v0 + L theta in the link frame (L fixed in the frame:
+        // no Td, Tdd term)
+        nt.t[1][2] = map.lever;
+        nt.plain = false;
+    }
     match map.trans {
         Trans::Local(ix) => {
             nt.idx[0] = ix[0];
@@ -233,7 +259,7 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
 #[derive(Debug, Clone, Default)]
 struct JointRows {
     /// Per joint: (unknown, `[d q_x / d y_i, d q_y / d y_i]`), `NONE` for an unused slot.
-    cols: Vec<[(usize, [f64; 2]); 4]>,
+    cols: Vec<[(usize, [f64; 2]); 6]>,
     /// Per joint: the link whose frame angle the rows are expressed in (`None`: global axes, every
     /// unknown of the joint on a frame that does not rotate).
     axes: Vec<Option<usize>>,
@@ -450,6 +476,32 @@ impl<'a> NewtonRun<'a> {
                 x[1] += f.force[1];
                 x[2] += f.moment;
             }
+            if let Some(body) = l.rigid {
+                let rm = body.matrices();
+                let zero = Mat6::zeros();
+                links.push(LinkData {
+                    nodes,
+                    m: node0_block(&rm.mass),
+                    k1: zero,
+                    d1: zero,
+                    g: node0_block(&rm.skew),
+                    mt: node0_block(&rm.coupling),
+                    k2u: zero,
+                    k3u: zero,
+                    eta_e: 0.0,
+                    ea_l: 0.0,
+                    loads: if active.load {
+                        vec![rm.loads.each_ref().map(node0_vec)]
+                    } else {
+                        Vec::new()
+                    },
+                    active,
+                    point_mass,
+                    nodal_load,
+                    rigid_moment: Some(rm.first_moment),
+                });
+                continue;
+            }
             links.push(LinkData {
                 nodes,
                 m: e.mass(),
@@ -471,6 +523,7 @@ impl<'a> NewtonRun<'a> {
                 active,
                 point_mass,
                 nodal_load,
+                rigid_moment: None,
             });
         }
         let nonlinear_geometric = links.iter().any(|l| l.active.geometric);
@@ -485,6 +538,20 @@ impl<'a> NewtonRun<'a> {
         };
         for (l, ld) in mech.links.iter().zip(&links) {
             let a = ld.active;
+            if ld.rigid_moment.is_some() {
+                let mut t = vec!["rigid: M"];
+                if a.coriolis {
+                    t.push("M_COR");
+                }
+                if a.coupling {
+                    t.push("M_IC");
+                }
+                if a.load {
+                    t.push("M_R a_R");
+                }
+                stats.terms.push(format!("{}: {}", l.name, t.join(", ")));
+                continue;
+            }
             let mut t = vec!["M", "K1"];
             if l.section.damping > 0.0 {
                 t.push("D1");
@@ -595,6 +662,12 @@ impl<'a> NewtonRun<'a> {
         match e {
             Endpoint::Node { link, node } => match self.links[*link].nodes[*node].trans {
                 Trans::Local(ix) if ix.iter().any(|&i| i != NONE) => Some((self.frames[*link].rate, Some(*link))),
+                // node 1 of a rigid link held at node 0: its rotation turns it with the link
+                Trans::Fixed
+                    if self.links[*link].nodes[*node].lever != 0.0 && self.links[*link].nodes[*node].rot != NONE =>
+                {
+                    Some((self.frames[*link].rate, Some(*link)))
+                }
                 Trans::Global(_) | Trans::Slider { .. } => Some((0.0, None)),
                 _ => None,
             },
@@ -608,13 +681,22 @@ impl<'a> NewtonRun<'a> {
     /// of every clearance joint turn at one rate (then the velocity's position dependence is
     /// `rate S P` and the contact block is `P^T G P`).
     fn joints_turn_together(&self) -> bool {
+        // node 1 of a rigid link whose node 0 has fixed axes: part turns with the link, part not
+        let mixed = |e: &Endpoint| match e {
+            Endpoint::Node { link, node } => {
+                let m = self.links[*link].nodes[*node];
+                m.lever != 0.0 && m.rot != NONE && matches!(m.trans, Trans::Global(_) | Trans::Slider { .. })
+            }
+            _ => false,
+        };
         matches!(self.settings.coupling, Coupling::Force)
-            || self.mech.joints.iter().all(
-                |j| match (self.endpoint_turn(&j.journal), self.endpoint_turn(&j.bearing)) {
-                    (Some((a, _)), Some((b, _))) => a == b,
-                    _ => true,
-                },
-            )
+            || (!self.mech.joints.iter().any(|j| mixed(&j.journal) || mixed(&j.bearing))
+                && self.mech.joints.iter().all(|j| {
+                    match (self.endpoint_turn(&j.journal), self.endpoint_turn(&j.bearing)) {
+                        (Some((a, _)), Some((b, _))) => a == b,
+                        _ => true,
+                    }
+                }))
     }
 
     /// Why the constant-rate stepper cannot run this model with these settings (`None`: it can).
@@ -628,6 +710,12 @@ impl<'a> NewtonRun<'a> {
     pub fn constant_rate_obstacle(&self) -> Option<String> {
         let mut rate = Vec::with_capacity(self.links.len());
         for (l, ld) in self.mech.links.iter().zip(&self.links) {
+            if l.rigid.is_some() {
+                return Some(format!(
+                    "link {:?} is rigid (its rigid-body terms run on the Newton stepper)",
+                    l.name
+                ));
+            }
             let Some(r) = l.frame.constant_rate() else {
                 return Some(format!("the frame of link {:?} rotates at a varying rate", l.name));
             };
@@ -674,7 +762,7 @@ impl<'a> NewtonRun<'a> {
             self.mech.joints.len()
         };
         let rows = JointRows {
-            cols: vec![[(NONE, [0.0; 2]); 4]; nj],
+            cols: vec![[(NONE, [0.0; 2]); 6]; nj],
             axes: vec![None; nj],
             rate: vec![0.0; nj],
         };
@@ -725,8 +813,8 @@ impl<'a> NewtonRun<'a> {
                 _ => (0.0, None),
             };
             let rt = axes.map(|l| rot(self.frames[l].angle));
-            let mut cols = [(NONE, [0.0; 2]); 4];
-            for (slot, e, sgn) in [(0, &jt.journal, 1.0), (2, &jt.bearing, -1.0)] {
+            let mut cols = [(NONE, [0.0; 2]); 6];
+            for (slot, e, sgn) in [(0, &jt.journal, 1.0), (3, &jt.bearing, -1.0)] {
                 let on_axes = match e {
                     Endpoint::Node { link, node } => {
                         Some(*link) == axes && matches!(self.links[*link].nodes[*node].trans, Trans::Local(_))
@@ -734,7 +822,7 @@ impl<'a> NewtonRun<'a> {
                     _ => false,
                 };
                 for (k, (i, g, _)) in self.endpoint_jac(e).into_iter().enumerate() {
-                    let g = if on_axes {
+                    let g = if on_axes && k < 2 {
                         // R^T R e_k = e_k exactly
                         if k == 0 {
                             [1.0, 0.0]
@@ -1083,6 +1171,9 @@ impl<'a> NewtonRun<'a> {
                     let b = &ld.loads[e];
                     f += b[0] * fs[0] + b[1] * fs[1] - b[2] * (fr.rate * fr.rate) + b[3] * fr.accel;
                 }
+                if let Some(mc) = ld.rigid_moment {
+                    f[2] -= mc * self.a_ref(li, 0.0)[0] * q[2];
+                }
                 Self::project(&prev, [f[0], f[1], f[2]], &mut r);
                 Self::project(&next, [f[3], f[4], f[5]], &mut r);
                 prev = next;
@@ -1173,12 +1264,18 @@ impl<'a> NewtonRun<'a> {
 
     /// Derivative of an endpoint's global displacement with respect to its unknowns, as up to 2
     /// (unknown, column) pairs, and the extra velocity term `d qd/d y` (frame rotation).
-    fn endpoint_jac(&self, e: &Endpoint) -> [(usize, [f64; 2], [f64; 2]); 2] {
-        let mut out = [(NONE, [0.0; 2], [0.0; 2]); 2];
+    fn endpoint_jac(&self, e: &Endpoint) -> [(usize, [f64; 2], [f64; 2]); 3] {
+        let mut out = [(NONE, [0.0; 2], [0.0; 2]); 3];
         match e {
             Endpoint::Node { link, node } => {
                 let m = self.links[*link].nodes[*node];
                 let f = &self.frames[*link];
+                if m.lever != 0.0 && m.rot != NONE {
+                    // node 1 of a rigid link: R [0, L] theta; velocity extra rate R S [0, L]
+                    let r = rot(f.angle);
+                    let col = [r[0][1] * m.lever, r[1][1] * m.lever];
+                    out[2] = (m.rot, col, [-f.rate * col[1], f.rate * col[0]]);
+                }
                 match m.trans {
                     Trans::Local(ix) => {
                         let r = rot(f.angle);
@@ -1250,13 +1347,16 @@ impl<'a> NewtonRun<'a> {
     fn frame_signature(&self, h: f64, s: &mut Vec<f64>) {
         s.clear();
         s.push(h);
-        for (ld, f) in self.links.iter().zip(&self.frames) {
+        for (li, (ld, f)) in self.links.iter().zip(&self.frames).enumerate() {
             if ld.active.coriolis || ld.active.coupling || ld.active.transformed {
                 s.push(f.rate);
                 s.push(f.accel);
             }
             if ld.active.transformed {
                 s.push(f.angle);
+            }
+            if ld.rigid_moment.is_some() {
+                s.push(self.a_ref(li, 0.0)[0]);
             }
         }
     }
@@ -1326,6 +1426,9 @@ impl<'a> NewtonRun<'a> {
                 let (c, mut k) = self.element_ck(li, fax);
                 if let Some(kg) = kg {
                     k += kg;
+                }
+                if let Some(mc) = ld.rigid_moment {
+                    k[(2, 2)] -= mc * self.a_ref(li, 0.0)[0];
                 }
                 let idx = [
                     prev.idx[0],
@@ -1421,7 +1524,7 @@ impl<'a> NewtonRun<'a> {
                 let b = self
                     .endpoint_jac(&jt.bearing)
                     .map(|(i, c, v)| (i, [-c[0], -c[1]], [-v[0], -v[1]]));
-                let all = [a[0], a[1], b[0], b[1]];
+                let all = [a[0], a[1], a[2], b[0], b[1], b[2]];
                 for (i, gi, _) in all {
                     if i == NONE {
                         continue;
@@ -1722,7 +1825,9 @@ impl<'a> NewtonRun<'a> {
         self.update_frames(0.0);
         for li in 0..self.links.len() {
             let l = &self.mech.links[li];
-            for nd in 0..l.nodes() {
+            // a rigid link's state is node 0's (node 1 follows it)
+            let nodes = if l.rigid.is_some() { 1 } else { l.nodes() };
+            for nd in 0..nodes {
                 let nt = self.nt(li, nd);
                 for (src, dst) in [(&l.initial_displacement, 0), (&l.initial_velocity, 1)] {
                     let Some(v) = src else { continue };
@@ -1855,7 +1960,23 @@ impl<'a> NewtonRun<'a> {
                     ];
                     let (mut te, mut ve, mut he) = (0.0, 0.0, 0.0);
                     let le = l.element_length();
-                    for k in 0..l.section.elements {
+                    if let Some(b) = l.rigid {
+                        // the rigid body: node 0 at P (velocity V, link axes), turning at
+                        // rate + theta-dot, centroid at R(theta) (c, 0) from node 0
+                        let w = &buf[0];
+                        let (p, th) = ([w[0][0], w[0][1]], w[0][2]);
+                        let vel = [v0[0] - f.rate * p[1] + w[1][0], v0[1] + f.rate * p[0] + w[1][1]];
+                        let om = f.rate + w[1][2];
+                        let rc = [b.centroid * th.cos(), b.centroid * th.sin()];
+                        let src = [-om * rc[1], om * rc[0]];
+                        let j0 = b.inertia + b.mass * b.centroid * b.centroid;
+                        let cross = |a: [f64; 2], c: [f64; 2]| a[0] * c[1] - a[1] * c[0];
+                        te += 0.5 * b.mass * (vel[0] * vel[0] + vel[1] * vel[1])
+                            + b.mass * (vel[0] * src[0] + vel[1] * src[1])
+                            + 0.5 * j0 * om * om;
+                        he += b.mass * (cross(p, vel) + cross(p, src) + cross(rc, vel)) + j0 * om;
+                    }
+                    for k in (0..l.section.elements).filter(|_| l.rigid.is_none()) {
                         let (q, qd) = (
                             element_vec(&buf[k], &buf[k + 1], 0),
                             element_vec(&buf[k], &buf[k + 1], 1),

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use super::section::{self, BeamSection};
 use crate::contact::ContactLaw;
 use crate::element::BeamElement;
-use crate::error::{check_finite, check_non_negative, Error, Result};
+use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
 use crate::kinematics::FrameKinematics;
 
 /// Which terms of the element equation (docs/method.md section 2) a link carries. `None` = chosen
@@ -50,6 +50,73 @@ pub struct Link {
     pub initial_displacement: Option<Vec<f64>>,
     /// Initial elastic velocity relative to the frame, `3 (N + 1)` values (m/s, rad/s).
     pub initial_velocity: Option<Vec<f64>>,
+    /// `Some`: the link is a rigid body ([`RigidBody`]), not a beam: it carries only its
+    /// rigid-body deviation from the nominal motion (node 0's translation and one rotation), has
+    /// one element (2 nodes) and of its section only the length counts.
+    pub rigid: Option<RigidBody>,
+}
+
+/// The inertia of a rigid link: a rigid body along the frame's x axis, node 0 at the frame
+/// origin, node 1 at `x = L`. Its unknowns are node 0's deviation `(u0, v0)` (shared with pins as
+/// for any node) and one rotation `theta`; node 1 follows linearly, `[u0, v0 + L theta, theta]`,
+/// as the beam elements' small deviations do. No stiffness, damping or geometric terms: only the
+/// inertia of the body (mass, Coriolis, inertia coupling, nominal-motion load, gravity), exact
+/// for the rigid body to first order in the deviation (docs in [`RigidBody::matrices`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigidBody {
+    /// Mass m, kg (> 0).
+    pub mass: f64,
+    /// Moment of inertia about the centroid, kg m^2 (>= 0).
+    pub inertia: f64,
+    /// Centroid position along the link from node 0, m (finite; L/2 for a uniform bar).
+    pub centroid: f64,
+}
+
+/// The rigid-body terms of a [`RigidBody`] in its three unknowns `(u0, v0, theta)` (link-frame
+/// components): see [`RigidBody::matrices`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigidMatrices {
+    /// Mass about node 0, `[[m, 0, 0], [0, m, m c], [0, m c, J0]]`, `J0 = I + m c^2`.
+    pub mass: [[f64; 3]; 3],
+    /// Skew (Coriolis) matrix `int N^T S N dm = [[0, -m, -m c], [m, 0, 0], [m c, 0, 0]]`.
+    pub skew: [[f64; 3]; 3],
+    /// The mass of the inertia coupling `-rate^2 mt`: the mass with its `theta theta` entry
+    /// zero (the centrifugal moment about node 0 of a rigid body turning about it vanishes).
+    pub coupling: [[f64; 3]; 3],
+    /// Load vectors `[bx, by, bxx, byx]`: the nominal-motion load is
+    /// `bx a_x + by a_y - bxx rate^2 + byx accel` (a: the frame origin's acceleration minus
+    /// gravity in link axes): `bx = [m, 0, 0]`, `by = [0, m, m c]`, `bxx = [m c, 0, 0]`,
+    /// `byx = [0, m c, J0]`.
+    pub loads: [[f64; 3]; 4],
+    /// `m c`, kg m: the rotation's stiffness from the nominal load, `K_thth = -m c a_x`.
+    pub first_moment: f64,
+}
+
+impl RigidBody {
+    /// The terms of the body's equation in its unknowns `q = (u0, v0, theta)` (link frame,
+    /// turning at `rate` with `accel`, origin acceleration minus gravity `a` in link axes):
+    ///
+    /// `M qdd + 2 rate G qd + (accel G - rate^2 mt - m c a_x e_th e_th^T) q
+    ///  = F - (bx a_x + by a_y - bxx rate^2 + byx accel)`,
+    ///
+    /// the Newton-Euler equations of the body (translation of node 0, moment about node 0)
+    /// linearized in the deviation: the moment of the nominal inertia forces about node 0 turns
+    /// with `theta` (`-m c a_x theta`), the centrifugal moment of the body about node 0 does
+    /// not (no `-rate^2 J0 theta`, which a linear displacement field would give).
+    pub fn matrices(&self) -> RigidMatrices {
+        let (m, c) = (self.mass, self.centroid);
+        let j0 = self.inertia + m * c * c;
+        let mass = [[m, 0.0, 0.0], [0.0, m, m * c], [0.0, m * c, j0]];
+        let mut coupling = mass;
+        coupling[2][2] = 0.0;
+        RigidMatrices {
+            mass,
+            skew: [[0.0, -m, -m * c], [m, 0.0, 0.0], [m * c, 0.0, 0.0]],
+            coupling,
+            loads: [[m, 0.0, 0.0], [0.0, m, m * c], [m * c, 0.0, 0.0], [0.0, m * c, j0]],
+            first_moment: m * c,
+        }
+    }
 }
 
 impl Link {
@@ -332,7 +399,22 @@ impl Mechanism {
         for (i, l) in self.links.iter().enumerate() {
             let prefix = format!("links[{i}].");
             let section = l.section;
-            section.validate(&prefix)?;
+            match l.rigid {
+                None => section.validate(&prefix)?,
+                Some(b) => {
+                    check_positive(&format!("{prefix}length"), section.length, "m")?;
+                    if section.elements != 1 {
+                        return Err(Error::param(
+                            format!("{prefix}elements"),
+                            section.elements,
+                            "1 for a rigid link (its two nodes are its ends)",
+                        ));
+                    }
+                    check_positive(&format!("{prefix}mass"), b.mass, "kg")?;
+                    check_non_negative(&format!("{prefix}inertia"), b.inertia, "kg m^2")?;
+                    check_finite(&format!("{prefix}centroid"), b.centroid, "m")?;
+                }
+            }
             l.frame.check(&format!("{prefix}frame"), t_end)?;
             section.validate_initial_state(
                 &prefix,

@@ -15,7 +15,17 @@
 //! after the journal node's, for a narrow band, and a slider attached to nothing keeps none (it
 //! moves along its nominal path).
 //!
+//! A rigid link ([`Link::rigid`](crate::model::mechanism::Link::rigid)) has node 0's unknowns
+//! only: its node 1 takes node 0's translation and rotation ([`NodeMap::lever`] = its length: the
+//! local state `[u0, v0 + L theta, theta]`). Its node 1 pinned or supported closes a loop: allowed
+//! when node 0 is held (on ground, possibly through other such links), and then the link has no
+//! rotation unknown, node 1 joins ground, and a slider pinned to it keeps no unknown (it moves on
+//! its nominal path); a mechanism with a rigid link may so have no unknown at all (it follows its
+//! nominal motion).
+//!
 //! Refused as [`Error::InvalidModel`] (messages as below, names quoted):
+//! - node 1 of a rigid link pinned or supported while its node 0 is free: `node 1 of rigid link
+//!   "r" is pinned or supported while its node 0 is free to move: not supported (...)`;
 //! - a slider pinned, through its links, to ground or a rigid body: `slider "s" is pinned, through
 //!   its links, to ground or a rigid body: over-constrained`;
 //! - two sliders pinned to one point: `sliders "a" and "b" are pinned to the same point:
@@ -24,7 +34,8 @@
 //!   slider "s": over-constrained`;
 //! - a pinned node with a one-direction support: `node 3 of link "l" has a one-direction support
 //!   and is pinned to another link: not supported (over-constrained in general)`;
-//! - nothing left to solve for: `the mechanism has no free elastic degree of freedom`.
+//! - nothing left to solve for (and no rigid link): `the mechanism has no free elastic degree of
+//!   freedom`.
 
 use crate::error::{Error, Result};
 use crate::model::mechanism::{Endpoint, Mechanism};
@@ -58,6 +69,10 @@ pub struct NodeMap {
     pub trans: Trans,
     /// The rotation unknown, or [`NONE`].
     pub rot: usize,
+    /// Node 1 of a rigid link: its distance from node 0 along the link, m (its local state is
+    /// node 0's translation and rotation, `[u0, v0 + lever theta, theta]`); 0 for every other
+    /// node.
+    pub lever: f64,
 }
 
 /// The numbering of a mechanism's unknowns ([`number`]).
@@ -104,7 +119,7 @@ pub fn link_terms(mech: &Mechanism, nodes: &[Vec<NodeMap>]) -> Vec<LinkTerms> {
             LinkTerms {
                 coriolis: t.coriolis.unwrap_or(rotates),
                 coupling: t.inertia_coupling.unwrap_or(rotates),
-                geometric: t.geometric.unwrap_or(rotates || axially_loaded),
+                geometric: l.rigid.is_none() && t.geometric.unwrap_or(rotates || axially_loaded),
                 load: t.inertia_load.unwrap_or(moves || gravity),
                 transformed: nodes
                     .iter()
@@ -146,11 +161,37 @@ pub fn bandwidth(mech: &Mechanism, nodes: &[Vec<NodeMap>], slider_dof: &[usize])
             Endpoint::Slider(s) => [slider_dof[*s], NONE, NONE],
         }
     };
+    // a clearance joint couples its sides' translations, and the rotation of a rigid link's
+    // node 1 (its translation turns with it)
+    let lever_rot = |e: &Endpoint| match e {
+        Endpoint::Node { link, node } if nodes[*link][*node].lever != 0.0 => nodes[*link][*node].rot,
+        _ => NONE,
+    };
     for j in &mech.joints {
         let (a, c) = (ep_slots(&j.journal), ep_slots(&j.bearing));
-        couple(&[a[0], a[1], c[0], c[1]]);
+        couple(&[a[0], a[1], lever_rot(&j.journal), c[0], c[1], lever_rot(&j.bearing)]);
     }
     b
+}
+
+/// A slider reached only through a clearance joint at node `nd` of link `li` gets its unknown
+/// next to the journal's, for a narrow band (unless a rigid loop holds it).
+fn number_joint_sliders(
+    mech: &Mechanism,
+    li: usize,
+    nd: usize,
+    held: &[bool],
+    slider_dof: &mut [usize],
+    next: &mut usize,
+) {
+    for j in &mech.joints {
+        if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
+            if *link == li && *node == nd && slider_dof[*s] == NONE && !held[*s] {
+                slider_dof[*s] = *next;
+                *next += 1;
+            }
+        }
+    }
 }
 
 struct DofBuilder {
@@ -211,6 +252,53 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
             rollers[i][k] |= s.fixed[k];
         }
     }
+    // A slider pinned, through its links, to ground: over-constrained (before the rigid links
+    // close any loop).
+    for s in 0..mech.sliders.len() {
+        if uf.find(total_nodes + s) == uf.find(ground) {
+            return Err(Error::InvalidModel {
+                message: format!(
+                    "slider {:?} is pinned, through its links, to ground or a rigid body: over-constrained",
+                    mech.sliders[s].name
+                ),
+            });
+        }
+    }
+    // Rigid links: node 1 follows node 0 and the link's rotation. Node 1 pinned or supported
+    // closes a loop: allowed when node 0 is held (on ground, possibly through other such
+    // links), and then the whole link is held (no rotation unknown) and node 1 joins ground
+    // with whatever is pinned to it (the slider-crank of rigid bodies with ideal joints).
+    let attached = |li: usize, nd: usize| {
+        let on = |e: &Endpoint| matches!(e, Endpoint::Node { link, node } if *link == li && *node == nd);
+        mech.pins.iter().any(|p| on(&p.a) || on(&p.b))
+            || mech
+                .supports
+                .iter()
+                .any(|s| s.link == li && s.node == nd && s.fixed.iter().any(|&f| f))
+    };
+    let mut held = vec![false; mech.links.len()];
+    loop {
+        let mut changed = false;
+        for (li, l) in mech.links.iter().enumerate() {
+            if l.rigid.is_some() && !held[li] && attached(li, 1) && uf.find(offs[li]) == uf.find(ground) {
+                uf.union(offs[li] + 1, ground);
+                held[li] = true;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    if let Some(l) = (mech.links.iter().enumerate()).find(|(li, l)| l.rigid.is_some() && !held[*li] && attached(*li, 1))
+    {
+        return Err(Error::InvalidModel {
+            message: format!(
+                "node 1 of rigid link {:?} is pinned or supported while its node 0 is free to move: not supported (a rigid link is held by its node 0; attach its node 1 by a clearance joint, or hold node 0)",
+                l.1.name
+            ),
+        });
+    }
     // Classify groups.
     let root_ground = uf.find(ground);
     let mut group_slider: Vec<Option<usize>> = vec![None; ground + 1];
@@ -219,15 +307,13 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
         let r = uf.find(i);
         group_size[r] += 1;
     }
+    // a slider on a node that a held rigid link holds keeps no unknown (it moves on its path)
+    let mut held_slider = vec![false; mech.sliders.len()];
     for s in 0..mech.sliders.len() {
         let r = uf.find(total_nodes + s);
         if r == root_ground {
-            return Err(Error::InvalidModel {
-                message: format!(
-                    "slider {:?} is pinned, through its links, to ground or a rigid body: over-constrained",
-                    mech.sliders[s].name
-                ),
-            });
+            held_slider[s] = true;
+            continue;
         }
         if let Some(o) = group_slider[r] {
             return Err(Error::InvalidModel {
@@ -245,9 +331,20 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
     let mut slider_dof = vec![NONE; mech.sliders.len()];
     let mut links = Vec::with_capacity(mech.links.len());
     for (li, l) in mech.links.iter().enumerate() {
-        let mut nodes = Vec::with_capacity(l.nodes());
+        let mut nodes: Vec<NodeMap> = Vec::with_capacity(l.nodes());
         for nd in 0..l.nodes() {
             let i = offs[li] + nd;
+            if nd == 1 && l.rigid.is_some() {
+                // node 1 of a rigid link: node 0's unknowns, its translation turned by theta
+                let n0 = nodes[0];
+                nodes.push(NodeMap {
+                    trans: if held[li] { Trans::Fixed } else { n0.trans },
+                    rot: n0.rot,
+                    lever: l.section.length,
+                });
+                number_joint_sliders(mech, li, nd, &held_slider, &mut slider_dof, &mut next);
+                continue;
+            }
             let r = uf.find(i);
             let partial = (rollers[i][0] || rollers[i][1]) && !(rollers[i][0] && rollers[i][1]);
             let trans = if r == root_ground {
@@ -293,29 +390,22 @@ pub fn number(mech: &Mechanism) -> Result<DofMap> {
                 }
                 Trans::Local(ix)
             };
-            let rot = if rollers[i][2] {
+            let rot = if rollers[i][2] || held[li] {
                 NONE
             } else {
                 next += 1;
                 next - 1
             };
-            nodes.push(NodeMap { trans, rot });
-            // A slider reached only through a clearance joint gets its unknown next to the
-            // journal, for a narrow band.
-            for j in &mech.joints {
-                if let (Endpoint::Node { link, node }, Endpoint::Slider(s)) = (&j.journal, &j.bearing) {
-                    if *link == li && *node == nd && slider_dof[*s] == NONE {
-                        slider_dof[*s] = next;
-                        next += 1;
-                    }
-                }
-            }
+            nodes.push(NodeMap { trans, rot, lever: 0.0 });
+            number_joint_sliders(mech, li, nd, &held_slider, &mut slider_dof, &mut next);
         }
         links.push(nodes);
     }
     // A slider attached to nothing keeps no unknown: it moves along its nominal path.
     let n = next;
-    if n == 0 {
+    // a mechanism of rigid bodies with ideal joints may have nothing to solve for: it follows
+    // its nominal motion
+    if n == 0 && !mech.links.iter().any(|l| l.rigid.is_some()) {
         return Err(Error::InvalidModel {
             message: "the mechanism has no free elastic degree of freedom".into(),
         });
@@ -370,6 +460,7 @@ mod tests {
             rotary_inertia: false,
             initial_displacement: None,
             initial_velocity: None,
+            rigid: None,
         }
     }
 
@@ -423,6 +514,7 @@ mod tests {
         NodeMap {
             trans: Trans::Local(ix),
             rot,
+            lever: 0.0,
         }
     }
 
@@ -430,6 +522,7 @@ mod tests {
         NodeMap {
             trans: Trans::Global(ix),
             rot,
+            lever: 0.0,
         }
     }
 
@@ -437,6 +530,7 @@ mod tests {
         NodeMap {
             trans: Trans::Fixed,
             rot,
+            lever: 0.0,
         }
     }
 
@@ -505,6 +599,7 @@ mod tests {
         let on_slider = NodeMap {
             trans: Trans::Slider { s: 7, slider: 1 },
             rot: 8,
+            lever: 0.0,
         };
         assert_eq!(
             map.nodes,
@@ -584,6 +679,57 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(message(&m), "the mechanism has no free elastic degree of freedom");
+    }
+
+    /// A rigid link's node 1 takes node 0's unknowns with the link's length as lever: pinned at
+    /// node 0 to a flexible link (a shared global pair), its node 1 has that pair and node 0's
+    /// rotation. The Flores slider-crank with an ideal piston pin (rigid rod held at node 0 by the
+    /// crank, node 1 pinned to the slider) has no unknown at all; with a clearance joint there,
+    /// the rod's rotation and the slider's travel.
+    #[test]
+    fn a_rigid_links_node_1_follows_node_0() {
+        let mut bar = link("bar", 1);
+        bar.rigid = Some(crate::model::mechanism::RigidBody {
+            mass: 1.0,
+            inertia: 0.01,
+            centroid: 0.05,
+        });
+        let mech = Mechanism {
+            links: vec![link("arm", 2), bar],
+            supports: vec![clamp(0, 0)],
+            pins: vec![pin("P", node(0, 2), node(1, 0))],
+            ..Default::default()
+        };
+        let map = number(&mech).unwrap();
+        assert_eq!(map.nodes[1][0], global([3, 4], 6));
+        assert_eq!(
+            map.nodes[1][1],
+            NodeMap {
+                trans: Trans::Global([3, 4]),
+                rot: 6,
+                lever: 0.1
+            }
+        );
+        assert_eq!(map.n, 7);
+        let ideal = crate::scenes::FloresSliderCrank {
+            clearance: None,
+            ..Default::default()
+        };
+        let map = number(&ideal.build().unwrap()).unwrap();
+        assert_eq!(map.n, 0);
+        assert_eq!(map.slider_dof, vec![NONE]);
+        assert_eq!(map.nodes[0][1].trans, Trans::Fixed);
+        let map = number(&crate::scenes::FloresSliderCrank::default().build().unwrap()).unwrap();
+        assert_eq!(map.n, 2);
+        assert_eq!(
+            map.nodes[0][1],
+            NodeMap {
+                trans: Trans::Fixed,
+                rot: 0,
+                lever: 0.12
+            }
+        );
+        assert_eq!(map.slider_dof, vec![1]);
     }
 
     /// The plan keeps the numbering for the Newton and constant-rate kinds, not for the constant

@@ -244,6 +244,12 @@ impl Mechanism {
     /// in words, that the constant stepper cannot take the mechanism ([`crate::plan::Plan`]
     /// reports it as the reason for the Newton stepper).
     pub fn to_translating(&self) -> std::result::Result<Model, String> {
+        if let Some(l) = self.links.iter().find(|l| l.rigid.is_some()) {
+            return Err(format!(
+                "link {:?} is rigid (the constant stepper has flexible links only)",
+                l.name
+            ));
+        }
         let parts = [
             (self.pins.len(), "a pin"),
             (self.sliders.len(), "a slider"),

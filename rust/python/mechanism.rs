@@ -153,9 +153,65 @@ impl PyMechanism {
             rotary_inertia,
             initial_displacement: vec_opt(initial_displacement)?,
             initial_velocity: vec_opt(initial_velocity)?,
+            rigid: None,
         };
         link.section.validate(&format!("links[{i}].")).map_err(|e| err(py, e))?;
         self.inner.links.push(link);
+        Ok(i)
+    }
+
+    /// Adds a rigid link (two nodes, node 0 at the frame origin, node 1 at `x = length`) of mass
+    /// `mass` (kg), centroidal moment of inertia `inertia` (kg m^2) and centroid at `centroid` (m
+    /// along the link); returns its index.
+    #[allow(clippy::too_many_arguments)]
+    fn add_rigid_link(
+        &mut self,
+        py: Python<'_>,
+        name: String,
+        length: f64,
+        mass: f64,
+        inertia: f64,
+        centroid: f64,
+        frame: PyRef<'_, PyFrame>,
+    ) -> PyResult<usize> {
+        let i = self.inner.links.len();
+        if self.inner.links.iter().any(|l| l.name == name) {
+            return Err(err(
+                py,
+                Error::InvalidModel {
+                    message: format!("two links are named {name:?}"),
+                },
+            ));
+        }
+        let check = || -> crate::error::Result<()> {
+            crate::error::check_positive(&format!("links[{i}].length"), length, "m")?;
+            crate::error::check_positive(&format!("links[{i}].mass"), mass, "kg")?;
+            crate::error::check_non_negative(&format!("links[{i}].inertia"), inertia, "kg m^2")?;
+            crate::error::check_finite(&format!("links[{i}].centroid"), centroid, "m")
+        };
+        check().map_err(|e| err(py, e))?;
+        self.inner.links.push(Link {
+            name,
+            section: BeamSection {
+                length,
+                elements: 1,
+                youngs_modulus: 1.0,
+                density: 1.0,
+                damping: 0.0,
+                area: 1.0,
+                inertia: 1.0,
+            },
+            frame: frame.inner.clone(),
+            terms: Terms::default(),
+            rotary_inertia: false,
+            initial_displacement: None,
+            initial_velocity: None,
+            rigid: Some(crate::model::mechanism::RigidBody {
+                mass,
+                inertia,
+                centroid,
+            }),
+        });
         Ok(i)
     }
 

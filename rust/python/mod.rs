@@ -99,6 +99,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<output::PySliderHistory>()?;
     m.add_function(wrap_pyfunction!(scenes::slider_yoke, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::slider_crank, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::flores_slider_crank, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::four_bar, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::spin_up, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::spin_up_data, m)?)?;

@@ -17,8 +17,8 @@ use crate::contact::DampingLaw;
 use crate::error::{check_non_negative, Error};
 use crate::model::check_elements;
 use crate::scenes::{
-    BearingDerived, FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin, SliderYoke, SliderYokeGeometry,
-    SpinUp, SpinUpData,
+    BearingDerived, FlexibleFourBar, FlexibleSliderCrank, FloresSliderCrank, FourBarPin, SliderCrankPin, SliderYoke,
+    SliderYokeGeometry, SpinUp, SpinUpData,
 };
 
 /// The keyword arguments of one scene call.
@@ -507,4 +507,53 @@ pub(super) fn slider_yoke<'py>(
     info.set_item("bearing_stiffness", d.bearing_stiffness)?;
     info.set_item("bearing_damping", d.bearing_damping)?;
     Ok((PyMechanism { inner }, info))
+}
+
+/// Builds the Flores slider-crank for `flexclear.scenes.flores_slider_crank`: `clearance` (m, or
+/// None for an ideal piston pin), `law` (a `flexclear.contact` law's core, or None for the
+/// default Lankarani-Nikravesh), `crank_speed` (rad/s), `flexible_rod`, `rod_elements`. Returns
+/// the mechanism and the derived values as a dict: `pin_stiffness` (N/m^1.5, with a clearance),
+/// `rod_area` (m^2), `rod_inertia_of_area` (m^4), `rod_density` (kg/m^3).
+#[pyfunction]
+#[pyo3(signature = (clearance, law, crank_speed, flexible_rod, rod_elements))]
+pub(super) fn flores_slider_crank<'py>(
+    py: Python<'py>,
+    clearance: Option<f64>,
+    law: Option<PyRef<'_, super::contact::PyNormalLaw>>,
+    crank_speed: f64,
+    flexible_rod: bool,
+    rod_elements: i64,
+) -> PyResult<(PyMechanism, Bound<'py, PyDict>)> {
+    let rod_elements = check_elements("rod_elements", rod_elements).map_err(|e| err(py, e))?;
+    let law = match law {
+        None => None,
+        Some(l) => Some(super::contact::joint_law(
+            py,
+            "law",
+            Some(l),
+            0.0,
+            0.0,
+            "viscous",
+            false,
+        )?),
+    };
+    let scene = FloresSliderCrank {
+        clearance,
+        law,
+        crank_speed,
+        flexible_rod,
+        rod_elements,
+        ..Default::default()
+    };
+    let inner = scene.build().map_err(|e| err(py, e))?;
+    let area = inner.links[0].section.area;
+    let mut values = vec![
+        ("rod_area", area),
+        ("rod_inertia_of_area", inner.links[0].section.inertia),
+        ("rod_density", crate::scenes::flores::ROD_DENSITY),
+    ];
+    if let Some(k) = scene.pin_stiffness() {
+        values.push(("pin_stiffness", k));
+    }
+    Ok((PyMechanism { inner }, derived_dict(py, &values, None)?))
 }

@@ -365,6 +365,7 @@ impl FlexibleFourBar {
                 rotary_inertia: false,
                 initial_displacement: None,
                 initial_velocity: None,
+                rigid: None,
             };
             l.section.validate(&format!("links[{}].", m.links.len()))?;
             m.links.push(l);

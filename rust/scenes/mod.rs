@@ -1,11 +1,13 @@
 //! The test mechanisms flexclear ships (`docs/scenes.md`), every one built here as the one user
 //! model, a [`Mechanism`], so that Rust tests, benches and the Python API (`flexclear.scenes`,
 //! thin wrappers over these) share one definition: the slider-yoke, the flexible slider-crank,
-//! the four-bar, the spin-up and the spinning beam in a bearing.
+//! the four-bar, the spin-up, the spinning beam in a bearing and the Flores slider-crank (rigid
+//! links, a clearance joint at the piston pin).
 //!
 //! [`Mechanism`]: crate::model::mechanism::Mechanism
 
 pub mod bearing;
+pub mod flores;
 pub mod four_bar;
 pub mod slider_crank;
 pub mod slider_yoke;
@@ -13,6 +15,7 @@ pub mod spin_up;
 pub mod spinning_beam;
 
 pub use bearing::{hertz_secant, BearingDerived};
+pub use flores::{hertz_pin_stiffness, FloresSliderCrank};
 pub use four_bar::{FlexibleFourBar, FourBarPin};
 pub use slider_crank::{FlexibleSliderCrank, SliderCrankPin};
 pub use slider_yoke::{SliderYoke, SliderYokeGeometry};

@@ -283,6 +283,7 @@ impl FlexibleSliderCrank {
                 rotary_inertia: false,
                 initial_displacement: None,
                 initial_velocity: None,
+                rigid: None,
             }],
             sliders: vec![Slider {
                 name: "slider".into(),

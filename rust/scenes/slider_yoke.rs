@@ -216,6 +216,7 @@ impl SliderYoke {
             rotary_inertia: self.rotary_inertia,
             initial_displacement: None,
             initial_velocity: Some(v0),
+            rigid: None,
         };
         slider.section.validate("links[0].")?;
         motion.validate("links[0].motion")?;

@@ -195,6 +195,7 @@ impl SpinUp {
             rotary_inertia: false,
             initial_displacement: None,
             initial_velocity: None,
+            rigid: None,
         };
         link.section.validate("links[0].")?;
         Ok(Mechanism {

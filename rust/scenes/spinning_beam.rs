@@ -54,6 +54,7 @@ pub fn spinning_beam_in_a_bearing() -> Mechanism {
             rotary_inertia: false,
             initial_displacement: None,
             initial_velocity: Some(v0),
+            rigid: None,
         }],
         supports: vec![Support {
             link: 0,
