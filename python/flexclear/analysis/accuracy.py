@@ -75,6 +75,16 @@ COUPLINGS = (
     ("modified, iterated", {"method": "modified", "iterate": True}),
     ("modified, iterated, events", {"method": "modified", "iterate": True, "events": True}),
     ("gap", {"method": "gap"}),
+    (
+        "modified, iterated, events, alpha 0.8",
+        {
+            "method": "modified",
+            "iterate": True,
+            "events": True,
+            "integrator": "generalized-alpha",
+            "rho_inf": 0.8,
+        },
+    ),
 )
 #: The slider-yoke reference method: iterated kappa with event-aware stepping.
 EVENTS = COUPLINGS[3]
@@ -87,6 +97,7 @@ KED_COUPLINGS = (
     ("implicit, events", {"events": True}),
     ("lagged kappa", {"iterate": False}),
     ("force", {"method": "force"}),
+    ("implicit, alpha 0.8", {"integrator": "generalized-alpha", "rho_inf": 0.8}),
 )
 CRANK_METRICS = METRICS + ("midspan_peak", "midspan_rms")
 
