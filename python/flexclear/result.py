@@ -175,6 +175,16 @@ class JointResult:
         an episode still closed at the end the elastic energy still stored, estimated as
         ``F_n delta / 2`` (exact for a linear spring), is left out. Needs
         ``Record(contact_modes=True)``.
+    friction_energy : float
+        Energy dissipated by friction in the joint, J: ``-integral F_t v dt`` (friction force
+        times slip speed, on the step's trapezoidal rule, from ``Record.start``; event cuts
+        included), the work the friction force and moments did on both sides; 0 for a joint
+        without friction. Needs ``Record(contact_modes=True)``.
+    friction, slip : ndarray
+        Friction force ``F_t`` on the journal along the tangent ``t`` (N; ``t`` is the normal
+        from the bearing centre to the journal centre turned by +90 degrees) and slip speed
+        ``v = (v_J - v_B) . t + R_J w_J - R_B w_B`` (m/s) at the recorded times; empty for a
+        joint without friction (histories as ``penetration``).
     impact_log : ImpactLog or None
         Every contact episode (when ``Record(impact_log=True)``).
     """
@@ -197,7 +207,10 @@ class JointResult:
     impact_fraction: Any = float("nan")
     continuous_fraction: Any = float("nan")
     dissipated_energy: Any = float("nan")
+    friction_energy: Any = float("nan")
     impact_log: Optional[ImpactLog] = None
+    friction: Any = None
+    slip: Any = None
 
     def __getattribute__(self, name: str) -> Any:
         value = object.__getattribute__(self, name)
@@ -334,7 +347,13 @@ class SliderResult:
 _EMPTY = np.empty(0)
 #: The joint outputs of ``Record(contact_modes=True)``.
 _IMPACT_FIELDS = ("time", "speed", "peak_force", "peak_penetration", "duration")
-_MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
+_MODE_OUTPUTS = (
+    "free_flight_fraction",
+    "impact_fraction",
+    "continuous_fraction",
+    "dissipated_energy",
+    "friction_energy",
+)
 
 
 def _unknown(kind: str, name: Any, names: list) -> ModelError:
@@ -443,9 +462,9 @@ class Result:
                 f"the histories of joint {name!r} were not recorded: {why}; run with "
                 "Record(histories=True) (every=k to thin them) to read penetration, force, qx, qy"
             )
-            channels = dict(penetration=gone, force=gone, qx=gone, qy=gone)
+            channels = dict(penetration=gone, force=gone, qx=gone, qy=gone, friction=gone, slip=gone)
         else:
-            channels = {k: getattr(hist, k) for k in ("penetration", "force", "qx", "qy")}
+            channels = {k: getattr(hist, k) for k in ("penetration", "force", "qx", "qy", "friction", "slip")}
             if rec is not None and not rec.position:
                 for k in ("qx", "qy"):
                     channels[k] = _NotRecorded(

@@ -56,6 +56,7 @@ use nalgebra::Matrix6;
 
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
+use crate::contact::friction::FrictionEval;
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
@@ -359,6 +360,35 @@ pub struct NewtonRun<'a> {
     /// The step being taken refactorizes the whole Jacobian (a Newton step redone after it did
     /// not converge on the contact-free factor).
     direct: bool,
+    /// Some clearance joint has friction (evaluated at every iterate, its tangent in the
+    /// refactorized Jacobian: see [`JointFrictionState`]).
+    friction: bool,
+    /// Per joint: the friction at the current iterate (default for a joint without friction).
+    fric: Vec<JointFrictionState>,
+    /// Per joint: LuGre's bristle state at the last accepted state, m (0 for Coulomb).
+    fric_z: Vec<f64>,
+    /// Per joint: the friction work balance from [`RecordSpec::start`] on.
+    fric_track: Vec<FrictionTrack>,
+}
+
+/// The friction of one clearance joint at the current iterate ([`NewtonRun::joint_friction`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct JointFrictionState {
+    /// The law's force (N, on the journal along `t`), `dF/dv` and end-of-step state.
+    eval: FrictionEval,
+    /// Slip speed `v = (v_J - v_B) . t + R_J w_J - R_B w_B`, m/s.
+    slip: f64,
+    /// Tangent `t = S n` (n from the bearing centre to the journal centre).
+    t: [f64; 2],
+    /// The damping `-dF/dv` (N s/m, floored at 0) that enters the Jacobian.
+    kf: f64,
+}
+
+/// The energy friction dissipated in one joint (J) and the last tracked `(t, F_t, v)`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct FrictionTrack {
+    work: f64,
+    last: Option<(f64, f64, f64)>,
 }
 
 /// Scratch of event-aware stepping: the start-of-step state and penetrations.
@@ -375,6 +405,9 @@ struct EventScratch {
     was: Vec<bool>,
     extremes: Vec<(f64, f64, u64)>,
     rec: Option<Recorder>,
+    /// LuGre states and friction work at the step's start.
+    fric_z: Vec<f64>,
+    fric_track: Vec<FrictionTrack>,
 }
 
 impl<'a> NewtonRun<'a> {
@@ -556,8 +589,13 @@ impl<'a> NewtonRun<'a> {
             limit,
             rate: None,
             direct: false,
+            friction: mech.joints.iter().any(|j| j.friction.is_some()),
+            fric: vec![JointFrictionState::default(); nj],
+            fric_z: vec![0.0; nj],
+            fric_track: vec![FrictionTrack::default(); nj],
         };
         if run.settings.solver == SolverMode::Woodbury
+            && !run.friction
             && !run.mech.joints.is_empty()
             && !matches!(run.settings.coupling, Coupling::Force)
         {
@@ -628,6 +666,12 @@ impl<'a> NewtonRun<'a> {
         }
         if self.settings.solver == SolverMode::Refactor {
             return Some("the run asks for solver=\"refactor\"".into());
+        }
+        if let Some(j) = self.mech.joints.iter().find(|j| j.friction.is_some()) {
+            return Some(format!(
+                "clearance joint {:?} has friction, whose tangent couples the rotations and is unsymmetric",
+                j.name
+            ));
         }
         let turn = |e: &Endpoint| self.endpoint_turn(e).map(|(_, l)| l.map_or(0.0, |l| rate[l]));
         for j in &self.mech.joints {
@@ -1100,7 +1144,144 @@ impl<'a> NewtonRun<'a> {
             let f = self.contact[j].force(q, qd);
             self.apply_joint_force(j, [-f[0], -f[1]], &mut r);
         }
+        if self.friction {
+            self.apply_friction(_h, &mut r);
+        }
         self.r = r;
+    }
+
+    /// The total angular velocity of an endpoint (rad/s: frame rate plus elastic rotation rate)
+    /// and its rotation unknown (`NONE` for a rigid-body point, a slider, or a node whose
+    /// rotation is held).
+    fn endpoint_spin(&self, e: &Endpoint) -> (f64, usize) {
+        match e {
+            Endpoint::Node { link, node } => {
+                let rot = self.links[*link].nodes[*node].rot;
+                let w = if rot == NONE { 0.0 } else { self.yd[rot] };
+                (self.frames[*link].rate + w, rot)
+            }
+            Endpoint::Body { frame, .. } => (frame.frame(self.t_frames).rate, NONE),
+            Endpoint::Slider(_) => (0.0, NONE),
+        }
+    }
+
+    /// The friction of joint `j` at the current iterate, over a step of `h` (s) from the last
+    /// accepted bristle state (docs/contact.md, "Friction in the joint"): the normal force is
+    /// that of the contact terms acting in the step (`self.contact`, as the residual applies
+    /// it), the slip speed `v = (v_J - v_B) . t + R_J w_J - R_B w_B` with `t = S n`. An open
+    /// joint (no compressive normal force) carries no friction and its bristle state is reset.
+    /// `None` for a joint without friction.
+    fn joint_friction(&self, j: usize, h: f64) -> Option<JointFrictionState> {
+        let jt = &self.mech.joints[j];
+        let fr = jt.friction.as_ref()?;
+        let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+        let r = q[0].hypot(q[1]);
+        let f = self.contact[j].force(q, qd);
+        if r == 0.0 {
+            return Some(JointFrictionState::default());
+        }
+        let n = [q[0] / r, q[1] / r];
+        let t = [-n[1], n[0]];
+        let f_n = -(f[0] * n[0] + f[1] * n[1]);
+        let (wj, _) = self.endpoint_spin(&jt.journal);
+        let (wb, _) = self.endpoint_spin(&jt.bearing);
+        let rj = fr.journal_radius;
+        let slip = qd[0] * t[0] + qd[1] * t[1] + rj * wj - (rj + jt.clearance) * wb;
+        if f_n <= 0.0 {
+            return Some(JointFrictionState {
+                slip,
+                t,
+                ..Default::default()
+            });
+        }
+        let eval = fr.law.evaluate(self.fric_z[j], slip, f_n, h);
+        Some(JointFrictionState {
+            eval,
+            slip,
+            t,
+            kf: (-eval.dforce_dv).max(0.0),
+        })
+    }
+
+    /// Evaluates every joint's friction at the current iterate (step `h`, s) into `self.fric`.
+    fn evaluate_friction(&mut self, h: f64) {
+        for j in 0..self.mech.joints.len() {
+            if let Some(s) = self.joint_friction(j, h) {
+                self.fric[j] = s;
+            }
+        }
+    }
+
+    /// Adds the friction of every joint at the current iterate to the residual `r` (moved to
+    /// the left: minus): the force `F_t t` on the journal and `-F_t t` on the bearing, the
+    /// moment `F_t R_J` on the journal's rotation and `-F_t R_B` on the bearing's.
+    fn apply_friction(&mut self, h: f64, r: &mut [f64]) {
+        self.evaluate_friction(h);
+        for j in 0..self.mech.joints.len() {
+            let jt = &self.mech.joints[j];
+            let Some(fr) = jt.friction.as_ref() else {
+                continue;
+            };
+            let s = self.fric[j];
+            let ft = s.eval.force;
+            if ft == 0.0 {
+                continue;
+            }
+            self.apply_joint_force(j, [-ft * s.t[0], -ft * s.t[1]], r);
+            let rj = fr.journal_radius;
+            let (_, ij) = self.endpoint_spin(&jt.journal);
+            let (_, ib) = self.endpoint_spin(&jt.bearing);
+            if ij != NONE {
+                r[ij] -= ft * rj;
+            }
+            if ib != NONE {
+                r[ib] += ft * (rj + jt.clearance);
+            }
+        }
+    }
+
+    /// Adds the friction tangent to the Jacobian: with `g` the derivative of the slip speed with
+    /// respect to the velocities (`t` on the journal's translations, `-t` on the bearing's,
+    /// `R_J` and `-R_B` on the rotations) and `kf = -dF/dv >= 0`, the term
+    /// `kf g (gh g + bh2 g_v)^T` (`g_v`: the frame-rotation part of the velocity). Symmetric
+    /// in `g`; the dependence of `F_t` on the normal force and of `t` on the position (the
+    /// unsymmetric part) stay out (a modified Newton on them).
+    fn assemble_friction(&self, bh2: f64, gh: f64, lu: &mut BandLu) {
+        for j in 0..self.mech.joints.len() {
+            let jt = &self.mech.joints[j];
+            let Some(fr) = jt.friction.as_ref() else {
+                continue;
+            };
+            let s = self.fric[j];
+            if s.kf == 0.0 {
+                continue;
+            }
+            let mut g = [(NONE, 0.0, 0.0); 6];
+            let dot = |a: [f64; 2]| a[0] * s.t[0] + a[1] * s.t[1];
+            for (k, (i, col, v)) in self.endpoint_jac(&jt.journal).into_iter().enumerate() {
+                g[k] = (i, dot(col), dot(v));
+            }
+            for (k, (i, col, v)) in self.endpoint_jac(&jt.bearing).into_iter().enumerate() {
+                g[2 + k] = (i, -dot(col), -dot(v));
+            }
+            let rj = fr.journal_radius;
+            g[4] = (self.endpoint_spin(&jt.journal).1, rj, 0.0);
+            g[5] = (self.endpoint_spin(&jt.bearing).1, -(rj + jt.clearance), 0.0);
+            for (i, gi, _) in g {
+                if i == NONE || gi == 0.0 {
+                    continue;
+                }
+                for (jj, gj, vj) in g {
+                    if jj == NONE {
+                        continue;
+                    }
+                    let v = s.kf * gi * (gh * gj + bh2 * vj);
+                    if v != 0.0 {
+                        lu.add(i, jj, v);
+                    }
+                }
+            }
+        }
     }
 
     /// Global elastic displacement and velocity of an endpoint, and the columns of `d q/d y`
@@ -1216,6 +1397,9 @@ impl<'a> NewtonRun<'a> {
                     c.k[0][0], c.k[0][1], c.k[1][0], c.k[1][1], c.c[0][0], c.c[0][1], c.c[1][0], c.c[1][1],
                 ]);
             }
+        }
+        if self.friction {
+            s.extend(self.fric.iter().map(|f| f.kf));
         }
         let changed = (geometric && self.nonlinear_geometric) || s != self.signature;
         self.sig_new = s;
@@ -1422,6 +1606,9 @@ impl<'a> NewtonRun<'a> {
                 }
             }
         }
+        if contacts && tangent && self.friction {
+            self.assemble_friction(bh2, gh, lu);
+        }
     }
 
     /// The law of joint `j` at `(q, qd)`, within its contact episode when the law needs the
@@ -1497,7 +1684,10 @@ impl<'a> NewtonRun<'a> {
             self.ydd[i] = a0;
         }
         let iterate_contact = self.implicit_contact;
-        let linear = !self.nonlinear_geometric && !iterate_contact;
+        // friction is evaluated at every iterate (its force in the residual, its slip-speed
+        // tangent in the refactorized Jacobian)
+        let iterate_friction = self.friction;
+        let linear = !self.nonlinear_geometric && !iterate_contact && !iterate_friction;
         // the contact terms on the contact-free factor by Woodbury (the constant-rate stepper at
         // its step; the Newton stepper with the Woodbury solver when the joints allow it)
         let rate_step = !self.direct
@@ -1520,13 +1710,16 @@ impl<'a> NewtonRun<'a> {
                 // Implicit contact: the force and its tangent at the current iterate.
                 self.evaluate_contacts(false);
             }
+            if iterate_friction {
+                self.evaluate_friction(h);
+            }
             let prepared = if rate_step {
                 let res = if iters == 1 { self.rate_prepare(h) } else { Ok(()) };
                 if iters == 1 || iterate_contact {
                     self.rate_blocks(bh2, gh);
                 }
                 res
-            } else if (iters == 1 || iterate_contact) && self.jacobian_changed(h, iters == 1) {
+            } else if (iters == 1 || iterate_contact || iterate_friction) && self.jacobian_changed(h, iters == 1) {
                 self.factorize(h)
             } else {
                 Ok(())
@@ -1614,6 +1807,12 @@ impl<'a> NewtonRun<'a> {
         self.stats.iterations += iters as u64;
         self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
         if converged {
+            if iterate_friction {
+                // the bristle states of the accepted step (those of its last residual)
+                for (z, f) in self.fric_z.iter_mut().zip(&self.fric) {
+                    *z = f.eval.z;
+                }
+            }
             return Ok(());
         }
         self.restore();
@@ -1831,6 +2030,11 @@ impl<'a> NewtonRun<'a> {
                 h.qx.push(q[0]);
                 h.qy.push(q[1]);
             }
+            if let Some(s) = self.joint_friction(j, 0.0) {
+                let h = &mut self.hist_joints[slot];
+                h.friction.push(s.eval.force);
+                h.slip.push(s.slip);
+            }
         }
     }
 
@@ -1859,6 +2063,18 @@ impl<'a> NewtonRun<'a> {
                 self.episode[j] = crate::contact::next_episode(q, qd, terms.penetration, self.episode[j]);
             }
             (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, f, q, qd);
+            if let Some(s) = self.joint_friction(j, 0.0) {
+                // the work of the step on the trapezoidal rule of Newmark's average
+                // acceleration: -(F0 + F1) / 2 (v0 + v1) / 2 dt
+                let (ft, v) = (s.eval.force, s.slip);
+                let tr = &mut self.fric_track[j];
+                if counts {
+                    if let Some((t0, f0, v0)) = tr.last {
+                        tr.work -= 0.25 * (f0 + ft) * (v0 + v) * (t - t0);
+                    }
+                }
+                tr.last = Some((t, ft, v));
+            }
         }
         match step {
             Some((k, dt)) => self
@@ -1927,6 +2143,7 @@ impl<'a> NewtonRun<'a> {
         self.y.copy_from_slice(&ev.y);
         self.yd.copy_from_slice(&ev.yd);
         self.ydd.copy_from_slice(&ev.ydd);
+        self.fric_z.copy_from_slice(&ev.fric_z);
         self.update_frames(t);
     }
 
@@ -1943,6 +2160,8 @@ impl<'a> NewtonRun<'a> {
         ev.y.clone_from(&self.y);
         ev.yd.clone_from(&self.yd);
         ev.ydd.clone_from(&self.ydd);
+        ev.fric_z.clone_from(&self.fric_z);
+        ev.fric_track.clone_from(&self.fric_track);
         self.step(t0, h, k, 0)?;
         self.penetrations(&mut ev.p1);
         let Some((theta, jstar)) = earliest_crossing(&ev.p0, &ev.p1) else {
@@ -1967,6 +2186,7 @@ impl<'a> NewtonRun<'a> {
         if let Some(rec) = ev.rec.take() {
             self.rec = rec;
         }
+        self.fric_track.clone_from(&ev.fric_track);
         self.restore_from(ev, t0);
         self.step(t0, h, k, 0)
     }
@@ -2050,6 +2270,9 @@ impl<'a> NewtonRun<'a> {
         record.sliders = std::mem::take(&mut self.hist_sliders);
         for (e, j) in record.extremes.iter_mut().zip(&self.track) {
             (e.max_penetration, e.max_force, e.impacts) = (j.max_penetration, j.max_force, j.impacts);
+        }
+        for (e, f) in record.extremes.iter_mut().zip(&self.fric_track) {
+            e.friction_work = f.work;
         }
         RunOutput {
             record,

@@ -383,6 +383,7 @@ impl FlexibleFourBar {
                     };
                     law.validate("joints[0]")?;
                     m.joints.push(Clearance {
+                        friction: None,
                         name: pin.name().into(),
                         journal,
                         bearing: target,
