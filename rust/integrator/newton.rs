@@ -50,6 +50,22 @@
 //! path refreshes it whenever the contact changes, so the two differ within the iteration
 //! tolerance.
 //!
+//! Friction in a clearance joint ([`crate::model::mechanism::Clearance::friction`],
+//! docs/contact.md section 4.1): the slip speed `(v_J - v_B) . t + R_J w_J - R_B w_B` (total
+//! spins: frame rate plus elastic rotation rate), the force `F_t(v, F_N)` on both sides'
+//! translations and the moments `F_t R_J`, `-F_t R_B` on their rotation unknowns, evaluated at
+//! every iterate in the residual with the normal force of the contact terms acting in the step.
+//! Its tangent goes into the Jacobian (refactorized when it changes): the slip-speed part
+//! `-dF/dv` (a symmetric damper along the slip; replaced by the larger secant `-F_t / v` after
+//! [`FRICTION_SECANT_AFTER`] iterations of a step, where Newton cycles across the kinks of a
+//! steep regularization) and the normal-force part `dF_t/dF_N` (unsymmetric). Neither is a
+//! symmetric block on the joint's relative displacement, so a model with friction never uses the
+//! contact-free factor (no Woodbury, not the constant-rate stepper; the plan never gives it to
+//! the constant stepper). Left on the right-hand side instead, a stuck joint with a steep
+//! regularization did not converge (the measurements are in docs/contact.md). LuGre's bristle
+//! state is advanced exactly over the step from the last accepted state and committed when the
+//! step converges (step halving and event cuts restart from it).
+//!
 //! Nothing allocates inside the time loop.
 
 use nalgebra::Matrix6;
@@ -369,7 +385,17 @@ pub struct NewtonRun<'a> {
     fric_z: Vec<f64>,
     /// Per joint: the friction work balance from [`RecordSpec::start`] on.
     fric_track: Vec<FrictionTrack>,
+    /// The current step's iteration has gone on past [`FRICTION_SECANT_AFTER`] iterations:
+    /// friction's slip tangent is replaced by its secant for the rest of the step.
+    fric_secant: bool,
 }
+
+/// After this many Newton iterations in one step, the friction's slip-speed tangent in the
+/// Jacobian is replaced by the larger of it and the secant `-F_t / v` for the rest of the step:
+/// Newton on a regularized sign function cycles across the kinks of the regularization (in
+/// stick, the slip jumps between the steep ramp, slope `mu F_N / v_reg`, and full friction,
+/// slope 0), while the secant iteration contracts (the friction being monotone in `v`).
+pub const FRICTION_SECANT_AFTER: usize = 6;
 
 /// The friction of one clearance joint at the current iterate ([`NewtonRun::joint_friction`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -382,6 +408,9 @@ struct JointFrictionState {
     t: [f64; 2],
     /// The damping `-dF/dv` (N s/m, floored at 0) that enters the Jacobian.
     kf: f64,
+    /// `dF_t/dF_N` (N/N) and the normal `n`: the normal force's part of the Jacobian.
+    kn: f64,
+    n: [f64; 2],
 }
 
 /// The energy friction dissipated in one joint (J) and the last tracked `(t, F_t, v)`.
@@ -593,6 +622,7 @@ impl<'a> NewtonRun<'a> {
             fric: vec![JointFrictionState::default(); nj],
             fric_z: vec![0.0; nj],
             fric_track: vec![FrictionTrack::default(); nj],
+            fric_secant: false,
         };
         if run.settings.solver == SolverMode::Woodbury
             && !run.friction
@@ -1199,7 +1229,13 @@ impl<'a> NewtonRun<'a> {
             eval,
             slip,
             t,
-            kf: (-eval.dforce_dv).max(0.0),
+            kf: if self.fric_secant && slip != 0.0 {
+                (-eval.dforce_dv).max(-eval.force / slip).max(0.0)
+            } else {
+                (-eval.dforce_dv).max(0.0)
+            },
+            kn: eval.dforce_dn,
+            n,
         })
     }
 
@@ -1243,9 +1279,10 @@ impl<'a> NewtonRun<'a> {
     /// Adds the friction tangent to the Jacobian: with `g` the derivative of the slip speed with
     /// respect to the velocities (`t` on the journal's translations, `-t` on the bearing's,
     /// `R_J` and `-R_B` on the rotations) and `kf = -dF/dv >= 0`, the term
-    /// `kf g (gh g + bh2 g_v)^T` (`g_v`: the frame-rotation part of the velocity). Symmetric
-    /// in `g`; the dependence of `F_t` on the normal force and of `t` on the position (the
-    /// unsymmetric part) stay out (a modified Newton on them).
+    /// `kf g (gh g + bh2 g_v)^T` (`g_v`: the frame-rotation part of the velocity), symmetric in
+    /// `g`; and the normal force's part `-g dF_t/dF_N p^T`, `p` the derivative of `F_N` with
+    /// respect to the accelerations through the contact tangent acting in the step
+    /// (unsymmetric). The turning of `t` with the position stays out (a modified Newton on it).
     fn assemble_friction(&self, bh2: f64, gh: f64, lu: &mut BandLu) {
         for j in 0..self.mech.joints.len() {
             let jt = &self.mech.joints[j];
@@ -1253,7 +1290,7 @@ impl<'a> NewtonRun<'a> {
                 continue;
             };
             let s = self.fric[j];
-            if s.kf == 0.0 {
+            if s.kf == 0.0 && s.kn == 0.0 {
                 continue;
             }
             let mut g = [(NONE, 0.0, 0.0); 6];
@@ -1267,6 +1304,34 @@ impl<'a> NewtonRun<'a> {
             let rj = fr.journal_radius;
             g[4] = (self.endpoint_spin(&jt.journal).1, rj, 0.0);
             g[5] = (self.endpoint_spin(&jt.bearing).1, -(rj + jt.clearance), 0.0);
+            // the normal force's dependence on the joint's displacement and velocity,
+            // dF_N = n^T (K dq + C dqd) with the contact tangent (K, C) acting in the step: the
+            // row p of dF_N / da over the translations of both sides (unsymmetric)
+            let (kq, cq) = match self.settings.coupling {
+                Coupling::Force => ([[0.0; 2]; 2], [[0.0; 2]; 2]),
+                _ if self.implicit_contact => self.contact_tan[j],
+                _ => (self.contact[j].k, self.contact[j].c),
+            };
+            let nk = [
+                s.n[0] * kq[0][0] + s.n[1] * kq[1][0],
+                s.n[0] * kq[0][1] + s.n[1] * kq[1][1],
+            ];
+            let nc = [
+                s.n[0] * cq[0][0] + s.n[1] * cq[1][0],
+                s.n[0] * cq[0][1] + s.n[1] * cq[1][1],
+            ];
+            let mut p = [(NONE, 0.0); 4];
+            let a = self.endpoint_jac(&jt.journal);
+            let b = self.endpoint_jac(&jt.bearing);
+            for (k, ((i, col, v), sgn)) in a
+                .into_iter()
+                .map(|x| (x, 1.0))
+                .chain(b.into_iter().map(|x| (x, -1.0)))
+                .enumerate()
+            {
+                let d = |w: [f64; 2], u: [f64; 2]| w[0] * u[0] + w[1] * u[1];
+                p[k] = (i, sgn * (bh2 * d(nk, col) + gh * d(nc, col) + bh2 * d(nc, v)));
+            }
             for (i, gi, _) in g {
                 if i == NONE || gi == 0.0 {
                     continue;
@@ -1278,6 +1343,13 @@ impl<'a> NewtonRun<'a> {
                     let v = s.kf * gi * (gh * gj + bh2 * vj);
                     if v != 0.0 {
                         lu.add(i, jj, v);
+                    }
+                }
+                if s.kn != 0.0 {
+                    for (jj, pj) in p {
+                        if jj != NONE && pj != 0.0 {
+                            lu.add(i, jj, -gi * s.kn * pj);
+                        }
                     }
                 }
             }
@@ -1399,7 +1471,7 @@ impl<'a> NewtonRun<'a> {
             }
         }
         if self.friction {
-            s.extend(self.fric.iter().map(|f| f.kf));
+            s.extend(self.fric.iter().flat_map(|f| [f.kf, f.kn]));
         }
         let changed = (geometric && self.nonlinear_geometric) || s != self.signature;
         self.sig_new = s;
@@ -1704,8 +1776,12 @@ impl<'a> NewtonRun<'a> {
         let mut prev_corr = [f64::INFINITY; 2];
         // the residual of the first iteration, for the round-off floor's progress test
         let mut first_res = f64::NAN;
+        self.fric_secant = false;
         let converged = loop {
             iters += 1;
+            if iterate_friction && iters > FRICTION_SECANT_AFTER {
+                self.fric_secant = true;
+            }
             if iterate_contact {
                 // Implicit contact: the force and its tangent at the current iterate.
                 self.evaluate_contacts(false);

@@ -28,15 +28,17 @@ pub enum FrictionLaw {
 }
 
 /// What a friction law gives at one state: the force `F_t` (N, on the journal along the
-/// tangent `t`, opposing the slip speed), its derivative `dF_t/dv` (N s/m, including the
-/// dependence of the end-of-step state `z` on `v` for LuGre) and the bristle state at the end of
-/// the step (m; 0 for Coulomb).
+/// tangent `t`, opposing the slip speed), its derivatives `dF_t/dv` (N s/m, including the
+/// dependence of the end-of-step state `z` on `v` for LuGre) and `dF_t/dF_N`, and the bristle
+/// state at the end of the step (m; 0 for Coulomb).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FrictionEval {
     /// Tangential force, N.
     pub force: f64,
     /// `dF_t / dv`, N s/m.
     pub dforce_dv: f64,
+    /// `dF_t / dF_N`, N/N.
+    pub dforce_dn: f64,
     /// Bristle state at the end of the step, m.
     pub z: f64,
 }
@@ -63,14 +65,18 @@ impl FrictionLaw {
     #[inline]
     pub fn evaluate(&self, z0: f64, v: f64, f_n: f64, h: f64) -> FrictionEval {
         match self {
-            FrictionLaw::Coulomb(c) => FrictionEval {
-                force: c.force(v, f_n),
-                dforce_dv: c.tangent(v, f_n).0,
-                z: 0.0,
-            },
+            FrictionLaw::Coulomb(c) => {
+                let (dv, dn) = c.tangent(v, f_n);
+                FrictionEval {
+                    force: c.force(v, f_n),
+                    dforce_dv: dv,
+                    dforce_dn: dn,
+                    z: 0.0,
+                }
+            }
             FrictionLaw::LuGre(l) => {
                 let z = l.advance(z0, v, h);
-                let (dz, dv, _) = l.tangent(z, v, f_n);
+                let (dz, dv, dn) = l.tangent(z, v, f_n);
                 // dz(h)/dv by a central difference of the exact update (two exponentials)
                 let dzdv = if h > 0.0 {
                     let e = 1e-6 * v.abs().max(l.stribeck_speed);
@@ -81,6 +87,7 @@ impl FrictionLaw {
                 FrictionEval {
                     force: l.force(z, v, f_n),
                     dforce_dv: dv + dz * dzdv,
+                    dforce_dn: dn,
                     z,
                 }
             }
@@ -104,5 +111,50 @@ impl JointFriction {
     pub fn validate(&self, name: &str) -> Result<()> {
         self.law.validate(name)?;
         check_positive(&pname(name, "journal_radius"), self.journal_radius, "m")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_step_tangent_includes_the_state_update() {
+        // LuGre over a step: dF/dv of the end state (z advanced over h at v) by central
+        // differences of `evaluate` itself
+        let law = FrictionLaw::LuGre(LuGre {
+            sigma1: 200.0,
+            sigma2: 0.3,
+            ..LuGre::new(0.1, 0.15, 1e-3)
+        });
+        for (z0, v, h) in [(0.0, 0.01, 1e-5), (4e-7, -3e-3, 1e-4), (-1e-6, 0.2, 1e-6)] {
+            let e = law.evaluate(z0, v, 800.0, h);
+            let dv = 1e-6 * f64::abs(v);
+            let fd = (law.evaluate(z0, v + dv, 800.0, h).force - law.evaluate(z0, v - dv, 800.0, h).force) / (2.0 * dv);
+            // relative step 1e-6: truncation ~1e-12, round-off ~1e-10 of the force scale
+            assert!(
+                (e.dforce_dv - fd).abs() <= 1e-5 * fd.abs().max(1.0),
+                "{v}: {} {fd}",
+                e.dforce_dv
+            );
+        }
+        // Coulomb has no state; at h = 0 LuGre keeps its state
+        let c = FrictionLaw::Coulomb(Coulomb::new(0.2));
+        assert_eq!(c.evaluate(1.0, 0.5, 100.0, 1e-3).z, 0.0);
+        assert_eq!(law.evaluate(3e-7, 0.5, 100.0, 0.0).z, 3e-7);
+    }
+
+    #[test]
+    fn a_joint_without_a_positive_radius_is_refused() {
+        let f = JointFriction {
+            law: FrictionLaw::Coulomb(Coulomb::new(0.1)),
+            journal_radius: 0.0,
+        };
+        match f.validate("joints[0].friction") {
+            Err(crate::error::Error::InvalidParameter { name, .. }) => {
+                assert_eq!(name, "joints[0].friction.journal_radius")
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }
