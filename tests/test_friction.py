@@ -19,6 +19,7 @@ spinning, ``|v| = R_B w = (R_J + c) w``.
 from __future__ import annotations
 
 import math
+import pickle
 
 import flexclear as fc
 import numpy as np
@@ -245,7 +246,13 @@ def test_friction_routes_to_the_newton_stepper_and_the_constant_ones_refuse_it()
     # without friction this model runs on the constant stepper; with it, on Newton
     assert bar(None).simulate(1e-4, 1e-6).stats["stepper"] == "constant"
     m = bar(fc.contact.Coulomb(0.1))
+    assert m.engine == "moving-frame" and bar(None).engine == "translating"
     assert m.simulate(1e-4, 1e-6).stats["stepper"] == "newton"
+    # a result with friction pickles and goes to pandas with its friction channels
+    r = m.simulate(2e-3, 1e-6)
+    back = pickle.loads(pickle.dumps(r))
+    assert np.array_equal(back.joint("left").friction, r.joint("left").friction)
+    assert {"left.friction", "left.slip"} <= set(r.to_pandas().columns)
     for stepper in ("constant", "constant-rate"):
         with pytest.raises(InvalidParameterError, match="stepper") as e:
             m.simulate(1e-4, 1e-6, stepper=stepper)

@@ -230,8 +230,9 @@ class JointResult:
         return self.qx, self.qy
 
     def recorded(self, channel: str) -> bool:
-        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) or
-        contact-mode output (``"free_flight_fraction"``, ..., ``"dissipated_energy"``:
+        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``,
+        ``"friction"``, ``"slip"``) or contact-mode output (``"free_flight_fraction"``, ...,
+        ``"dissipated_energy"``, ``"friction_energy"``:
         ``Record(contact_modes=True)``) was kept by the run's :class:`Record` (reading one that
         was not raises :class:`~flexclear.RecordingError`)."""
         return type(object.__getattribute__(self, channel)) is not _NotRecorded
@@ -566,7 +567,8 @@ class Result:
 
     def to_pandas(self):
         """The recorded histories as a pandas DataFrame indexed by time (s): one column per joint
-        channel (``"<joint>.penetration"`` m, ``"<joint>.force"`` N, ``"<joint>.qx"``/``qy`` m) and
+        channel (``"<joint>.penetration"`` m, ``"<joint>.force"`` N, ``"<joint>.qx"``/``qy`` m;
+        ``"<joint>.friction"`` N and ``"<joint>.slip"`` m/s for a joint with friction) and
         per recorded node (``"<link>[<node>].u"``, ``.v`` m, ``.theta`` rad), and the link channels
         ``"<link>.midspan"`` (m) where recorded, and per slider ``"<slider>.position"`` (m),
         ``.velocity`` (m/s), ``.acceleration`` (m/s^2) along its guide."""
@@ -576,7 +578,7 @@ class Result:
         n = self.time.size
         for name in self.joint_names:
             j = self.joint(name)
-            for ch in ("penetration", "force", "qx", "qy"):
+            for ch in ("penetration", "force", "qx", "qy", "friction", "slip"):
                 if not j.recorded(ch):
                     continue
                 a = getattr(j, ch)

@@ -56,7 +56,7 @@
 //! translations and the moments `F_t R_J`, `-F_t R_B` on their rotation unknowns, evaluated at
 //! every iterate in the residual with the normal force of the contact terms acting in the step.
 //! Its tangent goes into the Jacobian (refactorized when it changes): the slip-speed part
-//! `-dF/dv` (a symmetric damper along the slip; replaced by the larger secant `-F_t / v` after
+//! `-dF/dv` (a symmetric damper along the slip; for Coulomb, the larger secant `-F_t / v` after
 //! [`FRICTION_SECANT_AFTER`] iterations of a step, where Newton cycles across the kinks of a
 //! steep regularization) and the normal-force part `dF_t/dF_N` (unsymmetric). Neither is a
 //! symmetric block on the joint's relative displacement, so a model with friction never uses the
@@ -390,7 +390,7 @@ pub struct NewtonRun<'a> {
     fric_secant: bool,
 }
 
-/// After this many Newton iterations in one step, the friction's slip-speed tangent in the
+/// After this many Newton iterations in one step, Coulomb friction's slip-speed tangent in the
 /// Jacobian is replaced by the larger of it and the secant `-F_t / v` for the rest of the step:
 /// Newton on a regularized sign function cycles across the kinks of the regularization (in
 /// stick, the slip jumps between the steep ramp, slope `mu F_N / v_reg`, and full friction,
@@ -1229,7 +1229,9 @@ impl<'a> NewtonRun<'a> {
             eval,
             slip,
             t,
-            kf: if self.fric_secant && slip != 0.0 {
+            // the secant only for Coulomb, whose regularization has the kinks (LuGre's force at a
+            // vanishing slip is the bristles' and finite: its secant would be unbounded)
+            kf: if self.fric_secant && slip != 0.0 && !fr.law.has_state() {
                 (-eval.dforce_dv).max(-eval.force / slip).max(0.0)
             } else {
                 (-eval.dforce_dv).max(0.0)
@@ -1884,7 +1886,8 @@ impl<'a> NewtonRun<'a> {
         self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
         if converged {
             if iterate_friction {
-                // the bristle states of the accepted step (those of its last residual)
+                // the bristle states of the accepted step, at its final state
+                self.evaluate_friction(h);
                 for (z, f) in self.fric_z.iter_mut().zip(&self.fric) {
                     *z = f.eval.z;
                 }
