@@ -327,3 +327,33 @@ def test_friction_moments_act_on_both_sides_and_keep_the_angular_momentum():
     assert ha[-1] - ha[0] == pytest.approx(to_a, rel=2e-3)  # measured 5e-4
     change = (ha[-1] + hb[-1]) - (ha[0] + hb[0])
     assert abs(change - leak) <= 2e-3 * to_b  # measured 5e-4; the leak itself is 1.5e-3
+
+
+@pytest.mark.parametrize(("method", "iterate"), [("force", False), ("modified", False), ("modified", True)])
+@pytest.mark.parametrize(
+    "law",
+    [
+        fc.contact.Coulomb(0.0),
+        fc.contact.Coulomb(5.0, regularization="linear", v_reg=1e-6),
+        fc.contact.Coulomb(0.3, mu_static=0.5, stribeck_speed=1e-2),
+        fc.contact.LuGre(mu=2.0, mu_static=3.0, stribeck_speed=1e-4, sigma0=1e9, sigma1=1e3, sigma2=10.0),
+    ],
+    ids=["frictionless", "steep", "stribeck", "stiff-lugre"],
+)
+def test_every_coupling_gives_finite_results_or_a_named_error(law, method, iterate):
+    # extreme friction on every coupling, with event cuts: a run completes with finite outputs or
+    # stops with a ConvergenceError (no NaN, no panic)
+    m = bar(law)
+    try:
+        r = m.simulate(
+            2e-3, 1e-6, method=method, iterate=iterate, events=True, record=Record(contact_modes=True)
+        )
+    except fc.ConvergenceError as e:
+        assert e.partial is not None
+        return
+    for n in ("left", "right"):
+        j = r.joint(n)
+        assert np.all(np.isfinite(j.friction)) and np.all(np.isfinite(j.slip))
+        assert np.isfinite(j.friction_energy)
+        if law.mu == 0.0:
+            assert j.friction_energy == 0.0 and not np.any(j.friction)
