@@ -253,6 +253,12 @@ def test_friction_routes_to_the_newton_stepper_and_the_constant_ones_refuse_it()
     back = pickle.loads(pickle.dumps(r))
     assert np.array_equal(back.joint("left").friction, r.joint("left").friction)
     assert {"left.friction", "left.slip"} <= set(r.to_pandas().columns)
+    # the memory estimate counts the two friction channels of each recorded joint
+    rec = Record(energy=True)  # the Newton stepper for both
+    extra = m.memory_estimate(1e-3, 1e-6, rec) - bar(None).memory_estimate(1e-3, 1e-6, rec)
+    assert extra == 8 * (1000 + 2) * 2 * 2
+    one = Record(energy=True, joints=["left"])
+    assert m.memory_estimate(1e-3, 1e-6, one) - bar(None).memory_estimate(1e-3, 1e-6, one) == extra // 2
     for stepper in ("constant", "constant-rate"):
         with pytest.raises(InvalidParameterError, match="stepper") as e:
             m.simulate(1e-4, 1e-6, stepper=stepper)

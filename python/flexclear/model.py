@@ -856,6 +856,11 @@ class Model:
                 ch["energy"] = 3 * len(elements)
             if rec.histories:
                 ch["joint histories"] = n_joints * per_joint
+                # friction force and slip speed of the recorded joints with friction
+                friction = [n for n, f in zip(self.joint_names, self._core.joint_friction) if f]
+                n_friction = sum(1 for n in friction if rec.joints is None or n in rec.joints)
+                if n_friction:
+                    ch["friction histories"] = 2 * n_friction
         else:
             if not rec.histories:
                 return 0, 0, 0, {}

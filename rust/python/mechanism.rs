@@ -312,6 +312,12 @@ impl PyMechanism {
         self.inner.joints.iter().map(|j| j.name.clone()).collect()
     }
 
+    /// Per clearance joint (in order): whether it has friction.
+    #[getter]
+    fn joint_friction(&self) -> Vec<bool> {
+        self.inner.joints.iter().map(|j| j.friction.is_some()).collect()
+    }
+
     /// Ideal pin names, in order.
     #[getter]
     fn pin_names(&self) -> Vec<String> {
