@@ -1205,18 +1205,13 @@ impl<'a> NewtonRun<'a> {
         let jt = &self.mech.joints[j];
         let fr = jt.friction.as_ref()?;
         let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-        let r = q[0].hypot(q[1]);
         let f = self.contact[j].force(q, qd);
-        if r == 0.0 {
-            return Some(JointFrictionState::default());
-        }
-        let n = [q[0] / r, q[1] / r];
-        let t = [-n[1], n[0]];
-        let f_n = -(f[0] * n[0] + f[1] * n[1]);
         let (wj, _) = self.endpoint_spin(&jt.journal);
         let (wb, _) = self.endpoint_spin(&jt.bearing);
-        let rj = fr.journal_radius;
-        let slip = qd[0] * t[0] + qd[1] * t[1] + rj * wj - (rj + jt.clearance) * wb;
+        let Some(sl) = evaluation::slip(q, qd, f, wj, wb, fr.journal_radius, jt.clearance) else {
+            return Some(JointFrictionState::default());
+        };
+        let (n, t, slip, f_n) = (sl.n, sl.t, sl.speed, sl.normal_force);
         if f_n <= 0.0 {
             return Some(JointFrictionState {
                 slip,
