@@ -438,7 +438,7 @@ def test_item3_on_dask_parts_are_written_as_samples_finish_within_a_chunk(tmp_pa
 
     with (
         distributed.LocalCluster(
-            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=":0"
         ) as cluster,
         distributed.Client(cluster) as client,
     ):

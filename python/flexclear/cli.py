@@ -289,7 +289,7 @@ def _montecarlo(args) -> int:
             client = Client(args.scheduler)
         else:
             cluster = LocalCluster(
-                n_workers=args.local_cluster, threads_per_worker=1, dashboard_address=None, host="127.0.0.1"
+                n_workers=args.local_cluster, threads_per_worker=1, dashboard_address=":0", host="127.0.0.1"
             )
             client = Client(cluster)
     try:
