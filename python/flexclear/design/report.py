@@ -231,11 +231,11 @@ def _slider_crank_section(out: Path, plt, say, quick: bool = False) -> list:
                 ax2.set_xlabel("t [s]")
                 ax2.set_ylabel("N [N]")
                 ax2.set_title(
-                    f"{w:g} rad/s, c = {c * 1e3:g} mm: continuous contact (green), impacts (orange), "
-                    "predicted loss (red: zero-clearance, magenta: continuous-contact run)",
+                    f"{w:g} rad/s, c = {c * 1e3:g} mm: continuous contact (green), impacts (orange)\n"
+                    "predicted loss (red: zero-clearance prediction, magenta: continuous-contact run)",
                     fontsize=9,
                 )
-                ax2.legend(loc="upper right", fontsize=8)
+                ax2.legend(loc="center right", fontsize=8)
                 fig.tight_layout()
                 fig.savefig(out / "slider_crank_contact_loss.png", dpi=110)
                 plt.close(fig)
