@@ -162,3 +162,25 @@ def test_a_translating_model_runs_on_newton_and_other_steppers_are_refused():
 def test_a_zero_clearance_is_an_ideal_pin_and_is_refused():
     with pytest.raises(InvalidParameterError, match="clearance"):
         _pushed_bar(clearance=0.0).simulate(1e-3, 1e-5, method="continuous")
+
+
+def test_continuous_loss_gives_the_runs_loss_instants_as_interval_starts():
+    from flexclear.design import continuous_loss
+
+    model = scenes.slider_yoke(clearance=CLEARANCE)
+    pred = continuous_loss(model, "bearing", T_END, 1e-6, every=10)
+    log = pred.result.joint("bearing").impact_log
+    # the journal starts at the centre: free until the first attachment
+    assert pred.intervals[0] == (0.0, log.time[0])
+    exits = (log.time + log.duration)[np.isfinite(log.duration)]
+    np.testing.assert_array_equal(pred.starts()[1:], exits)
+    # the normal force is defined (and compressive) exactly where the run holds the journal
+    np.testing.assert_array_equal(np.isfinite(pred.normal_force), pred.in_contact)
+    assert np.all(pred.normal_force[pred.in_contact] >= 0.0)
+    # the force vector points into the bearing centre: -N n
+    j = pred.result.joint("bearing")
+    on = pred.in_contact
+    radial = (pred.force[on, 0] * j.qx[on] + pred.force[on, 1] * j.qy[on]) / CLEARANCE
+    np.testing.assert_allclose(radial, -pred.normal_force[on], rtol=1e-9, atol=1e-12)
+    with pytest.raises(InvalidParameterError, match="method"):
+        continuous_loss(model, "bearing", T_END, 1e-6, method="modified")
