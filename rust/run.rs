@@ -197,6 +197,13 @@ impl Settings {
     /// Checks the settings against a model of the constant stepper.
     pub fn validate(&self, model: &Model) -> Result<()> {
         self.validate_run()?;
+        if self.coupling == Coupling::Continuous && !model.joints.is_empty() {
+            return Err(Error::param(
+                "stepper",
+                "\"constant\"",
+                "\"newton\" or None with method=\"continuous\" (the continuous-contact model runs on the Newton stepper)",
+            ));
+        }
         let nodes: Vec<usize> = model.links.iter().map(|l| l.section.elements + 1).collect();
         self.record.validate(model.joints.len(), &nodes)?;
         for (i, l) in model.links.iter().enumerate() {

@@ -40,7 +40,7 @@ from .errors import (
 from .frames import Frame, Rotation
 from .result import Record, Result
 
-METHODS = ("modified", "force", "gap")
+METHODS = ("modified", "force", "gap", "continuous")
 TRANSLATING = "translating"
 MOVING = "moving-frame"
 
@@ -1127,10 +1127,19 @@ class Model:
             ``h_min``, ``adaptive_steps``, ``rejected_steps``, ``floor_steps`` (accepted at the
             shortest step although over the tolerance), ``min_step`` and ``max_step``. The
             iteration tolerance stays ``iter_tol``.
-        method : {"modified", "force", "gap"}
+        method : {"modified", "force", "gap", "continuous"}
             How the clearance force enters the step: the paper's modified stiffness/damping
-            matrix method, the force reaction method (explicit), or a gap element with status
-            iteration (models the constant stepper runs, see ``stepper``).
+            matrix method, the force reaction method (explicit), a gap element with status
+            iteration (models the constant stepper runs, see ``stepper``), or the
+            continuous-contact (massless-link) model of Earles & Wu (1977): no contact law, the
+            journal held on the bearing circle ``|q| = c`` while the normal force (a Lagrange
+            multiplier, N) is compressive; it leaves the wall at the instant that force would
+            turn tensile (interpolated within the step: the exit of the joint's episode in
+            ``impact_log``) and attaches again by a perfectly plastic impact when it reaches
+            the wall. Runs on the Newton stepper (``stepper`` None or ``"newton"``), fixed steps
+            without ``events``; the joint's ``force`` history is that normal force, its
+            penetration 0 (5e-324, "closed") while attached. Needs every clearance > 0 (a
+            zero clearance is an ideal pin). See ``docs/design.md``.
         iterate : bool or None
             Treat the contact implicitly (kappa and the spring tangent iterated within the step).
             None (default): on where a clearance joint sits on a rotating link or body (there the
@@ -1246,7 +1255,11 @@ class Model:
             raise _bad("step_halving", step_halving, "an integer in 0 ..= 20")
         # the stepper the plan picks; energies are recorded by the moving-frame steppers (Newton,
         # constant-rate)
-        moving = stepper in ("newton", "constant-rate") or (stepper is None and rec.energy)
+        moving = (
+            stepper in ("newton", "constant-rate")
+            or (stepper is None and rec.energy)
+            or (method == "continuous" and stepper is None and len(self.joint_names) > 0)
+        )
         kind = MOVING if moving else self._kind
         if iterate is None:
             iterate = self._iterate_default(method, kind)

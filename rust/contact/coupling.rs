@@ -2,7 +2,7 @@
 
 use crate::error::{check_non_negative, check_positive, Error, Result};
 
-/// The three couplings of docs/method.md section 4.
+/// The couplings of docs/method.md section 4, and the continuous-contact model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Coupling {
     /// Force reaction method: the contact force is evaluated from the last state and applied
@@ -31,6 +31,14 @@ pub enum Coupling {
         /// Status iteration cap per step.
         max_iter: usize,
     },
+    /// The continuous-contact (massless-link) model (Earles & Wu 1977; Haines 1980): no contact
+    /// law. While the journal is on the wall the joint is the constraint `|q| = c` with the
+    /// normal force `lambda` (N, compressive > 0) an unknown of the step; the joint leaves the
+    /// wall at the instant `lambda` turns tensile (the predicted loss of contact, interpolated
+    /// within the step) and flies free until it reaches the wall again, where it attaches by a
+    /// perfectly plastic impact (the normal relative velocity removed, mass-weighted). Newton
+    /// stepper only ([`crate::integrator::newton`], `continuous.rs`).
+    Continuous,
 }
 
 impl Default for Coupling {
@@ -47,7 +55,7 @@ impl Coupling {
     /// Checks the parameters.
     pub fn validate(&self) -> Result<()> {
         match *self {
-            Coupling::Force => Ok(()),
+            Coupling::Force | Coupling::Continuous => Ok(()),
             Coupling::Modified { tol, max_iter, .. } => {
                 check_positive("tol", tol, "(relative)")?;
                 if max_iter < 1 {
@@ -72,12 +80,13 @@ impl Coupling {
         }
     }
 
-    /// Short name: `"force"`, `"modified"` or `"gap"`.
+    /// Short name: `"force"`, `"modified"`, `"gap"` or `"continuous"`.
     pub fn name(&self) -> &'static str {
         match self {
             Coupling::Force => "force",
             Coupling::Modified { .. } => "modified",
             Coupling::Gap { .. } => "gap",
+            Coupling::Continuous => "continuous",
         }
     }
 }

@@ -927,6 +927,8 @@ impl<'m> Lane<'m> {
             Coupling::Force => (false, 0.0, 1),
             Coupling::Modified { iterate, tol, max_iter } => (iterate, tol, max_iter),
             Coupling::Gap { max_iter, .. } => (true, 1e-12, max_iter),
+            // rejected by `Settings::validate` (the Newton stepper's coupling)
+            Coupling::Continuous => (false, 0.0, 1),
         };
         let mut rb_valid = self.settings.solver == SolverMode::Refactor;
         let mut refactored;

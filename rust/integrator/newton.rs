@@ -94,6 +94,8 @@ use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
 use crate::plan::dofs::{self, DofMap, LinkTerms, NodeMap, Trans, NONE};
 
+mod continuous;
+
 /// Largest relative correction (of the displacement scale) that a step may stall at and still be
 /// accepted as converged at round-off: when a Newton correction below this level is no smaller
 /// than one of the two before it, and the residual has fallen by [`ROUNDOFF_RESIDUAL`], the
@@ -118,6 +120,9 @@ const WOODBURY_RCOND: f64 = 1e-12;
 /// (the Newton iterations from [`Settings::newton`]).
 fn validate_settings(settings: &Settings) -> Result<()> {
     settings.validate_run()?;
+    if settings.coupling == Coupling::Continuous {
+        continuous::validate(settings)?;
+    }
     if let Coupling::Gap { .. } = settings.coupling {
         return Err(Error::param(
             "method",
@@ -432,6 +437,8 @@ pub struct NewtonRun<'a> {
     /// The current step's iteration has gone on past [`FRICTION_SECANT_AFTER`] iterations:
     /// friction's slip tangent is replaced by its secant for the rest of the step.
     fric_secant: bool,
+    /// The continuous-contact model's state (`method="continuous"`, [`continuous`]).
+    cont: Option<Box<continuous::Contact>>,
 }
 
 /// After this many Newton iterations in one step, Coulomb friction's slip-speed tangent in the
@@ -681,8 +688,10 @@ impl<'a> NewtonRun<'a> {
             r: vec![0.0; n],
             contact: vec![ContactTerms::default(); mech.joints.len()],
             contact_tan: vec![([[0.0; 2]; 2], [[0.0; 2]; 2]); mech.joints.len()],
-            implicit_contact: matches!(settings.coupling, Coupling::Modified { iterate: true, .. })
-                && !mech.joints.is_empty(),
+            implicit_contact: matches!(
+                settings.coupling,
+                Coupling::Modified { iterate: true, .. } | Coupling::Continuous
+            ) && !mech.joints.is_empty(),
             contact_was: vec![false; mech.joints.len()],
             status_hint: vec![f64::NAN; mech.joints.len()],
             episode: vec![None; mech.joints.len()],
@@ -712,11 +721,18 @@ impl<'a> NewtonRun<'a> {
             fric_z: vec![0.0; nj],
             fric_track: vec![FrictionTrack::default(); nj],
             fric_secant: false,
+            cont: None,
         };
+        if run.settings.coupling == Coupling::Continuous && nj > 0 {
+            run.cont = Some(Box::new(continuous::Contact::new(nj, n)));
+            for j in &mech.joints {
+                continuous::check_joint(j)?;
+            }
+        }
         if run.settings.solver == SolverMode::Woodbury
             && !run.friction
             && !run.mech.joints.is_empty()
-            && !matches!(run.settings.coupling, Coupling::Force)
+            && !matches!(run.settings.coupling, Coupling::Force | Coupling::Continuous)
         {
             run.rate = Some(run.contact_free_solver(None));
         }
@@ -803,6 +819,9 @@ impl<'a> NewtonRun<'a> {
         }
         if matches!(self.settings.coupling, Coupling::Force) || self.mech.joints.is_empty() {
             return None;
+        }
+        if self.settings.coupling == Coupling::Continuous {
+            return Some("the continuous-contact model (method=\"continuous\") runs on the Newton stepper".into());
         }
         if self.settings.solver == SolverMode::Refactor {
             return Some("the run asks for solver=\"refactor\"".into());
@@ -1828,6 +1847,10 @@ impl<'a> NewtonRun<'a> {
     /// at the current iterate (implicit contact: spring and damping at the iterate, the spring
     /// by its tangent in the Jacobian, the dashpot left out after repeated status switches).
     fn evaluate_contacts(&mut self, from_start: bool) {
+        if self.cont.is_some() {
+            self.continuous_terms(from_start);
+            return;
+        }
         if from_start {
             self.switches.fill(0);
         }
@@ -1951,6 +1974,10 @@ impl<'a> NewtonRun<'a> {
                     failure = self.rate_solve(h, &mut dx).err();
                 } else {
                     self.lu.solve_in_place(&mut dx);
+                    if self.cont.is_some() {
+                        // the constraints of the attached continuous-contact joints, bordered
+                        failure = self.constraint_correction(bh2, &mut dx).err();
+                    }
                 }
             }
             if let Some(e) = failure {
@@ -2124,7 +2151,11 @@ impl<'a> NewtonRun<'a> {
         }
         // Velocity relative to the frame given: for global unknowns subtract T-dot y.
         // (Td y is the apparent velocity of a fixed global displacement in the rotating frame.)
-        self.restart_accelerations(0.0)
+        self.restart_accelerations(0.0)?;
+        if self.cont.is_some() {
+            self.continuous_start()?;
+        }
+        Ok(())
     }
 
     fn evaluate_contacts_at_state(&mut self) {
@@ -2285,8 +2316,11 @@ impl<'a> NewtonRun<'a> {
                 continue;
             };
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let pen = self.law_terms(j, q, qd).penetration;
-            let f = evaluation::recorded_force(&self.contact[j], q, qd);
+            let mut pen = self.law_terms(j, q, qd).penetration;
+            let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
+            if let Some(c) = &self.cont {
+                (pen, f) = c.recorded(j, q, self.mech.joints[j].clearance);
+            }
             let h = &mut self.hist_joints[slot];
             h.penetration.push(pen);
             h.force.push((f[0] * f[0] + f[1] * f[1]).sqrt());
@@ -2309,8 +2343,12 @@ impl<'a> NewtonRun<'a> {
         let counts = t >= self.settings.record.start;
         for j in 0..self.mech.joints.len() {
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let terms = self.law_terms(j, q, qd);
-            let f = evaluation::recorded_force(&self.contact[j], q, qd);
+            let mut terms = self.law_terms(j, q, qd);
+            let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
+            if let Some(c) = &self.cont {
+                // the continuous-contact model: its status and its normal force (no law)
+                (terms.penetration, f) = c.recorded(j, q, self.mech.joints[j].clearance);
+            }
             let fmag = (f[0] * f[0] + f[1] * f[1]).sqrt();
             let h = &mut self.track[j];
             let closed = terms.penetration > 0.0;
@@ -2847,6 +2885,7 @@ impl Stepper for NewtonLoop<'_, '_> {
         let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
             (Some(ad), _) => r.adaptive_advance(t0, t1, k, ad),
             (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
+            (None, None) if r.cont.is_some() => r.continuous_step(t0, h, k),
             (None, None) => r.step(t0, h, k, 0),
         };
         if let Err(e) = res {

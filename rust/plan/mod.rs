@@ -145,6 +145,8 @@ impl Plan {
         }
         let reason = if settings.record.links.energy {
             "the run records link energies".into()
+        } else if settings.coupling == crate::contact::Coupling::Continuous && !mech.joints.is_empty() {
+            "the continuous-contact model (method=\"continuous\") runs on the Newton stepper".into()
         } else {
             match mech.to_translating() {
                 Ok(model) => {

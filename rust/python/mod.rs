@@ -40,7 +40,7 @@ pub(crate) fn parse_damping_law(py: Python<'_>, s: &str) -> PyResult<DampingLaw>
     }
 }
 
-/// The clearance coupling named `method` ("force", "modified", "gap") with its iteration
+/// The clearance coupling named `method` ("force", "modified", "gap", "continuous") with its iteration
 /// tolerance and cap (the modified method's kappa iteration, the gap element's status
 /// iteration) and the gap element's stiffness (N/m, None = derived) and damping (N s/m).
 pub(super) fn parse_coupling(
@@ -54,6 +54,7 @@ pub(super) fn parse_coupling(
 ) -> PyResult<Coupling> {
     match method {
         "force" => Ok(Coupling::Force),
+        "continuous" => Ok(Coupling::Continuous),
         "modified" => Ok(Coupling::Modified { iterate, tol, max_iter }),
         "gap" => Ok(Coupling::Gap {
             stiffness: gap_stiffness,
@@ -65,7 +66,7 @@ pub(super) fn parse_coupling(
             Error::param(
                 "method",
                 format!("{other:?}"),
-                "one of \"force\", \"modified\", \"gap\"",
+                "one of \"force\", \"modified\", \"gap\", \"continuous\"",
             ),
         )),
     }

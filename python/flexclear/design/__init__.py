@@ -1,8 +1,10 @@
 """Design methods around the simulator (issue 16): contact-loss prediction from a zero-clearance
-run, statistical tolerance allocation and optimization on the study runner. See docs/design.md.
+run, the continuous-contact model run on the whole mechanism, statistical tolerance allocation and
+optimization on the study runner. See docs/design.md.
 """
 
 from .contact_loss import ContactLoss, contact_loss, continuous_contact, wall_departures
+from .continuous import continuous_loss
 from .optimize import Optimum, optimize
 from .preload import preloaded_slider_crank
 from .tolerance import Allocation, allocate_tolerances
@@ -14,6 +16,7 @@ __all__ = [
     "allocate_tolerances",
     "contact_loss",
     "continuous_contact",
+    "continuous_loss",
     "optimize",
     "preloaded_slider_crank",
     "wall_departures",
