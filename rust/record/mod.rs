@@ -627,6 +627,29 @@ impl Recorder {
         }
     }
 
+    /// Takes an accepted state between output steps of an adaptive run (the end of a substep;
+    /// arguments as in [`Self::record`]): as [`Self::record_event`], and the penetration enters
+    /// the running largest penetration (with its time) and the open impact's peak. Nothing
+    /// enters the histories or the RMS sums.
+    pub fn record_substep(&mut self, t: f64, pen: &[f64], force: &[[f64; 2]], q: &[[f64; 2]], qd: &[[f64; 2]]) {
+        if t < self.spec_start {
+            return;
+        }
+        self.record_event(t, pen, force, q, qd);
+        for (j, e) in self.extremes.iter_mut().enumerate() {
+            let p = pen[j];
+            if p > e.max_penetration {
+                e.max_penetration = p;
+                e.time_of_max_penetration = t;
+            }
+            if p > 0.0 {
+                if let Some(last) = open_impact(self.impact_slot[j].map(|k| &mut self.impacts[k].1)) {
+                    last.peak_penetration = last.peak_penetration.max(p);
+                }
+            }
+        }
+    }
+
     /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]`, `q[j]`
     /// and `qd[j]` are every joint's penetration (m), contact force on the journal (N), position
     /// (m) and velocity (m/s); `u` the global displacement vector.
