@@ -540,7 +540,8 @@ struct Shared {
 /// factorization on the shared analysis and its Woodbury columns) of up to [`FACTOR_CACHE`]
 /// recent step sizes besides the one in [`Shared`], so that a step size that comes back costs no
 /// refactorization. A step of another size swaps its constants in (a hit), or refills the least
-/// recently used slot in place (a miss; slots holding a cut's odd length go first).
+/// recently used slot in place (a miss; slots holding a cut's odd length go first); an odd
+/// length in use is refilled in place by the next odd length.
 #[derive(Default)]
 struct FactorCache {
     slots: Vec<StepConsts>,
@@ -550,9 +551,10 @@ struct FactorCache {
 }
 
 /// Step sizes whose factorizations adaptive steps keep besides the one in use: levels
-/// `dt / 2^m` come back as the controller moves one level at a time (four levels cover a factor
-/// of 16 in step), and one slot is left for a cut's odd lengths.
-pub(crate) const FACTOR_CACHE: usize = 5;
+/// `dt / 2^m` come back as the controller moves one level at a time, and into a contact it
+/// spans a factor of 100 or more in step (eight levels with the one in use: a factor of 128).
+/// A cut's odd lengths are refilled in place of the one in use and evict no level.
+pub(crate) const FACTOR_CACHE: usize = 7;
 
 /// The step-size-dependent part of [`Shared`]: the Newmark constants for a step `dt`, the
 /// contact-free effective matrix `A0 = M + gamma dt C + beta dt^2 K`, its factorization and the
@@ -1946,8 +1948,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// Puts the constants of step `h` (s) in use for the single lane: nothing to do when they
     /// are; a hit in the [`FactorCache`] swaps them in; a miss refills the least recently used
     /// slot (a cut's odd length first) in place, or fills a new slot while there are fewer than
-    /// [`FACTOR_CACHE`] (the only allocation of adaptive steps). `dyadic`: `h` is a level
-    /// `dt / 2^m` (kept in preference to odd lengths).
+    /// [`FACTOR_CACHE`] (the only allocation of adaptive steps); an odd length in use (not a
+    /// level `dt / 2^m`) is refilled in place, evicting no level.
     fn use_step(&mut self, h: f64) -> Result<()> {
         let sh = &mut self.sh;
         if sh.dt.to_bits() == h.to_bits() {
@@ -1957,13 +1959,25 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             let r = sh.grid_dt / x;
             r >= 1.0 && r.fract() == 0.0 && (r as u64).is_power_of_two()
         };
+        let nm = self.lanes[0].settings.newmark;
         let cache = &mut sh.cache;
         cache.clock += 1;
-        let slot = match cache.slots.iter().position(|c| c.dt.to_bits() == h.to_bits()) {
+        let hit = cache.slots.iter().position(|c| c.dt.to_bits() == h.to_bits());
+        if hit.is_none() && !is_level(sh.dt) && !cache.slots.is_empty() {
+            // the odd length in use (a cut's) will not come back: its constants are refilled in
+            // place (through slot 0, whose constants are put back), no cached level is evicted
+            let mut slots = std::mem::take(&mut sh.cache.slots);
+            sh.swap_step(&mut slots[0]);
+            let refilled = slots[0].refill(&sh.sys, h, &nm);
+            sh.swap_step(&mut slots[0]);
+            sh.cache.slots = slots;
+            self.lanes[0].g_factored.fill([[f64::NAN; 2]; 2]);
+            return refilled;
+        }
+        let slot = match hit {
             Some(k) => k,
             None if cache.slots.len() < FACTOR_CACHE => {
                 let analysis = Arc::clone(sh.chol0.analysis());
-                let nm = self.lanes[0].settings.newmark;
                 cache
                     .slots
                     .push(StepConsts::new(&sh.sys, h, &nm, Cholesky::with_analysis(analysis))?);
@@ -1975,7 +1989,6 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 let k = (0..cache.slots.len())
                     .min_by_key(|&k| (is_level(cache.slots[k].dt), cache.used[k]))
                     .expect("a full cache has slots");
-                let nm = self.lanes[0].settings.newmark;
                 cache.slots[k].refill(&sh.sys, h, &nm)?;
                 k
             }
@@ -2030,8 +2043,17 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             // the last step of the interval: to `t1`, at the level's length where it is that up
             // to rounding (its constants are cached), else at the rest
             let last = h >= rest || rest - h < 1e-3 * h;
-            if last && (rest - h).abs() > 1e-9 * dt {
-                h = rest;
+            if last {
+                // the level's length, or a shorter level's (after the level went down within
+                // the interval), where it is the rest up to rounding: its constants are cached
+                let mut hk = h;
+                for _ in 0..5 {
+                    if (rest - hk).abs() <= 1e-9 * dt {
+                        break;
+                    }
+                    hk *= 0.5;
+                }
+                h = if (rest - hk).abs() <= 1e-9 * dt { hk } else { rest };
             }
             self.snapshot(&mut ad.snap);
             ad.p0.clone_from(&self.lanes[0].pen);
