@@ -323,6 +323,15 @@ fn adaptive_runs_of_a_translating_model_take_the_constant_stepper_with_cached_fa
     let (ea, eb) = (&a.record.extremes[0], &b.record.extremes[0]);
     assert!((ea.max_force / eb.max_force - 1.0).abs() < 0.01);
     assert!((ea.max_penetration / eb.max_penetration - 1.0).abs() < 0.01);
+    // the refactorizing solver (the contact terms in the matrix of each cached step size) solves
+    // the same systems
+    let mut sf = s.clone();
+    sf.solver = flexclear::run::SolverMode::Refactor;
+    let f = simulate_any(&mech, &sf, &mut |_| true).unwrap();
+    let ef = &f.record.extremes[0];
+    assert_eq!(f.stats.adaptive_steps, st.adaptive_steps);
+    assert!((ef.max_force / ea.max_force - 1.0).abs() < 1e-9);
+    assert!((ef.max_penetration / ea.max_penetration - 1.0).abs() < 1e-9);
     // the constant-rate stepper does not take adaptive steps; lockstep lanes do not either
     let mut sr = s.clone();
     sr.stepper = Some(StepperKind::ConstantRate);
