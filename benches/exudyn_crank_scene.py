@@ -68,10 +68,17 @@ NEWTON_ABS_TOL = 1e-5
 NEWTON_REL_TOL = 1e-8
 
 
-def scene_parameters(clearance: float | None = 5e-4, elements: int = 8) -> dict:
+def scene_parameters(
+    clearance: float | None = 5e-4,
+    elements: int = 8,
+    bearing_stiffness: float | None = None,
+    crank_speed: float = 150.0,
+) -> dict:
     """All parameters of the scene at flexclear's defaults (SI units); ``clearance=None`` for
-    ideal pins. K_B and C_B as ``flexclear.scenes.slider_crank`` derives them."""
-    r, l, w = 0.15, 0.30, 150.0
+    ideal pins. K_B and C_B as ``flexclear.scenes.slider_crank`` derives them (a given
+    ``bearing_stiffness`` K_B, N/m, replaces the Hertz secant; C_B follows it); ``crank_speed``
+    in rad/s."""
+    r, l, w = 0.15, 0.30, float(crank_speed)
     side, E, rho = 0.008, 2.0e11, 7870.0
     A = side * side
     I = side**4 / 12.0
@@ -95,6 +102,8 @@ def scene_parameters(clearance: float | None = 5e-4, elements: int = 8) -> dict:
         e_star = E / (2.0 * (1.0 - nu * nu))
         r_star = radius * (radius + c_ref) / c_ref
         K_B = 4.0 / 3.0 * e_star * math.sqrt(r_star) * math.sqrt(ref_pen)
+        if bearing_stiffness is not None:
+            K_B = float(bearing_stiffness)
         m_eff = p["rod_mass"] / 2.0
         p.update(
             bearing_stiffness=K_B, bearing_damping=2.0 * zeta * math.sqrt(K_B * m_eff), effective_mass=m_eff
@@ -149,9 +158,14 @@ def _pin_offset_function(p: dict, axis: int):
     return offsetUserFunction
 
 
-def build_model(clearance: float | None = 5e-4, elements: int = 8):
+def build_model(
+    clearance: float | None = 5e-4,
+    elements: int = 8,
+    bearing_stiffness: float | None = None,
+    crank_speed: float = 150.0,
+):
     """Build the scene; returns (SystemContainer, mbs, sensors dict, keep-alive list)."""
-    p = scene_parameters(clearance, elements)
+    p = scene_parameters(clearance, elements, bearing_stiffness, crank_speed)
     r, l, w = p["crank_length"], p["rod_length"], p["crank_speed"]
     E, A, I, rho = p["youngs_modulus"], p["area"], p["inertia"], p["density"]
 
@@ -322,6 +336,52 @@ def run_exudyn(clearance=5e-4, elements=8, dt=1e-5, t_end=0.1, window=0.02, adap
         out["window"].update(penetration=pen[win].tolist(), force=np.hypot(fx, fy)[win].tolist())
     del keep_alive
     return out
+
+
+def parameter_function(parameters: dict) -> list:
+    """For ``exudyn.processing.ParameterVariation``: one sample of the reference slider-crank
+    study with ``parameters["clearance"]`` (m), ``["bearing_stiffness"]`` (N/m) and
+    ``["crank_speed"]`` (rad/s); ``parameters["functionData"]`` = dict(dt, t_end, elements).
+    Runs to ``t_end`` with the sensors at every step; returns [max_penetration (m), max_force
+    (N), impacts, steps taken, SolveSteps seconds] over the whole run."""
+    data = parameters.get("functionData", {})
+    dt, t_end, elements = data.get("dt", 1e-5), data.get("t_end", 0.1), data.get("elements", 8)
+    clearance = float(parameters["clearance"])
+    K = float(parameters["bearing_stiffness"])
+    w = float(parameters["crank_speed"])
+    p = scene_parameters(clearance, elements, K, w)
+    _sc, mbs, sensors, keep_alive = build_model(clearance, elements, K, w)
+    settings, _steps = simulation_settings(dt, t_end, True)
+    solver = exu.MainSolverImplicitSecondOrder()
+    solver.InitializeSolver(mbs, settings)
+    t0 = time.perf_counter()
+    ok = solver.SolveSteps(mbs, settings)
+    seconds = time.perf_counter() - t0
+    solver.FinalizeSolver(mbs, settings)
+    if not ok:
+        return [float("nan")] * 4 + [seconds]
+    x = mbs.GetSensorStoredData(sensors["pos0"])
+    v = mbs.GetSensorStoredData(sensors["vel0"])
+    t = x[:, 0]
+    r = p["crank_length"]
+    qx = x[:, 1] - r * np.cos(w * t)
+    qy = x[:, 2] - r * np.sin(w * t)
+    vx = v[:, 1] + r * w * np.sin(w * t)
+    vy = v[:, 2] - r * w * np.cos(w * t)
+    dr = np.hypot(qx, qy)
+    pen = dr - clearance
+    closed = pen > 0
+    Kb, C = p["bearing_stiffness"], p["bearing_damping"]
+    fx = np.where(closed, Kb * pen * qx / np.maximum(dr, 1e-300) + C * vx, 0.0)
+    fy = np.where(closed, Kb * pen * qy / np.maximum(dr, 1e-300) + C * vy, 0.0)
+    del keep_alive
+    return [
+        float(pen.max()),
+        float(np.hypot(fx, fy).max()),
+        int(np.sum(closed[1:] & ~closed[:-1])),
+        int(np.unique(t).size - 1),
+        seconds,
+    ]
 
 
 if __name__ == "__main__":

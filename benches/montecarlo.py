@@ -29,8 +29,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 #: The reference studies (``--study``): the Table 1 slider-yoke (the default) and Simeon's
 #: slider-crank with a crank-pin clearance (issue 14 item 5; its samples run on the Newton
-#: stepper, one lane each: there is no lockstep for moving frames yet, and no Exudyn counterpart
-#: of its varied bearing stiffness and crank speed in benches/exudyn_crank_scene.py).
+#: stepper, one lane each: there is no lockstep for moving frames yet; its Exudyn counterpart is
+#: ``exudyn_crank_scene.parameter_function`` with the same clearance, K_B and crank speed).
 STUDIES = {
     "table1": os.path.join(HERE, "studies", "table1_clearance.toml"),
     "slider-crank": os.path.join(HERE, "studies", "slider_crank_clearance.toml"),
@@ -136,6 +136,44 @@ def exudyn_subset(frame, count: int) -> dict:
     return {"clearances": clearances, "values": values, "seconds": seconds, "rate": count / seconds}
 
 
+def exudyn_crank_subset(frame, count: int) -> dict:
+    """The first ``count`` samples of the slider-crank reference study in Exudyn's
+    ``ParameterVariation`` (benches/exudyn_crank_scene.py: ANCF rod, the same law, Newmark at the
+    study's step, its step halving on), 2 processes."""
+    sys.path.insert(0, HERE)
+    import exudyn_crank_scene  # noqa: F401  (selects Exudyn's fast build first)
+    from exudyn.processing import ParameterVariation
+
+    rows = frame.iloc[:count]
+    # ParameterVariation varies each parameter over a list; with useLoop=False (the default) it
+    # would take the product: give one list of sample indices and look the inputs up instead
+    samples = [
+        {k: float(rows[k].iloc[i]) for k in ("clearance", "bearing_stiffness", "crank_speed")}
+        for i in range(count)
+    ]
+    t0 = time.perf_counter()
+    _params, values = ParameterVariation(
+        _crank_sample,
+        {"sample": list(range(count))},
+        useMultiProcessing=True,
+        numberOfThreads=2,
+        showProgress=False,
+        parameterFunctionData={"samples": samples, "dt": 1e-5, "t_end": 0.1, "elements": 8},
+    )
+    seconds = time.perf_counter() - t0
+    return {"samples": samples, "values": values, "seconds": seconds, "rate": count / seconds}
+
+
+def _crank_sample(parameters: dict) -> list:
+    """ParameterVariation's function for one slider-crank sample (by index)."""
+    sys.path.insert(0, HERE)
+    from exudyn_crank_scene import parameter_function
+
+    data = parameters["functionData"]
+    inputs = data["samples"][int(parameters["sample"])]
+    return parameter_function({**inputs, "functionData": data})
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=1000)
@@ -180,6 +218,21 @@ def main(argv=None) -> int:
         )
     print(f"load average after: {os.getloadavg()}")
     if crank:
+        if args.exudyn_samples > 0:
+            n = args.exudyn_samples
+            print(f"== Exudyn ParameterVariation, first {n} samples of the slider-crank study, 2 processes")
+            ex = exudyn_crank_subset(tp["frame"], n)
+            print(f"Exudyn: {ex['rate']:.3f} samples/s ({ex['seconds']:.1f} s for {n})")
+            print(f"flexclear (2 threads, lanes={max(lanes)}, whole study): {tp['rate_2']:.1f} samples/s")
+            print(f"ratio flexclear / Exudyn: {tp['rate_2'] / ex['rate']:.1f}x")
+            print("clearance [m] | K_B [N/m] | w [rad/s] | max force [N] flexclear / Exudyn | impacts")
+            for i, (inp, v) in enumerate(zip(ex["samples"], ex["values"])):
+                row = tp["frame"].iloc[i]
+                print(
+                    f"{inp['clearance']:.3e} | {inp['bearing_stiffness']:.3e} | {inp['crank_speed']:.1f} | "
+                    f"{row['crank_pin.max_force']:.1f} / {v[1]:.1f} | "
+                    f"{int(row['crank_pin.impacts'])} / {v[2]}  (Exudyn steps {v[3]})"
+                )
         return 0
     if not args.skip_memory:
         print("== memory (peak RSS of fresh processes, 2 threads)")

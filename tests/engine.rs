@@ -534,6 +534,7 @@ fn bad_input_names_the_parameter() {
     let bad = Mechanism {
         links: vec![beam(2)],
         joints: vec![Clearance {
+            friction: None,
             name: "j".into(),
             journal: Endpoint::Node { link: 0, node: 0 },
             bearing: Endpoint::Body {

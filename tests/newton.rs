@@ -1077,6 +1077,7 @@ fn flexible_crank_slider_crank(pin: Option<(f64, Arc<SpringDamper>)>) -> Mechani
             b: crank4,
         }),
         Some((clearance, law)) => m.joints.push(Clearance {
+            friction: None,
             name: "A".into(),
             journal: rod0,
             bearing: crank4,
@@ -1170,6 +1171,7 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
     let mech = Mechanism {
         links: vec![la, mk("B", 0.0)],
         joints: vec![Clearance {
+            friction: None,
             name: "J".into(),
             journal: Endpoint::Node { link: 0, node: 0 },
             bearing: Endpoint::Node { link: 1, node: 0 },

@@ -339,3 +339,43 @@ fn adaptive_runs_of_a_translating_model_take_the_constant_stepper_with_cached_fa
     let model = mech.to_translating().unwrap();
     assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &s)], None).is_err());
 }
+
+#[test]
+fn a_joint_with_friction_runs_on_the_newton_stepper_refactorizing() {
+    use flexclear::contact::friction::{Coulomb, FrictionLaw, JointFriction};
+    let s = Settings::new(0.01, 1e-5);
+    let mut m = yoke();
+    m.joints[0].friction = Some(JointFriction {
+        law: FrictionLaw::Coulomb(Coulomb::new(0.1)),
+        journal_radius: 5e-3,
+    });
+    // neither the constant stepper (LDL^T) nor the contact-free factor (Woodbury) takes the
+    // friction's tangent, which couples the rotations and is unsymmetric
+    let p = Plan::compile(&m, &s).unwrap();
+    assert_eq!(p.kind, StepperKind::Newton);
+    assert!(p.reason.contains("friction"), "{}", p.reason);
+    assert!(p.rate_reason.contains("friction"), "{}", p.rate_reason);
+    for asked in [StepperKind::Constant, StepperKind::ConstantRate] {
+        let mut a = s.clone();
+        a.stepper = Some(asked);
+        let err = simulate_any(&m, &a, &mut |_| true).unwrap_err().error.to_string();
+        assert!(err.contains("stepper") && err.contains("friction"), "{err}");
+    }
+    // a run through impacts (the yoke's first closes the gap after 0.01 s)
+    let mut r = Settings::new(0.05, 1e-5);
+    r.record.contact_modes = true;
+    let out = simulate_any(&m, &r, &mut |_| true).unwrap();
+    assert_eq!((out.stats.stepper, out.stats.woodbury_steps), ("newton", 0));
+    let e = &out.record.extremes[0];
+    assert!(e.impacts > 0 && e.friction_energy() > 0.0, "{e:?}");
+    // frictionless, the same model is the constant stepper's
+    assert_eq!(kind(&yoke(), &s).0, StepperKind::Constant);
+    // a bad radius is named
+    m.joints[0].friction.as_mut().unwrap().journal_radius = -1.0;
+    let err = Plan::compile(&m, &s).err().map(|e| e.to_string()).unwrap_or_default();
+    let run_err = simulate_any(&m, &s, &mut |_| true).unwrap_err().error.to_string();
+    assert!(
+        run_err.contains("joints[0].friction.journal_radius"),
+        "{err} / {run_err}"
+    );
+}

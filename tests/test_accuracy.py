@@ -159,3 +159,19 @@ def test_spin_up_quick_report(tmp_path):
 def test_write_report_rejects_an_unknown_scene(tmp_path):
     with pytest.raises(InvalidParameterError, match="scene_keys"):
         write_report(tmp_path, quick=True, log=_quiet, scene_keys=["four-bar"])
+
+
+def test_flores_quick_report(tmp_path):
+    # the Hertz-type law of the Flores scene (issue 15 item 7): implicit contact converges at
+    # second order without events (the force is continuous at entry: nothing to cut for), the
+    # lagged couplings are first order, and the tolerance-driven runs meet their tolerance on
+    # the peak contact force against the converged reference
+    write_report(tmp_path, quick=True, log=_quiet, scene_keys=["flores"])
+    assert (tmp_path / "pareto_flores.png").stat().st_size > 10_000
+    cases = {(c["coupling"], c["dt"]): c for c in _cases(tmp_path, "flores")}
+    pf = lambda label, dt: cases[(label, dt)]["errors"]["peak_force"]  # noqa: E731
+    assert pf("implicit", 1e-7) < pf("implicit", 1e-6) / 30  # 10x the step, ~100x the error
+    assert pf("lagged kappa", 1e-7) > pf("lagged kappa", 1e-6) / 30
+    for tol in (1e-3, 3e-3, 1e-2, 3e-2):
+        assert pf("tol= (adaptive)", tol) <= tol
+    assert "## Flores slider-crank" in (tmp_path / "accuracy.md").read_text()

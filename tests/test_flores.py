@@ -123,3 +123,19 @@ def test_the_report_writes_its_figures_and_summary(tmp_path):
     assert [r["law"] for r in rows] == ["LankaraniNikravesh", "KelvinVoigt"]
     assert float(rows[0]["peak_force_N"]) > DATA["max_pin_force_ideal"]
     assert "Ideal joints: slider acceleration -19419 to 9696 m/s^2" in path.read_text()
+
+
+def test_flores_with_friction_in_the_piston_pin():
+    # friction=Coulomb(...) on the 9.5 mm journal: the run takes the Newton stepper and the
+    # friction dissipates energy (a positive friction work), the peak force stays of the
+    # frictionless run's order
+    from flexclear import contact
+
+    m = M.scenes.flores_slider_crank(friction=contact.Coulomb(0.1))
+    r = m.simulate(0.003, 1e-6, iterate=True, record=M.Record(contact_modes=True))
+    j = r.joint("piston_pin")
+    assert r.stats["stepper"] == "newton" and j.friction_energy > 0
+    ref = M.scenes.flores_slider_crank().simulate(0.003, 1e-6, iterate=True).joint("piston_pin")
+    assert 0.5 * ref.max_force < j.max_force < 2 * ref.max_force
+    with pytest.raises(M.InvalidParameterError, match="friction"):
+        M.scenes.flores_slider_crank(friction=0.1)

@@ -140,7 +140,7 @@ def main(argv: Optional[list] = None) -> int:
     )
     ac.add_argument(
         "--scene",
-        choices=("slider-yoke", "slider-yoke-stiff", "slider-crank", "spin-up", "all"),
+        choices=("slider-yoke", "slider-yoke-stiff", "slider-crank", "flores", "spin-up", "all"),
         default="all",
         help="which scene (default: %(default)s)",
     )

@@ -654,6 +654,8 @@ class Model:
         damping_law: str = "viscous",
         no_tension: bool = False,
         law: Any = None,
+        friction: Any = None,
+        journal_radius: Optional[float] = None,
     ) -> Model:
         """Adds a revolute clearance joint: the journal is ``node`` of ``link``, the bearing a
         point of rigid body ``body`` (at ``point``, m, in the body frame), node
@@ -683,6 +685,19 @@ class Model:
             coupling ``F(d, 0, v0) / |q|`` enters the stiffness and ``dF/d(dd)`` the damping (the
             split is exact for every law here). ``stiffness``, ``damping``, ``damping_law`` and
             ``no_tension`` are then not given.
+        friction : flexclear.contact.Coulomb or flexclear.contact.LuGre, optional
+            Friction in the joint (docs/contact.md, "Friction in the joint"): the tangential
+            force ``F_t(v, F_N)`` at the contact point, with the slip speed
+            ``v = (v_J - v_B) . t + R_J w_J - R_B w_B`` (the pin's and the bearing's total spin,
+            frame rate plus elastic rotation rate, enter), acting on both sides' translations
+            and as the moments ``F_t R_J`` on the journal node's rotation and ``-F_t R_B`` on the
+            bearing node's (a rigid-body point or a slider has no rotation unknown). A model
+            with friction runs on the Newton stepper, refactorizing its Jacobian (friction makes
+            the contact tangent unsymmetric): ``stepper="constant"`` or ``"constant-rate"`` is
+            refused. LuGre's bristle state is part of the run's state.
+        journal_radius : float, optional
+            Journal (pin) radius ``R_J``, m (> 0; required with ``friction``). The bearing
+            radius is ``R_J + clearance``.
         """
         self._unique("joint", name, self._connectors)
         link_i = self._link_index(link)
@@ -719,6 +734,15 @@ class Model:
                 damping=0.0,
                 law=law._core,
             )
+        if friction is not None:
+            from .contact import Coulomb, LuGre
+
+            if not isinstance(friction, (Coulomb, LuGre)):
+                raise _bad("friction", friction, "a friction law of flexclear.contact (Coulomb or LuGre)")
+            if journal_radius is None:
+                raise _bad("journal_radius", None, "a finite number > 0, m (required with friction)")
+            law["friction"] = friction._core
+            law["journal_radius"] = _num("journal_radius", journal_radius, "a finite number > 0, m")
         self._core.add_clearance(name, link_i, int(node), **law, **side)
         self._connectors.add(name)
         return self
@@ -953,6 +977,11 @@ class Model:
                 ch["energy"] = 3 * len(elements)
             if rec.histories:
                 ch["joint histories"] = n_joints * per_joint
+                # friction force and slip speed of the recorded joints with friction
+                friction = [n for n, f in zip(self.joint_names, self._core.joint_friction) if f]
+                n_friction = sum(1 for n in friction if rec.joints is None or n in rec.joints)
+                if n_friction:
+                    ch["friction histories"] = 2 * n_friction
         else:
             if not rec.histories:
                 return 0, 0, 0, {}

@@ -175,6 +175,16 @@ class JointResult:
         an episode still closed at the end the elastic energy still stored, estimated as
         ``F_n delta / 2`` (exact for a linear spring), is left out. Needs
         ``Record(contact_modes=True)``.
+    friction_energy : float
+        Energy dissipated by friction in the joint, J: ``-integral F_t v dt`` (friction force
+        times slip speed, on the step's trapezoidal rule, from ``Record.start``; event cuts
+        included), the work the friction force and moments did on both sides; 0 for a joint
+        without friction. Needs ``Record(contact_modes=True)``.
+    friction, slip : ndarray
+        Friction force ``F_t`` on the journal along the tangent ``t`` (N; ``t`` is the normal
+        from the bearing centre to the journal centre turned by +90 degrees) and slip speed
+        ``v = (v_J - v_B) . t + R_J w_J - R_B w_B`` (m/s) at the recorded times; empty for a
+        joint without friction (histories as ``penetration``).
     impact_log : ImpactLog or None
         Every contact episode (when ``Record(impact_log=True)``).
     """
@@ -197,7 +207,10 @@ class JointResult:
     impact_fraction: Any = float("nan")
     continuous_fraction: Any = float("nan")
     dissipated_energy: Any = float("nan")
+    friction_energy: Any = float("nan")
     impact_log: Optional[ImpactLog] = None
+    friction: Any = None
+    slip: Any = None
 
     def __getattribute__(self, name: str) -> Any:
         value = object.__getattribute__(self, name)
@@ -217,8 +230,9 @@ class JointResult:
         return self.qx, self.qy
 
     def recorded(self, channel: str) -> bool:
-        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``) or
-        contact-mode output (``"free_flight_fraction"``, ..., ``"dissipated_energy"``:
+        """Whether history ``channel`` (``"penetration"``, ``"force"``, ``"qx"``, ``"qy"``,
+        ``"friction"``, ``"slip"``) or contact-mode output (``"free_flight_fraction"``, ...,
+        ``"dissipated_energy"``, ``"friction_energy"``:
         ``Record(contact_modes=True)``) was kept by the run's :class:`Record` (reading one that
         was not raises :class:`~flexclear.RecordingError`)."""
         return type(object.__getattribute__(self, channel)) is not _NotRecorded
@@ -334,7 +348,13 @@ class SliderResult:
 _EMPTY = np.empty(0)
 #: The joint outputs of ``Record(contact_modes=True)``.
 _IMPACT_FIELDS = ("time", "speed", "peak_force", "peak_penetration", "duration")
-_MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
+_MODE_OUTPUTS = (
+    "free_flight_fraction",
+    "impact_fraction",
+    "continuous_fraction",
+    "dissipated_energy",
+    "friction_energy",
+)
 
 
 def _unknown(kind: str, name: Any, names: list) -> ModelError:
@@ -443,9 +463,9 @@ class Result:
                 f"the histories of joint {name!r} were not recorded: {why}; run with "
                 "Record(histories=True) (every=k to thin them) to read penetration, force, qx, qy"
             )
-            channels = dict(penetration=gone, force=gone, qx=gone, qy=gone)
+            channels = dict(penetration=gone, force=gone, qx=gone, qy=gone, friction=gone, slip=gone)
         else:
-            channels = {k: getattr(hist, k) for k in ("penetration", "force", "qx", "qy")}
+            channels = {k: getattr(hist, k) for k in ("penetration", "force", "qx", "qy", "friction", "slip")}
             if rec is not None and not rec.position:
                 for k in ("qx", "qy"):
                     channels[k] = _NotRecorded(
@@ -547,7 +567,8 @@ class Result:
 
     def to_pandas(self):
         """The recorded histories as a pandas DataFrame indexed by time (s): one column per joint
-        channel (``"<joint>.penetration"`` m, ``"<joint>.force"`` N, ``"<joint>.qx"``/``qy`` m) and
+        channel (``"<joint>.penetration"`` m, ``"<joint>.force"`` N, ``"<joint>.qx"``/``qy`` m;
+        ``"<joint>.friction"`` N and ``"<joint>.slip"`` m/s for a joint with friction) and
         per recorded node (``"<link>[<node>].u"``, ``.v`` m, ``.theta`` rad), and the link channels
         ``"<link>.midspan"`` (m) where recorded, and per slider ``"<slider>.position"`` (m),
         ``.velocity`` (m/s), ``.acceleration`` (m/s^2) along its guide."""
@@ -557,7 +578,7 @@ class Result:
         n = self.time.size
         for name in self.joint_names:
             j = self.joint(name)
-            for ch in ("penetration", "force", "qx", "qy"):
+            for ch in ("penetration", "force", "qx", "qy", "friction", "slip"):
                 if not j.recorded(ch):
                     continue
                 a = getattr(j, ch)

@@ -20,6 +20,9 @@
 //!   force is undetermined in `[0, C_B |qdot|]`: this takes 0);
 //! - **gap element**: the status iterated (constant stepper only).
 //!
+//! **Friction** ([`slip`]): the slip speed of the contact points and the normal force the
+//! friction law of a joint sees (docs/contact.md section 4.1); the Newton stepper applies it.
+//!
 //! The **recorded force** of a joint ([`recorded_force`]) is the force the integrator applied in
 //! the step: the terms that acted in the step, at the state reached. That is what the dynamics
 //! felt (the impulse the recorded forces integrate to is the one that changed the momentum); for
@@ -102,10 +105,63 @@ pub fn recorded_force(terms: &ContactTerms, q: [f64; 2], qd: [f64; 2]) -> [f64; 
     terms.force(q, qd)
 }
 
+/// The contact geometry friction needs at one state of a clearance joint (docs/contact.md
+/// section 4.1): the normal `n = q / |q|` (bearing centre to journal centre), the tangent
+/// `t = S n` (`n` turned by +90 degrees), the slip speed of the journal's contact point against
+/// the bearing's, `v = qd . t + R_J w_J - R_B w_B` (m/s; `R_B = R_J + clearance`), and the
+/// normal force `F_N = -f . n` (N, compressive positive) of the contact force `f` on the journal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slip {
+    /// Unit normal.
+    pub n: [f64; 2],
+    /// Unit tangent `S n`.
+    pub t: [f64; 2],
+    /// Slip speed, m/s.
+    pub speed: f64,
+    /// Normal force, N.
+    pub normal_force: f64,
+}
+
+/// [`Slip`] at relative position `q` (m) and velocity `qd` (m/s) of the journal centre, contact
+/// force `f` (N, on the journal), total angular velocities `w_j`, `w_b` (rad/s: frame rate plus
+/// elastic rotation rate) of journal and bearing, journal radius `r_j` and radial clearance
+/// `clearance` (m). `None` at `q = 0` (no normal: the journal centred, no contact).
+#[inline]
+pub fn slip(q: [f64; 2], qd: [f64; 2], f: [f64; 2], w_j: f64, w_b: f64, r_j: f64, clearance: f64) -> Option<Slip> {
+    let r = q[0].hypot(q[1]);
+    if r == 0.0 {
+        return None;
+    }
+    let n = [q[0] / r, q[1] / r];
+    let t = [-n[1], n[0]];
+    Some(Slip {
+        n,
+        t,
+        speed: qd[0] * t[0] + qd[1] * t[1] + r_j * w_j - (r_j + clearance) * w_b,
+        normal_force: -(f[0] * n[0] + f[1] * n[1]),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::contact::{DampingLaw, SpringDamper};
+
+    #[test]
+    fn the_slip_speed_takes_both_spins() {
+        // journal at the bottom of the bearing (n = -y, t = +x), pressed down by 100 N
+        let (q, f) = ([0.0, -1e-4], [0.0, 100.0]);
+        let s = slip(q, [0.0; 2], f, 2.0, 0.0, 0.01, 1e-4).unwrap();
+        assert_eq!((s.n, s.t, s.normal_force), ([0.0, -1.0], [1.0, 0.0], 100.0));
+        // a journal spinning counter-clockwise at 2 rad/s: its bottom point moves at +R_J w
+        assert_eq!(s.speed, 0.02);
+        // the bearing spinning along with it at the same surface speed: no slip
+        let s = slip(q, [0.0; 2], f, 2.0, 2.0 * 0.01 / 0.0101, 0.01, 1e-4).unwrap();
+        assert!(s.speed.abs() < 1e-17);
+        // the journal centre sliding along +x at 0.3 m/s, no spin
+        assert_eq!(slip(q, [0.3, 0.0], f, 0.0, 0.0, 0.01, 1e-4).unwrap().speed, 0.3);
+        assert_eq!(slip([0.0; 2], [1.0, 0.0], f, 1.0, 0.0, 0.01, 1e-4), None);
+    }
 
     #[test]
     fn the_dashpot_goes_after_edge_switches_and_the_spring_stays() {

@@ -10,6 +10,7 @@
 use std::sync::Arc;
 
 use super::section::{self, BeamSection};
+use crate::contact::friction::JointFriction;
 use crate::contact::ContactLaw;
 use crate::element::BeamElement;
 use crate::error::{check_finite, check_non_negative, check_positive, Error, Result};
@@ -234,6 +235,9 @@ pub struct Clearance {
     pub clearance: f64,
     /// Contact law.
     pub law: Arc<dyn ContactLaw>,
+    /// Friction in the joint and the journal radius (`None`: frictionless). A joint with
+    /// friction runs on the Newton stepper's refactorizing path ([`crate::plan`]).
+    pub friction: Option<JointFriction>,
 }
 
 /// The one user model: flexible links in any frame, sliders, pins, supports, point masses, loads,
@@ -496,6 +500,9 @@ impl Mechanism {
         for (i, j) in self.joints.iter().enumerate() {
             check_non_negative(&format!("joints[{i}].clearance"), j.clearance, "m")?;
             j.law.validate(&format!("joints[{i}].law"))?;
+            if let Some(f) = &j.friction {
+                f.validate(&format!("joints[{i}].friction"))?;
+            }
         }
         // Every link must be held by something: a free link's elastic motion is unrestrained.
         for (i, l) in self.links.iter().enumerate() {

@@ -169,7 +169,21 @@ pub fn bandwidth(mech: &Mechanism, nodes: &[Vec<NodeMap>], slider_dof: &[usize])
     };
     for j in &mech.joints {
         let (a, c) = (ep_slots(&j.journal), ep_slots(&j.bearing));
-        couple(&[a[0], a[1], lever_rot(&j.journal), c[0], c[1], lever_rot(&j.bearing)]);
+        if j.friction.is_some() {
+            // the friction moment couples both sides' rotations too
+            couple(&[
+                a[0],
+                a[1],
+                a[2],
+                lever_rot(&j.journal),
+                c[0],
+                c[1],
+                c[2],
+                lever_rot(&j.bearing),
+            ]);
+        } else {
+            couple(&[a[0], a[1], lever_rot(&j.journal), c[0], c[1], lever_rot(&j.bearing)]);
+        }
     }
     b
 }
@@ -587,6 +601,7 @@ mod tests {
             supports: vec![clamp(0, 0), clamp(1, 0)],
             pins: vec![pin("P", node(1, 1), Endpoint::Slider(1))],
             joints: vec![Clearance {
+                friction: None,
                 name: "J".into(),
                 journal: node(0, 1),
                 bearing: Endpoint::Slider(0),
@@ -760,6 +775,7 @@ mod tests {
         let still = Mechanism {
             links: vec![link("arm", 4)],
             joints: vec![Clearance {
+                friction: None,
                 name: "J".into(),
                 journal: node(0, 0),
                 bearing: ground(),

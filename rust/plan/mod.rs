@@ -3,10 +3,10 @@
 //!
 //! | the model | stepper |
 //! |---|---|
-//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::constant`]) |
-//! | otherwise, every link frame at rest or turning at a constant rate, no geometric terms (K2, K3, D2), no node pinned or on a slider in a link that rotates, and (modified method) both sides of each clearance joint turning at one rate ([`NewtonRun::constant_rate_obstacle`]) | [`StepperKind::ConstantRate`]: the moving-frame equations with the contact-free Jacobian factorized once (band LU), contact by Woodbury on it |
+//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints without friction (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::constant`]) |
+//! | otherwise, every link frame at rest or turning at a constant rate, no geometric terms (K2, K3, D2), no node pinned or on a slider in a link that rotates, and (modified method) both sides of each clearance joint turning at one rate, no joint with friction ([`NewtonRun::constant_rate_obstacle`]) | [`StepperKind::ConstantRate`]: the moving-frame equations with the contact-free Jacobian factorized once (band LU), contact by Woodbury on it |
 //! | a rigid link (`Link::rigid`): its rigid-body terms follow the frame's nominal acceleration | [`StepperKind::Newton`] |
-//! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::newton`]) |
+//! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::newton`]); a clearance joint with friction always lands here, on the refactorizing path (the friction tangent is not a symmetric 2 x 2 block of the relative displacement: it couples the rotations, and its dependence on the normal force is unsymmetric) |
 //!
 //! Adaptive steps ([`Settings::adaptive`]) run on the constant stepper where the model allows it
 //! (its factorizations of recent step sizes cached: [`crate::integrator::constant`], "Adaptive

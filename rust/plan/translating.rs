@@ -263,6 +263,10 @@ impl Mechanism {
         if self.gravity != [0.0, 0.0] {
             return Err("the mechanism has gravity".into());
         }
+        if let Some(j) = self.joints.iter().find(|j| j.friction.is_some()) {
+            // friction makes the contact tangent unsymmetric: not for the LDL^T factor
+            return Err(format!("clearance joint {:?} has friction", j.name));
+        }
         let mut model = Model::default();
         for l in &self.links {
             let Some((motion, angle)) = l.frame.fixed_angle_translation() else {

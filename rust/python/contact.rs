@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 
 use super::err;
 use super::parse_damping_law;
-use crate::contact::friction::{Coulomb, LuGre, Regularization, Stribeck};
+use crate::contact::friction::{Coulomb, FrictionLaw, JointFriction, LuGre, Regularization, Stribeck};
 use crate::contact::laws::NormalContact;
 use crate::contact::laws::{
     CarvalhoMartins, Flores, Gonthier, Hertz, HuntCrossley, KelvinVoigt, LankaraniNikravesh, NormalLaw,
@@ -220,6 +220,48 @@ impl PyNormalLaw {
         let imp = r.map_err(|e| err(py, e))?;
         Ok((imp.restitution, imp.contact_time, imp.max_penetration))
     }
+}
+
+/// The friction of joint `name` (e.g. `joints[0]`) from the `friction` argument of
+/// `add_clearance` (a `CoulombFriction` or `LuGreFriction`) and the journal radius (m, required
+/// with friction, > 0). `None` without friction (a journal radius alone is accepted and unused).
+pub(super) fn joint_friction(
+    py: Python<'_>,
+    name: &str,
+    friction: Option<&Bound<'_, PyAny>>,
+    journal_radius: Option<f64>,
+) -> PyResult<Option<JointFriction>> {
+    let Some(f) = friction else {
+        return Ok(None);
+    };
+    let law = if let Ok(c) = f.cast::<PyCoulomb>() {
+        FrictionLaw::Coulomb(c.get().inner)
+    } else if let Ok(l) = f.cast::<PyLuGre>() {
+        FrictionLaw::LuGre(l.get().inner)
+    } else {
+        return Err(err(
+            py,
+            Error::param(
+                "friction",
+                f.repr().map(|r| r.to_string()).unwrap_or_default(),
+                "a friction law of flexclear.contact (Coulomb or LuGre)",
+            ),
+        ));
+    };
+    let Some(r) = journal_radius else {
+        return Err(err(
+            py,
+            Error::param(
+                "journal_radius",
+                "None",
+                "finite and > 0 m (required with friction: the friction torque is F_t R_J)",
+            ),
+        ));
+    };
+    crate::error::check_positive("journal_radius", r, "m").map_err(|e| err(py, e))?;
+    let jf = JointFriction { law, journal_radius: r };
+    jf.validate(&format!("{name}.friction")).map_err(|e| err(py, e))?;
+    Ok(Some(jf))
 }
 
 /// Regularized Coulomb friction.

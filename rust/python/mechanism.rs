@@ -269,7 +269,7 @@ impl PyMechanism {
     /// `add_pin`), radial clearance (m), spring-dashpot bearing (N/m, N s/m).
     #[pyo3(signature = (name, link, node, target, clearance, stiffness, damping, target_link=None, target_node=None,
                         frame=None, point=(0.0, 0.0), slider=None, body="body", damping_law="viscous", no_tension=false,
-                        law=None))]
+                        law=None, friction=None, journal_radius=None))]
     #[allow(clippy::too_many_arguments)]
     fn add_clearance(
         &mut self,
@@ -290,9 +290,12 @@ impl PyMechanism {
         damping_law: &str,
         no_tension: bool,
         law: Option<PyRef<'_, super::contact::PyNormalLaw>>,
+        friction: Option<Bound<'_, PyAny>>,
+        journal_radius: Option<f64>,
     ) -> PyResult<()> {
         self.link(py, "node", link, node)?;
         let i = self.inner.joints.len();
+        let friction = super::contact::joint_friction(py, &format!("joints[{i}]"), friction.as_ref(), journal_radius)?;
         crate::error::check_non_negative(&format!("joints[{i}].clearance"), clearance, "m").map_err(|e| err(py, e))?;
         let law = super::contact::joint_law(
             py,
@@ -310,6 +313,7 @@ impl PyMechanism {
             bearing: b,
             clearance,
             law,
+            friction,
         });
         Ok(())
     }
@@ -362,6 +366,12 @@ impl PyMechanism {
     #[getter]
     fn joint_names(&self) -> Vec<String> {
         self.inner.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// Per clearance joint (in order): whether it has friction.
+    #[getter]
+    fn joint_friction(&self) -> Vec<bool> {
+        self.inner.joints.iter().map(|j| j.friction.is_some()).collect()
     }
 
     /// Ideal pin names, in order.

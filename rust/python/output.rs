@@ -31,6 +31,7 @@ pub struct PyJointExtremes {
     impact_fraction: f64,
     continuous_fraction: f64,
     dissipated_energy: f64,
+    friction_energy: f64,
 }
 
 impl From<&JointExtremes> for PyJointExtremes {
@@ -49,13 +50,15 @@ impl From<&JointExtremes> for PyJointExtremes {
             impact_fraction: e.impact_fraction(),
             continuous_fraction: e.continuous_fraction(),
             dissipated_energy: e.dissipated_energy(),
+            friction_energy: e.friction_energy(),
         }
     }
 }
 
 /// The histories of one recorded clearance joint: `joint` (its index), `penetration` (m),
 /// `force` (N), `qx`, `qy` (journal centre relative to the bearing centre, m; empty unless
-/// recorded).
+/// recorded), `friction` (friction force along the tangent, N) and `slip` (slip speed, m/s;
+/// empty for a joint without friction).
 #[pyclass(module = "flexclear._core", name = "JointHistory", frozen, get_all)]
 pub struct PyJointHistory {
     joint: usize,
@@ -63,6 +66,8 @@ pub struct PyJointHistory {
     force: Py<PyArray1<f64>>,
     qx: Py<PyArray1<f64>>,
     qy: Py<PyArray1<f64>>,
+    friction: Py<PyArray1<f64>>,
+    slip: Py<PyArray1<f64>>,
 }
 
 /// The impact log of one joint: per impact its `time` (s), approach `speed` (m/s), `peak_force`
@@ -207,6 +212,8 @@ pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]
                 force: arr(py, h.force),
                 qx: arr(py, h.qx),
                 qy: arr(py, h.qy),
+                friction: arr(py, h.friction),
+                slip: arr(py, h.slip),
             };
             Py::new(py, j)
         })

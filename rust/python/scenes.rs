@@ -515,7 +515,7 @@ pub(super) fn slider_yoke<'py>(
 /// the mechanism and the derived values as a dict: `pin_stiffness` (N/m^1.5, with a clearance),
 /// `rod_area` (m^2), `rod_inertia_of_area` (m^4), `rod_density` (kg/m^3).
 #[pyfunction]
-#[pyo3(signature = (clearance, law, crank_speed, flexible_rod, rod_elements))]
+#[pyo3(signature = (clearance, law, crank_speed, flexible_rod, rod_elements, friction=None))]
 pub(super) fn flores_slider_crank<'py>(
     py: Python<'py>,
     clearance: Option<f64>,
@@ -523,7 +523,11 @@ pub(super) fn flores_slider_crank<'py>(
     crank_speed: f64,
     flexible_rod: bool,
     rod_elements: i64,
+    friction: Option<Bound<'_, PyAny>>,
 ) -> PyResult<(PyMechanism, Bound<'py, PyDict>)> {
+    // the journal radius is the scene's own (9.5 mm)
+    let radius = FloresSliderCrank::default().journal_radius;
+    let friction = super::contact::joint_friction(py, "friction", friction.as_ref(), Some(radius))?.map(|f| f.law);
     let rod_elements = check_elements("rod_elements", rod_elements).map_err(|e| err(py, e))?;
     let law = match law {
         None => None,
@@ -543,6 +547,7 @@ pub(super) fn flores_slider_crank<'py>(
         crank_speed,
         flexible_rod,
         rod_elements,
+        friction,
         ..Default::default()
     };
     let inner = scene.build().map_err(|e| err(py, e))?;

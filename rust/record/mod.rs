@@ -125,6 +125,11 @@ pub struct JointHistory {
     pub qx: Vec<f64>,
     /// See `qx`.
     pub qy: Vec<f64>,
+    /// Friction force `F_t` on the journal along the tangent `t = S n`, N (joints with friction
+    /// on the Newton stepper; empty otherwise).
+    pub friction: Vec<f64>,
+    /// Slip speed `(v_J - v_B) . t + R_J w_J - R_B w_B`, m/s (as `friction`).
+    pub slip: Vec<f64>,
 }
 
 /// One contact episode of a joint (open -> closed -> open).
@@ -263,6 +268,10 @@ pub struct JointExtremes {
     /// Signed normal force `F_n = -f . q / |q|` (N, compressive positive) and penetration
     /// `max(delta, 0)` (m) at the last recorded state: the previous node of the work integral.
     pub last_normal: [f64; 2],
+    /// Energy dissipated by friction in the joint from `RecordSpec::start` on, J:
+    /// `-integral F_t v dt` on Newmark's trapezoidal rule (set by the Newton stepper; 0 for a
+    /// joint without friction). See [`Self::friction_energy`].
+    pub friction_work: f64,
 }
 
 /// The contact episode a joint is in (entry at `entry`), as the contact-mode classification
@@ -419,6 +428,18 @@ impl JointExtremes {
         }
     }
 
+    /// Energy dissipated by friction in the joint, J: `-integral F_t v dt` over the run from
+    /// `RecordSpec::start` on (friction force `F_t`, slip speed `v`), on the rule of the
+    /// average-acceleration step, `-(F_0 + F_1) (v_0 + v_1) dt / 4` per step (event cuts
+    /// included): the work the friction force and moments did on both sides. NaN unless the
+    /// contact modes are tracked (`RecordSpec::contact_modes`).
+    pub fn friction_energy(&self) -> f64 {
+        if !self.modes {
+            return f64::NAN;
+        }
+        self.friction_work
+    }
+
     /// Adds the work of the normal force from the last recorded state to the state with
     /// penetration `pen` (m), force `f` (N, on the journal) at `q` (m), when `counted`; before
     /// `start` it only follows the state.
@@ -480,6 +501,7 @@ impl Default for JointExtremes {
             episode: None,
             contact_work: 0.0,
             last_normal: [0.0; 2],
+            friction_work: 0.0,
         }
     }
 }
@@ -544,6 +566,8 @@ impl Recorder {
                         force: cap(true),
                         qx: cap(spec.joint_position),
                         qy: cap(spec.joint_position),
+                        friction: Vec::new(),
+                        slip: Vec::new(),
                     })
                     .collect()
             } else {

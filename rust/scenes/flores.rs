@@ -67,6 +67,8 @@ pub struct FloresSliderCrank {
     pub flexible_rod: bool,
     /// Elements of the flexible rod. Default 4.
     pub rod_elements: usize,
+    /// Friction in the piston pin (on a journal of `journal_radius`); `None`: frictionless.
+    pub friction: Option<crate::contact::friction::FrictionLaw>,
 }
 
 impl Default for FloresSliderCrank {
@@ -86,6 +88,7 @@ impl Default for FloresSliderCrank {
             restitution: 0.9,
             flexible_rod: false,
             rod_elements: 4,
+            friction: None,
         }
     }
 }
@@ -222,6 +225,10 @@ impl FloresSliderCrank {
                     bearing: Endpoint::Slider(0),
                     clearance: c,
                     law,
+                    friction: self.friction.map(|law| crate::contact::friction::JointFriction {
+                        law,
+                        journal_radius: self.journal_radius,
+                    }),
                 });
             }
         }

@@ -384,6 +384,7 @@ impl FlexibleFourBar {
                     };
                     law.validate("joints[0]")?;
                     m.joints.push(Clearance {
+                        friction: None,
                         name: pin.name().into(),
                         journal,
                         bearing: target,

@@ -309,6 +309,7 @@ impl FlexibleSliderCrank {
             let journal = Endpoint::Node { link: 0, node };
             match &law {
                 Some(law) if self.clearance_at == Some(pin) => m.joints.push(Clearance {
+                    friction: None,
                     name: pin.name().into(),
                     journal,
                     bearing: target,

@@ -228,6 +228,7 @@ impl SliderYoke {
             no_tension: self.no_tension,
         });
         let joint = |name: &str, node: usize| Clearance {
+            friction: None,
             name: name.into(),
             journal: Endpoint::Node { link: 0, node },
             bearing: Endpoint::Body {

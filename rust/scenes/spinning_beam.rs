@@ -62,6 +62,7 @@ pub fn spinning_beam_in_a_bearing() -> Mechanism {
             fixed: [true; 3],
         }],
         joints: vec![Clearance {
+            friction: None,
             name: "tip".into(),
             journal: Endpoint::Node { link: 0, node: n },
             bearing: Endpoint::Body {

@@ -31,6 +31,7 @@ def flores_slider_crank(
     clearance: Optional[float] = 5e-4,
     law=None,
     *,
+    friction=None,
     flexible_rod: bool = False,
     rod_elements: int = 4,
     crank_speed: float = 5000.0 * 2.0 * math.pi / 60.0,
@@ -45,8 +46,7 @@ def flores_slider_crank(
     journal radius 9.5 mm (c = 0.5 mm); steel, E = 207 GPa, nu = 0.3; Lankarani-Nikravesh with
     restitution 0.9 and the Hertz stiffness of the pin,
     ``flexclear.contact.pin_in_hole(R_J + c, R_J, 207e9, 0.3)`` (6.61e10 N/m^1.5 at c = 0.5 mm);
-    crank 5000 rpm; no gravity, no friction (``friction`` is not offered: the joints have no
-    friction parameter yet).
+    crank 5000 rpm; no gravity; no friction unless ``friction`` is given.
 
     Sources: P. Flores, J. Ambrosio, J.C.P. Claro, H.M. Lankarani, "Kinematics and Dynamics of
     Multibody Systems with Imperfect Joints", Springer (2008), and the authors' 2006-2007
@@ -71,6 +71,10 @@ def flores_slider_crank(
     law : flexclear.contact.NormalLaw, optional
         The piston pin's contact law; default ``LankaraniNikravesh(K, restitution=0.9)`` with
         ``K`` the Hertz stiffness above at this clearance.
+    friction : flexclear.contact.Coulomb or flexclear.contact.LuGre, optional
+        Friction in the piston pin, on the 9.5 mm journal (the bearing radius is the journal's
+        plus the clearance); default frictionless. Such a run takes the Newton stepper's
+        refactorizing path (docs/contact.md section 4.1).
     flexible_rod : bool
         A flexible rod instead of the rigid one: a steel beam of the rod's mass and length
         (density 7800 kg/m^3, square section of area 2.244e-4 m^2, side 14.98 mm,
@@ -104,6 +108,11 @@ def flores_slider_crank(
         raise _bad("flexible_rod", flexible_rod, "True or False")
     if isinstance(rod_elements, bool) or not isinstance(rod_elements, int):
         raise _bad("rod_elements", rod_elements, "an integer in 1 ..= 1000000")
+    if friction is not None:
+        from ..contact import Coulomb, LuGre
+
+        if not isinstance(friction, (Coulomb, LuGre)):
+            raise _bad("friction", friction, "None or a friction law of flexclear.contact (Coulomb, LuGre)")
     core_law: Any = None
     if law is not None:
         from ..contact import NormalLaw
@@ -117,6 +126,7 @@ def flores_slider_crank(
         float(crank_speed),
         flexible_rod,
         rod_elements,
+        None if friction is None else friction._core,
     )
     params: dict[str, Any] = dict(FLORES_DATA)
     params.update(
