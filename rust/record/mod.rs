@@ -674,6 +674,26 @@ impl Recorder {
         }
     }
 
+    /// Takes a contact peak of joint `j` found between the ends of an accepted adaptive step (an
+    /// interpolated state at `t`, s, in contact: penetration `pen`, m, force magnitude `force`,
+    /// N) into the running largest penetration (with its time) and force, and the open impact's
+    /// peaks. Nothing else changes (no status, no histories).
+    pub fn record_peak_within(&mut self, j: usize, t: f64, pen: f64, force: f64) {
+        if t < self.spec_start {
+            return;
+        }
+        let e = &mut self.extremes[j];
+        if pen > e.max_penetration {
+            e.max_penetration = pen;
+            e.time_of_max_penetration = t;
+        }
+        e.max_force = e.max_force.max(force);
+        if let Some(last) = open_impact(self.impact_slot[j].map(|k| &mut self.impacts[k].1)) {
+            last.peak_force = last.peak_force.max(force);
+            last.peak_penetration = last.peak_penetration.max(pen);
+        }
+    }
+
     /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]`, `q[j]`
     /// and `qd[j]` are every joint's penetration (m), contact force on the journal (N), position
     /// (m) and velocity (m/s); `u` the global displacement vector.
