@@ -49,8 +49,9 @@ pub struct Settings {
     /// the model ([`crate::plan::Plan::compile`]).
     pub stepper: Option<crate::plan::StepperKind>,
     /// Adaptive steps with local error control (`None` = the fixed step `dt`). `dt` is then the
-    /// output grid and the longest step; the Newton stepper runs such a model
-    /// ([`crate::integrator::newton`], "Adaptive steps").
+    /// output grid and the longest step; the constant stepper runs such a model where it can
+    /// ([`crate::integrator::constant`], "Adaptive steps": one lane, factorizations of recent step
+    /// sizes cached), else the Newton stepper ([`crate::integrator::newton`], "Adaptive steps").
     pub adaptive: Option<Adaptive>,
 }
 

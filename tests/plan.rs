@@ -288,6 +288,59 @@ fn the_slider_yoke_on_the_constant_rate_stepper_matches_the_constant_one() {
 }
 
 #[test]
+fn adaptive_runs_of_a_translating_model_take_the_constant_stepper_with_cached_factors() {
+    use flexclear::contact::Coupling;
+    use flexclear::integrator::constant::Lockstep;
+    use flexclear::run::Adaptive;
+    let mech = yoke();
+    let mut s = Settings::new(0.03, 3e-5);
+    s.coupling = Coupling::Modified {
+        iterate: true,
+        tol: 1e-10,
+        max_iter: 50,
+    };
+    s.adaptive = Some(Adaptive::for_tolerance(0.01, mech.joints.iter().map(|j| j.clearance), s.dt).unwrap());
+    assert_eq!(kind(&mech, &s).0, StepperKind::Constant);
+    let a = simulate_any(&mech, &s, &mut |_| true).unwrap();
+    let st = &a.stats;
+    assert_eq!(st.stepper, "constant");
+    assert!(st.adaptive_steps > st.steps && st.event_steps >= 1);
+    // a step size that comes back costs no refactorization: far fewer factorizations than
+    // steps, the cache's fills (7 slots and the one in use) plus the cuts' odd lengths (at most 6 regula-falsi substeps and
+    // the rest of the interval per located or rejected step)
+    assert!(st.factorizations * 10 < st.adaptive_steps, "{st:?}");
+    assert!(
+        st.factorizations <= 8 + 8 * (st.event_steps + st.rejected_steps),
+        "{st:?}"
+    );
+    // the output stays on the grid
+    assert_eq!(a.record.time.len() as u64, st.steps + 1);
+    // the Newton stepper, asked for, runs the same controller: the contact peaks agree
+    let mut sn = s.clone();
+    sn.stepper = Some(StepperKind::Newton);
+    let b = simulate_any(&mech, &sn, &mut |_| true).unwrap();
+    assert_eq!(b.stats.stepper, "newton");
+    let (ea, eb) = (&a.record.extremes[0], &b.record.extremes[0]);
+    assert!((ea.max_force / eb.max_force - 1.0).abs() < 0.01);
+    assert!((ea.max_penetration / eb.max_penetration - 1.0).abs() < 0.01);
+    // the refactorizing solver (the contact terms in the matrix of each cached step size) solves
+    // the same systems
+    let mut sf = s.clone();
+    sf.solver = flexclear::run::SolverMode::Refactor;
+    let f = simulate_any(&mech, &sf, &mut |_| true).unwrap();
+    let ef = &f.record.extremes[0];
+    assert_eq!(f.stats.adaptive_steps, st.adaptive_steps);
+    assert!((ef.max_force / ea.max_force - 1.0).abs() < 1e-9);
+    assert!((ef.max_penetration / ea.max_penetration - 1.0).abs() < 1e-9);
+    // the constant-rate stepper does not take adaptive steps; lockstep lanes do not either
+    let mut sr = s.clone();
+    sr.stepper = Some(StepperKind::ConstantRate);
+    assert!(Plan::compile(&mech, &sr).unwrap_err().to_string().contains("stepper"));
+    let model = mech.to_translating().unwrap();
+    assert!(Lockstep::<2>::with_analysis(&[(&model, &s), (&model, &s)], None).is_err());
+}
+
+#[test]
 fn a_joint_with_friction_runs_on_the_newton_stepper_refactorizing() {
     use flexclear::contact::friction::{Coulomb, FrictionLaw, JointFriction};
     let s = Settings::new(0.01, 1e-5);

@@ -191,3 +191,79 @@ def test_study_tolerance_errors():
             Study("slider_crank", fixed={"clearance_at": "crank_pin"}, tol=bad)
     with pytest.raises(fc.InvalidParameterError, match="method"):
         Study("slider_crank", fixed={"clearance_at": "crank_pin"}, tol=0.01, method="force")
+
+
+def test_a_translating_model_takes_its_tolerance_on_the_constant_stepper():
+    # the slider-yoke translates: its tol run takes adaptive steps on the constant stepper (the
+    # contact-free factorization of each step size cached) and meets 1 % on the contact peaks
+    m = fc.scenes.slider_yoke(clearance=1e-4)
+    rec = fc.Record(histories=False)
+    r = m.simulate(0.03, tol=0.01, record=rec)
+    s = r.stats
+    j = r.joint(m.joint_names[0])
+    assert s["stepper"] == "constant" and s["adaptive_steps"] > s["steps"]
+    assert j.max_force == pytest.approx(_reference("slider-yoke", "peak_force"), rel=0.01)
+    assert j.max_penetration == pytest.approx(_reference("slider-yoke", "peak_penetration"), rel=0.01)
+    assert s["event_steps"] >= 2 * j.impacts - 1  # every entry and exit located
+    # a step size that comes back costs no refactorization: the cache's fills (7 slots and the
+    # one in use) and the cuts' odd lengths (at most 6 regula-falsi substeps and the rest of the
+    # interval per located or rejected step), not one per step
+    assert s["factorizations"] <= 8 + 8 * (s["event_steps"] + s["rejected_steps"])
+    assert 10 * s["factorizations"] < s["adaptive_steps"]
+    # the same run forced on the Newton stepper agrees within the tolerance
+    n = m.simulate(0.03, tol=0.01, record=rec, stepper="newton")
+    jn = n.joint(m.joint_names[0])
+    assert n.stats["stepper"] == "newton"
+    assert j.max_force == pytest.approx(jn.max_force, rel=0.01)
+    assert j.max_penetration == pytest.approx(jn.max_penetration, rel=0.01)
+    # stepper="constant" asks for what the plan chooses; the histories stay on the output grid
+    c = m.simulate(0.03, tol=0.01, stepper="constant")
+    assert c.joint(m.joint_names[0]).max_force == j.max_force
+    assert len(c.time) == c.stats["steps"] + 1 and c.time[-1] == pytest.approx(0.03)
+
+
+def test_a_constant_stepper_tolerance_run_refuses_what_it_cannot_do():
+    m = fc.scenes.slider_yoke(clearance=1e-4)
+    with pytest.raises(fc.InvalidParameterError, match="stepper"):
+        m.simulate(0.01, tol=0.01, stepper="constant-rate")
+    for bad in (0.0, 2.0, float("inf")):
+        with pytest.raises(fc.InvalidParameterError, match="tol"):
+            m.simulate(0.01, tol=bad)
+    with pytest.raises(fc.InvalidParameterError, match="iterate"):
+        m.simulate(0.01, tol=0.01, iterate=False)
+    with pytest.raises(fc.InvalidParameterError, match="dt"):
+        m.simulate(0.01, tol=0.01, dt=0.02)
+
+
+def test_a_study_of_a_translating_scene_with_a_tolerance_runs_on_the_constant_stepper(tmp_path):
+    from flexclear.study import Study
+
+    vary = {"clearance": {"distribution": "uniform", "low": 1e-4, "high": 3e-4}}
+    st = Study("slider_yoke", vary, samples=3, t_end=0.01, tol=0.01)
+    res = st.run(tmp_path / "s", threads=1, progress=False)
+    assert (res.frame["status"] == "ok").all()
+    assert res.accuracy["settings"]["stepper"] == "constant"
+    # each sample is the single tolerance run of its model
+    one = fc.scenes.slider_yoke(clearance=float(res.frame["clearance"].iloc[0]))
+    r = one.simulate(0.01, tol=0.01, record=fc.Record(histories=False))
+    assert r.stats["stepper"] == "constant"
+    name = one.joint_names[0]
+    assert res.frame[f"{name}.max_force"].iloc[0] == r.joint(name).max_force
+
+
+ALPHA_SCHEMES = [dict(integrator="generalized-alpha", rho_inf=0.8), dict(integrator="hht")]
+
+
+@pytest.mark.parametrize("scheme", ALPHA_SCHEMES)
+def test_the_alpha_schemes_take_adaptive_steps_on_the_constant_stepper_as_on_newton(scheme):
+    # the restart at a cut sets the acceleration-like variable too: the two steppers' contact
+    # peaks agree within the tolerance
+    m = fc.scenes.slider_yoke(clearance=1e-4)
+    rec = fc.Record(histories=False)
+    c = m.simulate(0.03, tol=0.01, record=rec, **scheme)
+    n = m.simulate(0.03, tol=0.01, record=rec, stepper="newton", **scheme)
+    assert c.stats["stepper"] == "constant" and c.stats["adaptive_steps"] > 0
+    jc, jn = c.joint(m.joint_names[0]), n.joint(m.joint_names[0])
+    assert jc.max_force == pytest.approx(jn.max_force, rel=0.01)
+    assert jc.max_penetration == pytest.approx(jn.max_penetration, rel=0.01)
+    assert jc.max_force == pytest.approx(_reference("slider-yoke", "peak_force"), rel=0.01)

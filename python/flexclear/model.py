@@ -1116,7 +1116,9 @@ class Model:
             output grid and the longest step (default ``t_end / 1000``).
         tol : float, optional
             Relative accuracy asked of the run, in (0, 1) (e.g. 1e-3), instead of a step: the
-            run takes adaptive steps on the Newton stepper with implicit contact, each step's
+            run takes adaptive steps with implicit contact (on the constant stepper where the
+            model translates, its factorizations of recent step sizes kept; else on the Newton
+            stepper; ``stepper="newton"`` forces Newton), each step's
             local error (the Zienkiewicz-Xie estimate ``|beta - 1/6| h^2 |a_(n+1) - a_n|``) kept
             within ``(tol / 10) ** 1.5`` relative to the displacement (absolute: that times the
             smallest clearance, m), every contact entry and exit located (a step that crosses
@@ -1362,14 +1364,19 @@ class Model:
             raise _bad("method", method, '"modified" with tol= (the coupling is chosen for the tolerance)')
         if iterate is False:
             raise _bad("iterate", iterate, "None or True with tol= (the contact is implicit)")
-        if stepper not in (None, "newton"):
-            raise _bad("stepper", stepper, 'None or "newton" with tol= (adaptive steps run on Newton)')
+        if stepper not in (None, "constant", "newton"):
+            raise _bad(
+                "stepper",
+                stepper,
+                'None, "constant" (translating models) or "newton" with tol= (adaptive steps run on '
+                "the constant stepper where the model allows it, else on Newton)",
+            )
         if dt is None:
             dt = float(t_end) / self.TOL_OUTPUT_POINTS
         elif not (_is_number(dt) and np.isfinite(dt) and 0 < dt <= t_end):
             raise _bad("dt", dt, f"the output grid, 0 < dt <= t_end = {t_end} s")
         adaptive = tuple(self._core.tolerance_settings(float(tol), float(dt)))
-        return float(dt), adaptive, True, "newton"
+        return float(dt), adaptive, True, stepper
 
     def _result(
         self, raw: dict, chosen: dict, rec: Record, displacements: bool, dt, t0, error=None

@@ -503,7 +503,8 @@ class Study:
         is the output grid and longest step (default ``t_end / 1000``).
     tol : float, optional
         The relative accuracy of every sample, in (0, 1), instead of a step: each sample runs
-        as ``Model.simulate(t_end, tol=tol)`` (adaptive steps on the Newton stepper, implicit
+        as ``Model.simulate(t_end, tol=tol)`` (adaptive steps on the constant stepper where the
+        model translates, else on the Newton stepper; implicit
         contact, every contact entry and exit located). Before the samples, a pilot
         (:meth:`pilot`) runs the first :attr:`PILOT_SAMPLES` at ``tol`` and ``tol / 10`` and
         reports the achieved accuracy per output in :attr:`StudyResult.accuracy` (kept in the
@@ -1094,7 +1095,7 @@ class Study:
             "accuracy": accuracy,
             "met": met,
             "settings": {
-                "stepper": "newton",
+                "stepper": "constant" if probe.engine == "translating" else "newton",
                 "iterate": True,
                 "adaptive": {"rtol": rtol, "atol": atol, "h_min": h_min, "output_dt": self.dt},
             },

@@ -39,6 +39,25 @@
 //! cut only the contact force enters the running largest force (it is the peak of an entry with
 //! contact damping). A step without a status change is bitwise the fixed-step one.
 //!
+//! **Adaptive steps** ([`Settings::adaptive`](crate::run::Settings::adaptive), one-lane runs
+//! only; the `tol=` runs of Python on translating models): the controller of the Newton stepper
+//! (`integrator/newton.rs`, "Adaptive steps") on this stepper. The output grid `dt` is kept and
+//! each of its intervals is crossed by steps `dt / 2^m` (the level `m`) chosen by the
+//! Zienkiewicz-Xie estimate `|beta - 1/6| h^2 |a_(n+1) - a_n|` against `atol + rtol |u|`; a
+//! rejected step goes up by the levels the `h^3` law asks, an easy one (below a tenth of the
+//! tolerance) lets the next go down one level; a step that changes a joint's status is cut just
+//! short of the circle (the cut substep keeping the start's statuses, as above) and the
+//! accelerations restart there with the crossing joint on its new side (the right limit,
+//! recorded). `A0` depends on the step only, so the step constants (`A0`'s numeric factorization
+//! on the shared analysis and its Woodbury columns) of up to `FACTOR_CACHE` recent step sizes are
+//! kept besides the one in use: a level that comes back swaps its constants in and costs no
+//! refactorization; a miss refills the least recently used slot in place (an odd length in
+//! use, a cut's, is refilled in place and evicts no level). Every factorization counts in `stats.factorizations`. Accepted substeps between
+//! output instants enter the joints' extremes (largest force and penetration, impacts), and so
+//! does a smooth contact peak within a step (the cubic Hermite interpolant of the joint's
+//! relative displacement sampled at 7 points, as on Newton); histories stay on the grid.
+//! Nothing is allocated in the time loop besides the cache's first fills.
+//!
 //! **Divergence checks**: the one rule of [`super::divergence`]. Every step, each joint's
 //! penetration `delta` (positive = overlap; an open gap of any width passes) is compared with the
 //! divergence limit (one comparison per joint, which is also the finite check); every
@@ -50,7 +69,7 @@ use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
-use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, Woodbury};
+use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, LowRankBlocks};
 use crate::plan::assembly::{shares_factor, Frames, Pattern, System};
 use crate::plan::translating::Model;
 use crate::record::Recorder;
@@ -511,7 +530,32 @@ struct Shared {
     frames: Frames,
     /// The mass matrix factorization (initial and event restart accelerations).
     mchol: Cholesky,
+    /// The output grid's step, s (`settings.dt`; `dt` above is the step in use).
+    grid_dt: f64,
+    /// Adaptive steps: the step constants of recent step sizes besides the one in use
+    /// ([`FactorCache`]); empty otherwise.
+    cache: FactorCache,
 }
+
+/// Adaptive steps' small cache of factorizations: the constants ([`StepConsts`]: `A0`'s numeric
+/// factorization on the shared analysis and its Woodbury columns) of up to [`FACTOR_CACHE`]
+/// recent step sizes besides the one in [`Shared`], so that a step size that comes back costs no
+/// refactorization. A step of another size swaps its constants in (a hit), or refills the least
+/// recently used slot in place (a miss; slots holding a cut's odd length go first); an odd
+/// length in use is refilled in place by the next odd length.
+#[derive(Default)]
+struct FactorCache {
+    slots: Vec<StepConsts>,
+    /// When each slot's constants were last in use (a counter).
+    used: Vec<u64>,
+    clock: u64,
+}
+
+/// Step sizes whose factorizations adaptive steps keep besides the one in use: levels
+/// `dt / 2^m` come back as the controller moves one level at a time, and into a contact it
+/// spans a factor of 100 or more in step (eight levels with the one in use: a factor of 128).
+/// A cut's odd lengths are refilled in place of the one in use and evict no level.
+pub(crate) const FACTOR_CACHE: usize = 7;
 
 /// The step-size-dependent part of [`Shared`]: the Newmark constants for a step `dt`, the
 /// contact-free effective matrix `A0 = M + gamma dt C + beta dt^2 K`, its factorization and the
@@ -534,28 +578,65 @@ impl StepConsts {
     /// The constants of step `dt` (s) for `sys` under the scheme `nm` (`bdt2`, `gdt` its
     /// [`Newmark::coefficients`], `bdt2r = beta dt^2`, `gdtr = gamma dt`); factorizes `A0` with
     /// `chol` (its analysis must be that of `sys.pattern`).
-    fn new(sys: &System, dt: f64, nm: &Newmark, mut chol: Cholesky) -> Result<Self> {
+    fn new(sys: &System, dt: f64, nm: &Newmark, chol: Cholesky) -> Result<Self> {
+        let mut c = StepConsts {
+            dt: 0.0,
+            c1: 0.0,
+            c2: 0.0,
+            bdt2: 0.0,
+            gdt: 0.0,
+            bdt2r: 0.0,
+            gdtr: 0.0,
+            chol0: chol,
+            a0_values: vec![0.0; sys.pattern.nnz()],
+            zcols: Vec::new(),
+            wmat: Vec::new(),
+        };
+        c.refill(sys, dt, nm)?;
+        Ok(c)
+    }
+
+    /// Makes these the constants of step `dt` (s) in place, as [`Self::new`] builds them (the
+    /// same operations): a numeric refactorization on the same analysis, the Woodbury columns
+    /// rebuilt in their storage (nothing is allocated once they have their size).
+    fn refill(&mut self, sys: &System, dt: f64, nm: &Newmark) -> Result<()> {
         let (bdt2, gdt) = nm.coefficients(dt);
         let (beta, gamma) = (nm.beta, nm.gamma);
-        let a0_values: Vec<f64> = (0..sys.pattern.nnz())
-            .map(|p| sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p])
-            .collect();
-        chol.factorize(&a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
-        // Z = A0^-1 P^T, W = P Z.
-        let (zcols, wmat) = Woodbury::new(&mut chol, sys.joints.as_slice()).into_parts();
-        Ok(StepConsts {
-            dt,
-            c1: dt * dt * (0.5 - beta),
-            c2: dt * (1.0 - gamma),
-            bdt2,
-            gdt,
-            bdt2r: beta * dt * dt,
-            gdtr: gamma * dt,
-            chol0: chol,
-            a0_values,
-            zcols,
-            wmat,
-        })
+        for (p, x) in self.a0_values.iter_mut().enumerate() {
+            *x = sys.mass[p] + gdt * sys.damping[p] + bdt2 * sys.stiffness[p];
+        }
+        self.chol0
+            .factorize(&self.a0_values, "the effective matrix M + gamma dt C + beta dt^2 K")?;
+        // Z = A0^-1 P^T, W = P Z (as `Woodbury::new`, in this storage)
+        let p = sys.joints.as_slice();
+        let n = sys.n();
+        let m = 2 * LowRankBlocks::blocks(p);
+        self.zcols.clear();
+        self.zcols.resize(n * m, 0.0);
+        for b in 0..p.blocks() {
+            for r in 0..2 {
+                let col = &mut self.zcols[(2 * b + r) * n..(2 * b + r + 1) * n];
+                p.scatter(b, r, col);
+                self.chol0.solve_in_place(col);
+            }
+        }
+        self.wmat.clear();
+        self.wmat.resize(m * m, 0.0);
+        for b in 0..p.blocks() {
+            for c in 0..m {
+                let pz = p.project(b, &self.zcols[c * n..(c + 1) * n]);
+                self.wmat[(2 * b) * m + c] = pz[0];
+                self.wmat[(2 * b + 1) * m + c] = pz[1];
+            }
+        }
+        self.dt = dt;
+        self.c1 = dt * dt * (0.5 - beta);
+        self.c2 = dt * (1.0 - gamma);
+        self.bdt2 = bdt2;
+        self.gdt = gdt;
+        self.bdt2r = beta * dt * dt;
+        self.gdtr = gamma * dt;
+        Ok(())
     }
 }
 
@@ -591,6 +672,18 @@ struct Snapshot {
     gap_normal: Vec<[f64; 2]>,
     pa_old: Vec<f64>,
     episode: Vec<Option<f64>>,
+}
+
+/// State of adaptive steps (one-lane runs): the start of the trial step, the penetrations at
+/// its start and end, the tolerance, and the level `m` of the next step `dt / 2^m`.
+struct AdaptiveSteps {
+    snap: Snapshot,
+    p0: Vec<f64>,
+    p1: Vec<f64>,
+    tol: crate::run::Adaptive,
+    level: u32,
+    /// The level of the shortest step, `h_min`.
+    max_level: u32,
 }
 
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
@@ -1282,9 +1375,11 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 message: format!("a lockstep run takes 1 to {L} runs, not {}", runs.len()),
             });
         }
-        if L > 1 && runs.iter().any(|(_, s)| s.events) {
+        if L > 1 && runs.iter().any(|(_, s)| s.events || s.adaptive.is_some()) {
             return Err(Error::InvalidModel {
-                message: "an event-aware run (events = true) steps alone, not as a lockstep lane".into(),
+                message: "an event-aware or adaptive run (events = true, adaptive steps) steps alone, not as a \
+                          lockstep lane"
+                    .into(),
             });
         }
         let systems: Vec<System> = runs.iter().map(|(m, _)| System::assemble(m)).collect();
@@ -1381,6 +1476,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 frames_shared,
                 sys,
                 mchol,
+                grid_dt: settings.dt,
+                cache: FactorCache::default(),
             },
             lanes: Vec::with_capacity(L),
             active: [false; L],
@@ -1442,8 +1539,27 @@ impl<'m, const L: usize> Lockstep<'m, L> {
 
     #[inline(always)]
     fn run_body(mut self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
-        let events = (L == 1 && self.lanes[0].settings.events).then(Events::default);
-        run_loop::run(&mut LockstepLoop { ls: &mut self, events }, control);
+        let settings = &self.lanes[0].settings;
+        let adaptive = (L == 1).then_some(settings.adaptive).flatten().map(|tol| {
+            let nj = self.sh.sys.joints.len();
+            AdaptiveSteps {
+                snap: Snapshot::default(),
+                p0: Vec::with_capacity(nj),
+                p1: Vec::with_capacity(nj),
+                tol,
+                level: 0,
+                max_level: ((self.sh.grid_dt / tol.h_min).log2().floor().max(0.0) as u32).min(30),
+            }
+        });
+        let events = (L == 1 && settings.events && adaptive.is_none()).then(Events::default);
+        run_loop::run(
+            &mut LockstepLoop {
+                ls: &mut self,
+                events,
+                adaptive,
+            },
+            control,
+        );
         self.lanes
             .into_iter()
             .map(|lane| lane.outcome.expect("every lane has finished"))
@@ -1466,7 +1582,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         }
         let mut stats = std::mem::take(&mut lane.stats);
         stats.steps = step;
-        stats.factorizations = self.sh.chol0.factorizations + lane.chol_c.as_ref().map_or(0, |c| c.factorizations);
+        stats.factorizations = self.sh.chol0.factorizations
+            + self.sh.cache.slots.iter().map(|c| c.chol0.factorizations).sum::<u64>()
+            + lane.chol_c.as_ref().map_or(0, |c| c.factorizations);
         let output = RunOutput {
             record: std::mem::take(&mut lane.rec),
             stats,
@@ -1739,27 +1857,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         debug_assert!(L == 1);
         let t0 = self.t;
         let snap = &mut ev.snap;
-        {
-            let lane = &self.lanes[0];
-            snap.u.resize(self.sh.n, 0.0);
-            snap.v.resize(self.sh.n, 0.0);
-            snap.a.resize(self.sh.n, 0.0);
-            get_lane(&self.u, 0, &mut snap.u);
-            get_lane(&self.v, 0, &mut snap.v);
-            get_lane(&self.a, 0, &mut snap.a);
-            if self.sh.alpha.is_some() {
-                snap.aa.resize(self.sh.n, 0.0);
-                get_lane(&self.aa, 0, &mut snap.aa);
-            }
-            snap.q.clone_from(&lane.q);
-            snap.qd.clone_from(&lane.qd);
-            snap.pen.clone_from(&lane.pen);
-            snap.force.clone_from(&lane.force);
-            snap.gap_closed.clone_from(&lane.gap_closed);
-            snap.gap_normal.clone_from(&lane.gap_normal);
-            snap.episode.clone_from(&lane.episode);
-            snap.pa_old.clone_from(&lane.pa_old);
-        }
+        self.snapshot(snap);
         self.advance(t1);
         if !self.active[0] {
             return;
@@ -1827,6 +1925,277 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         self.sh.chol0.factorizations += factorizations;
     }
 
+    /// Keeps the single lane's state in `snap` (the start of a step that may be redone).
+    fn snapshot(&self, snap: &mut Snapshot) {
+        let lane = &self.lanes[0];
+        snap.u.resize(self.sh.n, 0.0);
+        snap.v.resize(self.sh.n, 0.0);
+        snap.a.resize(self.sh.n, 0.0);
+        get_lane(&self.u, 0, &mut snap.u);
+        get_lane(&self.v, 0, &mut snap.v);
+        get_lane(&self.a, 0, &mut snap.a);
+        if self.sh.alpha.is_some() {
+            snap.aa.resize(self.sh.n, 0.0);
+            get_lane(&self.aa, 0, &mut snap.aa);
+        }
+        snap.q.clone_from(&lane.q);
+        snap.qd.clone_from(&lane.qd);
+        snap.pen.clone_from(&lane.pen);
+        snap.force.clone_from(&lane.force);
+        snap.gap_closed.clone_from(&lane.gap_closed);
+        snap.gap_normal.clone_from(&lane.gap_normal);
+        snap.episode.clone_from(&lane.episode);
+        snap.pa_old.clone_from(&lane.pa_old);
+    }
+
+    /// Puts the constants of step `h` (s) in use for the single lane: nothing to do when they
+    /// are; a hit in the [`FactorCache`] swaps them in; a miss refills the least recently used
+    /// slot (a cut's odd length first) in place, or fills a new slot while there are fewer than
+    /// [`FACTOR_CACHE`] (the only allocation of adaptive steps); an odd length in use (not a
+    /// level `dt / 2^m`) is refilled in place, evicting no level.
+    fn use_step(&mut self, h: f64) -> Result<()> {
+        let sh = &mut self.sh;
+        if sh.dt.to_bits() == h.to_bits() {
+            return Ok(());
+        }
+        let is_level = |x: f64| {
+            let r = sh.grid_dt / x;
+            r >= 1.0 && r.fract() == 0.0 && (r as u64).is_power_of_two()
+        };
+        let nm = self.lanes[0].settings.newmark;
+        let cache = &mut sh.cache;
+        cache.clock += 1;
+        let hit = cache.slots.iter().position(|c| c.dt.to_bits() == h.to_bits());
+        if hit.is_none() && !is_level(sh.dt) && !cache.slots.is_empty() {
+            // the odd length in use (a cut's) will not come back: its constants are refilled in
+            // place (through slot 0, whose constants are put back), no cached level is evicted
+            let mut slots = std::mem::take(&mut sh.cache.slots);
+            sh.swap_step(&mut slots[0]);
+            let refilled = slots[0].refill(&sh.sys, h, &nm);
+            sh.swap_step(&mut slots[0]);
+            sh.cache.slots = slots;
+            self.lanes[0].g_factored.fill([[f64::NAN; 2]; 2]);
+            return refilled;
+        }
+        let slot = match hit {
+            Some(k) => k,
+            None if cache.slots.len() < FACTOR_CACHE => {
+                let analysis = Arc::clone(sh.chol0.analysis());
+                cache
+                    .slots
+                    .push(StepConsts::new(&sh.sys, h, &nm, Cholesky::with_analysis(analysis))?);
+                cache.used.push(0);
+                cache.slots.len() - 1
+            }
+            None => {
+                // the least recently used slot, one holding an odd length first
+                let k = (0..cache.slots.len())
+                    .min_by_key(|&k| (is_level(cache.slots[k].dt), cache.used[k]))
+                    .expect("a full cache has slots");
+                cache.slots[k].refill(&sh.sys, h, &nm)?;
+                k
+            }
+        };
+        // the constants in use go to the slot, marked as just used
+        let mut slots = std::mem::take(&mut sh.cache.slots);
+        sh.swap_step(&mut slots[slot]);
+        sh.cache.slots = slots;
+        sh.cache.used[slot] = sh.cache.clock;
+        // a refactorized contact matrix (Woodbury fallback) was made on the old A0
+        self.lanes[0].g_factored.fill([[f64::NAN; 2]; 2]);
+        Ok(())
+    }
+
+    /// The Zienkiewicz-Xie estimate of the local displacement error of the step of length `h`
+    /// (s) just taken from accelerations `a0` (the single lane), over the tolerance, largest
+    /// over the unknowns (infinite when not finite): as the Newton stepper's (`NewtonRun`'s
+    /// `local_error`), `c |a_(n+1) - a_n| h^2 / (atol + rtol |u|)` with `c = |beta - 1/6|` (at
+    /// least 1/24).
+    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
+        let c = (self.lanes[0].settings.newmark.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h;
+        let mut e = 0.0f64;
+        for ((a1, a0), u) in self.a.iter().zip(a0).zip(&self.u) {
+            let r = c * (a1[0] - a0).abs() / (tol.atol + tol.rtol * u[0].abs());
+            if r.is_nan() || r > e {
+                e = if r.is_finite() { r } else { f64::INFINITY };
+            }
+        }
+        e
+    }
+
+    /// Adaptive steps of the single lane from `self.t` to the output instant `t1` (s), with the
+    /// controller of the Newton stepper (`NewtonRun::adaptive_advance`): trial steps of
+    /// `dt / 2^m`; a step whose error estimate ([`Self::local_error`]) exceeds the tolerance is
+    /// redone shorter (`m` raised by what the `h^3` law asks); a step that changes a clearance
+    /// joint's status is cut at the located crossing (regula falsi, the substep keeping the
+    /// start's statuses and ending just short of the circle, as [`Self::advance_with_events`])
+    /// and the accelerations restart there with the crossing joints on their new side
+    /// ([`Self::restart_at_event`]: the right limit, recorded); after a step whose error is below
+    /// a tenth of the tolerance the next is twice as long, up to `dt`. Each step size takes its
+    /// constants from the [`FactorCache`] ([`Self::use_step`]). Accepted substeps inside the
+    /// interval enter the joints' extremes ([`Recorder::record_substep`]). A lane that fails
+    /// (divergence, a matrix that is not positive definite) is retired as in a fixed step.
+    fn adaptive_advance(&mut self, t1: f64, ad: &mut AdaptiveSteps) {
+        debug_assert!(L == 1);
+        let dt = self.sh.grid_dt;
+        let tol = ad.tol;
+        let mut t = self.t;
+        while t1 - t > 1e-9 * dt {
+            let rest = t1 - t;
+            let mut h = dt / f64::from(1u32 << ad.level.min(30));
+            // the last step of the interval: to `t1`, at the level's length where it is that up
+            // to rounding (its constants are cached), else at the rest
+            let last = h >= rest || rest - h < 1e-3 * h;
+            if last {
+                // the level's length, or a shorter level's (after the level went down within
+                // the interval), where it is the rest up to rounding: its constants are cached
+                let mut hk = h;
+                for _ in 0..5 {
+                    if (rest - hk).abs() <= 1e-9 * dt {
+                        break;
+                    }
+                    hk *= 0.5;
+                }
+                h = if (rest - hk).abs() <= 1e-9 * dt { hk } else { rest };
+            }
+            self.snapshot(&mut ad.snap);
+            ad.p0.clone_from(&self.lanes[0].pen);
+            let at_floor = ad.level >= ad.max_level;
+            if !self.adaptive_step(t, h) {
+                return;
+            }
+            let mut err = self.local_error(h, &ad.snap.a, &tol);
+            let mut taken = h;
+            let mut cut = false;
+            if let Some((mut theta, jstar)) = earliest_crossing(&ad.p0, &self.lanes[0].pen) {
+                // a step that changes a joint's status is cut at the crossing first: the error
+                // of the substep to it is the one to judge
+                ad.p1.clone_from(&self.lanes[0].pen);
+                let mut search = CutSearch::new(ad.p0[jstar], ad.p1[jstar], false);
+                let lane = &mut self.lanes[0];
+                lane.frozen.clear();
+                lane.frozen.extend(ad.p0.iter().map(|&p| p > 0.0));
+                for it in 0..EVENT_MAX_CUTS {
+                    taken = theta * h;
+                    self.restore(&ad.snap);
+                    if !self.adaptive_step(t, taken) {
+                        return;
+                    }
+                    match search.next(theta, self.lanes[0].pen[jstar], it + 1 == EVENT_MAX_CUTS) {
+                        Some(next) => theta = next,
+                        None => break,
+                    }
+                }
+                self.lanes[0].frozen.clear();
+                err = self.local_error(taken, &ad.snap.a, &tol);
+                cut = true;
+            }
+            if err > 1.0 && !at_floor {
+                self.restore(&ad.snap);
+                self.lanes[0].stats.rejected_steps += 1;
+                // the local error goes as h^3: the level that brings it to 0.9 of the tolerance
+                let up = if err.is_finite() {
+                    ((err / 0.729).log2() / 3.0).ceil().max(1.0) as u32
+                } else {
+                    2
+                };
+                ad.level = (ad.level + up).min(ad.max_level);
+                continue;
+            }
+            let stats = &mut self.lanes[0].stats;
+            if err > 1.0 {
+                stats.floor_steps += 1;
+            }
+            if cut {
+                stats.event_steps += 1;
+            } else if err <= 0.1 && ad.level > 0 && h == dt / f64::from(1u32 << ad.level.min(30)) {
+                ad.level -= 1;
+            }
+            stats.adaptive_steps += 1;
+            stats.min_step = if stats.min_step > 0.0 {
+                stats.min_step.min(taken)
+            } else {
+                taken
+            };
+            stats.max_step = stats.max_step.max(taken);
+            let reached = if last && !cut { t1 } else { t + taken };
+            if !cut {
+                self.peaks_within_step(t, taken, &ad.snap);
+            }
+            if cut {
+                // the right limit at the cut (recorded there)
+                self.restart_at_event(reached, &ad.p0, &ad.p1);
+            } else if reached < t1 {
+                let lane = &mut self.lanes[0];
+                lane.rec
+                    .record_substep(reached, &lane.pen, &lane.force, &lane.q, &lane.qd);
+            }
+            t = reached;
+        }
+    }
+
+    /// The largest penetration and contact force of each joint within the accepted adaptive step
+    /// from `t` of length `h` (s), into the joint's extremes, as the Newton stepper's
+    /// (`NewtonRun`'s `peaks_within_step`): the joint's relative displacement is the cubic
+    /// Hermite interpolant of its values and rates at the step's ends (the start's in `snap`),
+    /// sampled at 7 interior points where either end is in contact, so that a smooth peak enters
+    /// at `O(h^4)` rather than the `O(h^2)` of the ends. Not for the gap coupling (its status is
+    /// the iteration's), nor with a recording start time (the end values only, as on Newton).
+    fn peaks_within_step(&mut self, t: f64, h: f64, snap: &Snapshot) {
+        let lane = &mut self.lanes[0];
+        if lane.settings.record.start > 0.0 || matches!(lane.settings.coupling, Coupling::Gap { .. }) {
+            return;
+        }
+        for jj in 0..lane.sys.joints.len() {
+            let (q0, v0) = (snap.q[jj], snap.qd[jj]);
+            let (q1, v1) = (lane.q[jj], lane.qd[jj]);
+            let c = lane.sys.joints[jj].clearance;
+            if norm2(q0) <= c && norm2(q1) <= c {
+                continue;
+            }
+            for k in 1..8 {
+                let s = f64::from(k) / 8.0;
+                let (s2, s3) = (s * s, s * s * s);
+                let (h00, h10, h01, h11) = (
+                    2.0 * s3 - 3.0 * s2 + 1.0,
+                    s3 - 2.0 * s2 + s,
+                    -2.0 * s3 + 3.0 * s2,
+                    s3 - s2,
+                );
+                let (d00, d10, d01, d11) = (
+                    6.0 * s2 - 6.0 * s,
+                    3.0 * s2 - 4.0 * s + 1.0,
+                    -6.0 * s2 + 6.0 * s,
+                    3.0 * s2 - 2.0 * s,
+                );
+                let mut q = [0.0; 2];
+                let mut qd = [0.0; 2];
+                for i in 0..2 {
+                    q[i] = h00 * q0[i] + h10 * h * v0[i] + h01 * q1[i] + h11 * h * v1[i];
+                    qd[i] = (d00 * q0[i] + d01 * q1[i]) / h + d10 * v0[i] + d11 * v1[i];
+                }
+                let terms = lane.contact_terms(jj, q, qd);
+                if terms.penetration <= 0.0 {
+                    continue;
+                }
+                let f = evaluation::recorded_force(&terms, q, qd);
+                lane.rec.record_peak_within(jj, t + s * h, terms.penetration, norm2(f));
+            }
+        }
+    }
+
+    /// One trial step of the single lane from `t` of length `h` (s) with the constants of `h`;
+    /// false when the lane failed (it is then retired with its error).
+    fn adaptive_step(&mut self, t: f64, h: f64) -> bool {
+        if let Err(e) = self.use_step(h) {
+            self.retire(0, Some(e), self.step, t);
+            return false;
+        }
+        self.t = t;
+        self.advance(t + h);
+        self.active[0]
+    }
+
     /// Puts the single lane back to the start-of-step state `snap`.
     fn restore(&mut self, snap: &Snapshot) {
         set_lane(&mut self.u, 0, &snap.u);
@@ -1879,13 +2248,12 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 }
             }
         }
-        let n = sh.n;
-        let (mut u, mut v, mut r) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        get_lane(&self.u, 0, &mut u);
-        get_lane(&self.v, 0, &mut v);
+        // (the one lane's vectors; `rb` is free between steps)
+        let (u, v) = (self.u.as_flattened(), self.v.as_flattened());
+        let mut r = std::mem::take(&mut lane.rb);
         let pat = &lane.sys.pattern;
-        pat.mul(&lane.sys.stiffness, &u, &mut r);
-        pat.mul(&lane.sys.damping, &v, &mut lane.col);
+        pat.mul(&lane.sys.stiffness, u, &mut r);
+        pat.mul(&lane.sys.damping, v, &mut lane.col);
         for (r, t) in r.iter_mut().zip(&lane.col) {
             *r = -*r - t;
         }
@@ -1907,6 +2275,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         if sh.alpha.is_some() {
             set_lane(&mut self.aa, 0, &r); // the alpha schemes restart with aa = a
         }
+        lane.rb = r;
     }
 
     /// The divergence check of lane `l`'s state at `t` (s), step `step`.
@@ -1964,6 +2333,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
 struct LockstepLoop<'a, 'm, const L: usize> {
     ls: &'a mut Lockstep<'m, L>,
     events: Option<Events>,
+    /// Adaptive steps (one lane only), `None` for the fixed step.
+    adaptive: Option<AdaptiveSteps>,
 }
 
 impl<const L: usize> Stepper for LockstepLoop<'_, '_, L> {
@@ -1975,8 +2346,9 @@ impl<const L: usize> Stepper for LockstepLoop<'_, '_, L> {
     }
 
     #[inline(always)]
+    #[allow(clippy::misnamed_getters)] // the output grid's step, not the step in use
     fn dt(&self) -> f64 {
-        self.ls.sh.dt
+        self.ls.sh.grid_dt
     }
 
     #[inline(always)]
@@ -1987,9 +2359,10 @@ impl<const L: usize> Stepper for LockstepLoop<'_, '_, L> {
     #[inline(always)]
     fn advance(&mut self, k: u64, t1: f64) {
         debug_assert_eq!(k, self.ls.step + 1);
-        match self.events.as_mut() {
-            None => self.ls.advance(t1),
-            Some(ev) => self.ls.advance_with_events(t1, ev),
+        match (self.adaptive.as_mut(), self.events.as_mut()) {
+            (Some(ad), _) => self.ls.adaptive_advance(t1, ad),
+            (None, None) => self.ls.advance(t1),
+            (None, Some(ev)) => self.ls.advance_with_events(t1, ev),
         }
         self.ls.step = k;
         self.ls.t = t1;

@@ -514,12 +514,14 @@ impl crate::linalg::LowRankBlocks for [JointPlan] {
 /// they can run as lanes of one [`Lockstep`](crate::integrator::constant::Lockstep): same pattern, bitwise equal M, K and C (and the
 /// same proportional-damping ratio), the same joint DOFs and projections, the same dt, Newmark
 /// (and alpha) parameters and number of steps. Clearances, contact laws, couplings, motions, initial
-/// conditions and what is recorded may differ.
+/// conditions and what is recorded may differ. Event-aware and adaptive runs step alone.
 pub fn shares_factor(a: (&System, &Settings), b: (&System, &Settings)) -> bool {
     let ((sa, ta), (sb, tb)) = (a, b);
     let bits = |x: &[f64], y: &[f64]| x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
     !ta.events
         && !tb.events
+        && ta.adaptive.is_none()
+        && tb.adaptive.is_none()
         && ta.dt.to_bits() == tb.dt.to_bits()
         && ta.newmark.beta.to_bits() == tb.newmark.beta.to_bits()
         && ta.newmark.gamma.to_bits() == tb.newmark.gamma.to_bits()

@@ -8,6 +8,10 @@
 //! | a rigid link (`Link::rigid`): its rigid-body terms follow the frame's nominal acceleration | [`StepperKind::Newton`] |
 //! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::newton`]); a clearance joint with friction always lands here, on the refactorizing path (the friction tangent is not a symmetric 2 x 2 block of the relative displacement: it couples the rotations, and its dependence on the normal force is unsymmetric) |
 //!
+//! Adaptive steps ([`Settings::adaptive`]) run on the constant stepper where the model allows it
+//! (its factorizations of recent step sizes cached: [`crate::integrator::constant`], "Adaptive
+//! steps"), else on the Newton stepper (not on the constant-rate one).
+//!
 //! The constant stepper runs the mechanism's translating-frame form
 //! ([`Mechanism::to_translating`]) and records the link channels (frame, nodal displacements,
 //! axial force, midspan deflection) from its node histories, in the layout of the Newton
@@ -83,13 +87,12 @@ impl Plan {
                 translating: None,
                 dofs: plan.dofs.or_else(|| Self::number(mech, settings)),
             }),
-            Some(kind @ (StepperKind::ConstantRate | StepperKind::Constant)) if settings.adaptive.is_some() => {
-                Err(Error::param(
-                    "stepper",
-                    format!("{:?}", kind.name()),
-                    "\"newton\" or None with adaptive steps (a tolerance instead of a step)",
-                ))
-            }
+            Some(StepperKind::ConstantRate) if settings.adaptive.is_some() => Err(Error::param(
+                "stepper",
+                "\"constant-rate\"",
+                "\"constant\" (translating models), \"newton\" or None with adaptive steps (a tolerance \
+                 instead of a step)",
+            )),
             Some(StepperKind::ConstantRate) => match Self::rate_obstacle(mech, settings, plan.dofs.as_ref()) {
                 None => Ok(Plan {
                     kind: StepperKind::ConstantRate,
@@ -133,8 +136,10 @@ impl Plan {
     }
 
     fn choose(mech: &Mechanism, settings: &Settings) -> Plan {
-        if settings.adaptive.is_some() {
-            let why = "adaptive steps (a tolerance instead of a step) run on the Newton stepper";
+        if settings.adaptive.is_some() && (settings.record.links.energy || mech.to_translating().is_err()) {
+            // adaptive steps run on the constant stepper (its cache of factorizations) or on Newton
+            let why = "adaptive steps (a tolerance instead of a step) on a model the constant stepper cannot run \
+                       run on the Newton stepper";
             return Plan {
                 kind: StepperKind::Newton,
                 reason: why.into(),

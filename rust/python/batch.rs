@@ -86,7 +86,7 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
         ..Settings::new(t_end, dt)
     };
     if let Some(tol) = c.accuracy {
-        // a tolerance: adaptive steps on Newton with implicit contact (`Model.simulate(tol=)`)
+        // a tolerance: adaptive steps (the plan's stepper) with implicit contact (`Model.simulate(tol=)`)
         let clearances = mech.joints.iter().map(|j| j.clearance);
         settings.adaptive = Some(crate::run::Adaptive::for_tolerance(tol, clearances, dt).map_err(|e| err(py, e))?);
         settings.coupling = coupling(true, 1e-10, 50)?;

@@ -651,6 +651,49 @@ impl Recorder {
         }
     }
 
+    /// Takes an accepted state between output steps of an adaptive run (the end of a substep;
+    /// arguments as in [`Self::record`]): as [`Self::record_event`], and the penetration enters
+    /// the running largest penetration (with its time) and the open impact's peak. Nothing
+    /// enters the histories or the RMS sums.
+    pub fn record_substep(&mut self, t: f64, pen: &[f64], force: &[[f64; 2]], q: &[[f64; 2]], qd: &[[f64; 2]]) {
+        if t < self.spec_start {
+            return;
+        }
+        self.record_event(t, pen, force, q, qd);
+        for (j, e) in self.extremes.iter_mut().enumerate() {
+            let p = pen[j];
+            if p > e.max_penetration {
+                e.max_penetration = p;
+                e.time_of_max_penetration = t;
+            }
+            if p > 0.0 {
+                if let Some(last) = open_impact(self.impact_slot[j].map(|k| &mut self.impacts[k].1)) {
+                    last.peak_penetration = last.peak_penetration.max(p);
+                }
+            }
+        }
+    }
+
+    /// Takes a contact peak of joint `j` found between the ends of an accepted adaptive step (an
+    /// interpolated state at `t`, s, in contact: penetration `pen`, m, force magnitude `force`,
+    /// N) into the running largest penetration (with its time) and force, and the open impact's
+    /// peaks. Nothing else changes (no status, no histories).
+    pub fn record_peak_within(&mut self, j: usize, t: f64, pen: f64, force: f64) {
+        if t < self.spec_start {
+            return;
+        }
+        let e = &mut self.extremes[j];
+        if pen > e.max_penetration {
+            e.max_penetration = pen;
+            e.time_of_max_penetration = t;
+        }
+        e.max_force = e.max_force.max(force);
+        if let Some(last) = open_impact(self.impact_slot[j].map(|k| &mut self.impacts[k].1)) {
+            last.peak_force = last.peak_force.max(force);
+            last.peak_penetration = last.peak_penetration.max(pen);
+        }
+    }
+
     /// Records step `step` at time `t` (s), step length `dt` (s). `pen[j]`, `force[j]`, `q[j]`
     /// and `qd[j]` are every joint's penetration (m), contact force on the journal (N), position
     /// (m) and velocity (m/s); `u` the global displacement vector.

@@ -101,8 +101,9 @@ KED_COUPLINGS = (
 )
 CRANK_METRICS = METRICS + ("midspan_peak", "midspan_rms")
 
-#: The tolerance-driven runs (``Model.simulate(t_end, tol=...)``: adaptive steps on the Newton
-#: stepper, implicit contact, contact entries and exits located). Swept over
+#: The tolerance-driven runs (``Model.simulate(t_end, tol=...)``: adaptive steps on the stepper
+#: the plan picks (constant where every link translates, else Newton), implicit contact, contact
+#: entries and exits located). Swept over
 #: :data:`ADAPTIVE_TOLS` instead of steps; in the tables its "dt" is the tolerance.
 ADAPTIVE = ("tol= (adaptive)", {"adaptive": True})
 ADAPTIVE_TOLS = (1e-1, 3e-2, 1e-2, 3e-3, 1e-3)
