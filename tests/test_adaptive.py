@@ -128,8 +128,6 @@ def test_tolerance_errors_name_the_parameter():
     for bad in (0.0, -1e-3, 1.0, float("nan"), "1e-3"):
         with pytest.raises(fc.InvalidParameterError, match="tol"):
             m.simulate(1.0, tol=bad)
-    with pytest.raises(fc.InvalidParameterError, match="dt"):
-        m.simulate(1.0)
     with pytest.raises(fc.InvalidParameterError, match="stepper"):
         m.simulate(1.0, tol=1e-3, stepper="constant")
     with pytest.raises(fc.InvalidParameterError, match="method"):
@@ -267,3 +265,13 @@ def test_the_alpha_schemes_take_adaptive_steps_on_the_constant_stepper_as_on_new
     assert jc.max_force == pytest.approx(jn.max_force, rel=0.01)
     assert jc.max_penetration == pytest.approx(jn.max_penetration, rel=0.01)
     assert jc.max_force == pytest.approx(_reference("slider-yoke", "peak_force"), rel=0.01)
+
+
+def test_a_run_given_neither_a_step_nor_a_tolerance_is_accurate_to_one_percent():
+    # the default of Model.simulate (issue 17 item 4): simulate(t_end) = simulate(t_end, tol=1e-2)
+    u_end, umax = exact(2.0)
+    r = oscillator().simulate(2.0)
+    assert r.stats["tol"] == 0.01 and r.stats["adaptive_steps"] > 0
+    assert abs(r.node("spring", 1).u[-1] - u_end) <= 0.01 * umax
+    same = oscillator().simulate(2.0, tol=0.01)
+    assert np.array_equal(r.node("spring", 1).u, same.node("spring", 1).u)
