@@ -455,3 +455,22 @@ def test_any_law_any_input_is_finite(k, e, n, d, dd, v0, mass):
     imp = contact.effective_restitution(cls(k, e, exponent=n), mass, max(v0, 1e-3))
     assert 0.0 <= imp.restitution <= 1.0 + 1e-9
     assert math.isfinite(imp.contact_time) and math.isfinite(imp.max_penetration)
+
+
+@pytest.mark.parametrize(
+    "build, parameter",
+    [
+        (lambda: contact.Hertz("abc"), "stiffness"),
+        (lambda: contact.KelvinVoigt(1e6, damping={}), "damping"),
+        (lambda: contact.LankaraniNikravesh(1e9, restitution=None), "restitution"),
+        (lambda: contact.Coulomb(True), "mu"),
+        (lambda: contact.Coulomb(0.1, v_reg="1e-3"), "v_reg"),
+        (lambda: contact.LuGre(0.1, 0.13, sigma0={}), "sigma0"),
+        (lambda: contact.LuGre("abc", 0.13), "mu"),
+    ],
+)
+def test_laws_of_the_wrong_type_name_the_parameter(build, parameter):
+    # found by the fuzzer (LuGre(sigma0="abc") raised a bare ValueError from float())
+    with pytest.raises(InvalidParameterError) as ex:
+        build()
+    assert ex.value.parameter == parameter

@@ -392,3 +392,11 @@ def test_fuzz_loop_lengths_whose_products_overflow_refused() -> None:
         fc.Frame.four_bar(0.23, 0.043, 0.25, 1e300, drive, "coupler")
     with pytest.raises(fc.InvalidParameterError, match="rod"):
         fc.Frame.slider_crank(0.1, 1e80, drive, "rod")
+
+
+def test_fuzz_memory_estimate_of_more_steps_than_a_run_may_take() -> None:
+    # found by the fuzzer (seed 12, case 15770): t_end = 1e300 gave an integer too large for a
+    # float; the estimate refuses what simulate refuses (at most 1e12 steps), naming dt
+    m = fc.scenes.slider_crank()
+    with pytest.raises(fc.InvalidParameterError, match="dt"):
+        m.memory_estimate(1e300, 1.9e-6)

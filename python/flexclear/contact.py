@@ -67,6 +67,14 @@ def _invalid(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
     return exc
 
 
+def _float(parameter: str, value: Any) -> float:
+    """A law's number as a float; any other type is an :class:`InvalidParameterError` naming
+    ``parameter`` (ranges are the core's to check)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise _invalid(parameter, value, "a real number")
+    return float(value)
+
+
 def _flat(*xs: ArrayLike) -> Tuple[Tuple[int, ...], list]:
     """Broadcasts the inputs and returns their common shape and contiguous 1-D float64 copies."""
     arrs = np.broadcast_arrays(*[np.asarray(x, dtype=np.float64) for x in xs])
@@ -180,8 +188,8 @@ class KelvinVoigt(NormalLaw):
     def __post_init__(self) -> None:
         self._build(
             "KelvinVoigt",
-            stiffness=float(self.stiffness),
-            damping=float(self.damping),
+            stiffness=_float("stiffness", self.stiffness),
+            damping=_float("damping", self.damping),
             damping_law=str(self.damping_law),
             clip_tension=bool(self.no_tension),
         )
@@ -203,7 +211,9 @@ class Hertz(NormalLaw):
     exponent: float = 1.5
 
     def __post_init__(self) -> None:
-        self._build("Hertz", stiffness=float(self.stiffness), exponent=float(self.exponent))
+        self._build(
+            "Hertz", stiffness=_float("stiffness", self.stiffness), exponent=_float("exponent", self.exponent)
+        )
 
 
 _HYSTERESIS_DOC = """
@@ -252,10 +262,10 @@ class _Hysteresis(NormalLaw):
     def __post_init__(self) -> None:
         self._build(
             type(self).__name__,
-            stiffness=float(self.stiffness),
-            exponent=float(self.exponent),
-            restitution=float(self.restitution),
-            min_approach_speed=float(self.min_approach_speed),
+            stiffness=_float("stiffness", self.stiffness),
+            exponent=_float("exponent", self.exponent),
+            restitution=_float("restitution", self.restitution),
+            min_approach_speed=_float("min_approach_speed", self.min_approach_speed),
             clip_tension=bool(self.clip_tension),
         )
 
@@ -446,14 +456,14 @@ class Coulomb:
 
     def __post_init__(self) -> None:
         core = _core.CoulombFriction(
-            float(self.mu),
+            _float("mu", self.mu),
             regularization=str(self.regularization),
-            v0=float(self.v0),
-            v1=float(self.v1),
-            v_reg=float(self.v_reg),
-            mu_static=None if self.mu_static is None else float(self.mu_static),
-            stribeck_speed=float(self.stribeck_speed),
-            stribeck_exponent=float(self.stribeck_exponent),
+            v0=_float("v0", self.v0),
+            v1=_float("v1", self.v1),
+            v_reg=_float("v_reg", self.v_reg),
+            mu_static=None if self.mu_static is None else _float("mu_static", self.mu_static),
+            stribeck_speed=_float("stribeck_speed", self.stribeck_speed),
+            stribeck_exponent=_float("stribeck_exponent", self.stribeck_exponent),
         )
         object.__setattr__(self, "_core", core)
 
@@ -507,12 +517,12 @@ class LuGre:
 
     def __post_init__(self) -> None:
         core = _core.LuGreFriction(
-            float(self.mu),
-            float(self.mu_static),
-            float(self.stribeck_speed),
-            sigma0=float(self.sigma0),
-            sigma1=float(self.sigma1),
-            sigma2=float(self.sigma2),
+            _float("mu", self.mu),
+            _float("mu_static", self.mu_static),
+            _float("stribeck_speed", self.stribeck_speed),
+            sigma0=_float("sigma0", self.sigma0),
+            sigma1=_float("sigma1", self.sigma1),
+            sigma2=_float("sigma2", self.sigma2),
         )
         object.__setattr__(self, "_core", core)
 

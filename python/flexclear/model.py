@@ -948,6 +948,8 @@ class Model:
         refuses a run above its memory limit with :class:`~flexclear.ResourceError`."""
         rec = _as_record(record)
         check_window(rec.start, t_end, dt, "record.start")
+        if float(t_end) / float(dt) > 1e12:  # as simulate: at most 1e12 steps
+            raise _bad("dt", dt, f"at least t_end/1e12 = {float(t_end) / 1e12:e} s (at most 1e12 steps)")
         return self._history_plan(float(t_end), float(dt), rec, MOVING if rec.energy else self._kind)[0]
 
     def _history_plan(self, t_end: float, dt: float, rec: Record, kind: str) -> tuple[int, int, int, dict]:

@@ -216,6 +216,30 @@ def _run_options(g: _Gen, moving: bool) -> dict:
         kw["gap_damping"] = g.num(0.0, 100.0, log=False)
     if g.maybe(0.3):
         kw["raise_on_failure"] = g.flag()
+    # later features (drawn last, so the draws above keep their order)
+    if g.maybe(0.06):
+        kw["tol"] = g.num(1e-3, 0.5)  # adaptive steps; dt becomes the output grid
+        for k in ("beta", "gamma", "iterate", "method", "gap_stiffness", "gap_damping"):
+            if not g.hostile():
+                kw.pop(k, None)
+    if g.maybe(0.08):
+        kw["integrator"] = g.choice(["newmark", "generalized-alpha", "hht"])
+        if g.maybe():
+            kw["rho_inf"] = g.num(0.0, 1.0, log=False)
+        if g.maybe(0.3):
+            kw["hht_alpha"] = g.num(-1 / 3, 0.0, log=False)
+        if not g.hostile():
+            kw.pop("beta", None)
+            kw.pop("gamma", None)
+            if kw.get("integrator") != "generalized-alpha":
+                kw.pop("rho_inf", None)
+            if kw.get("integrator") != "hht":
+                kw.pop("hht_alpha", None)
+    if g.maybe(0.05):
+        kw["method"] = "continuous"
+        if not g.hostile():
+            for k in ("tol", "events", "iterate", "gap_stiffness", "gap_damping"):
+                kw.pop(k, None)
     return kw
 
 
@@ -245,6 +269,10 @@ def _action(g: _Gen, moving: bool, links: list, joints: list, dt_range=(1e-6, 1e
     if r < 0.8:
         t_end, dt = _times(g, *dt_range, steps)
         opts = _run_options(g, moving)
+        if "tol" in opts and all(isinstance(x, float) and math.isfinite(x) for x in (t_end, dt)):
+            # an adaptive run takes as many steps as its accuracy asks (21.7 million on one
+            # random stiff model of 0.09 s): keep it to a few output steps
+            t_end = min(t_end, 20 * dt)
         if g.maybe(0.6):
             opts["record"] = _record(g, t_end, links, joints)
         return {"do": "simulate", "t_end": t_end, "dt": dt, "options": opts}
@@ -382,6 +410,18 @@ def _model_case(g: _Gen) -> dict:
             kw["damping_law"] = g.choice(["viscous", "radial", "literal"])
         if g.maybe(0.1):
             kw["no_tension"] = g.flag()
+        if g.maybe(0.08):
+            law = g.r.choice(["Coulomb", "LuGre"])
+            fkw: dict[str, Any] = {"mu": g.num(0.0, 1.0, log=False)} if law == "Coulomb" else {}
+            if law == "LuGre":
+                mu = g.num(0.01, 1.0)
+                fkw = {
+                    "mu": mu,
+                    "mu_static": mu * 1.3 if isinstance(mu, float) else mu,
+                    "sigma0": g.num(1e3, 1e9),
+                }
+            kw["friction"] = g.bad_value() if g.hostile() else {"$friction": [law, fkw]}
+            kw["journal_radius"] = g.num(1e-3, 2e-2)
         name = f"J{i}"
         ops.append(["add_joint", name, link, node, kw])
         joints.append(name)
@@ -744,6 +784,11 @@ def _decode(v: Any) -> Any:
     if "$dist" in v:
         kind, args = v["$dist"]
         return getattr(study, kind)(*_decode(args))
+    if "$friction" in v:
+        from flexclear import contact
+
+        kind, kw = v["$friction"]
+        return getattr(contact, kind)(**_decode(kw))
     return {k: _decode(x) for k, x in v.items()}
 
 
