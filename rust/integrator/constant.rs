@@ -64,6 +64,7 @@
 //! `CHECK_STRIDE` steps and at the last step the whole state is checked for finiteness and the
 //! translational DOFs against the limit.
 
+use super::adaptive::{self, Levels};
 use super::divergence;
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
@@ -681,9 +682,7 @@ struct AdaptiveSteps {
     p0: Vec<f64>,
     p1: Vec<f64>,
     tol: crate::run::Adaptive,
-    level: u32,
-    /// The level of the shortest step, `h_min`.
-    max_level: u32,
+    levels: Levels,
 }
 
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
@@ -1547,8 +1546,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 p0: Vec::with_capacity(nj),
                 p1: Vec::with_capacity(nj),
                 tol,
-                level: 0,
-                max_level: ((self.sh.grid_dt / tol.h_min).log2().floor().max(0.0) as u32).min(30),
+                levels: Levels::new(self.sh.grid_dt, tol.h_min),
             }
         });
         let events = (L == 1 && settings.events && adaptive.is_none()).then(Events::default);
@@ -2012,15 +2010,13 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// `local_error`), `c |a_(n+1) - a_n| h^2 / (atol + rtol |u|)` with `c = |beta - 1/6|` (at
     /// least 1/24).
     fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
-        let c = (self.lanes[0].settings.newmark.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h;
-        let mut e = 0.0f64;
-        for ((a1, a0), u) in self.a.iter().zip(a0).zip(&self.u) {
-            let r = c * (a1[0] - a0).abs() / (tol.atol + tol.rtol * u[0].abs());
-            if r.is_nan() || r > e {
-                e = if r.is_finite() { r } else { f64::INFINITY };
-            }
-        }
-        e
+        let unknowns = self
+            .a
+            .iter()
+            .zip(a0)
+            .zip(&self.u)
+            .map(|((a1, &a0), u)| (a1[0], a0, u[0]));
+        adaptive::local_error(self.lanes[0].settings.newmark.beta, h, unknowns, tol)
     }
 
     /// Adaptive steps of the single lane from `self.t` to the output instant `t1` (s), with the
@@ -2042,7 +2038,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         let mut t = self.t;
         while t1 - t > 1e-9 * dt {
             let rest = t1 - t;
-            let mut h = dt / f64::from(1u32 << ad.level.min(30));
+            let mut h = ad.levels.step(dt);
             // the last step of the interval: to `t1`, at the level's length where it is that up
             // to rounding (its constants are cached), else at the rest
             let last = h >= rest || rest - h < 1e-3 * h;
@@ -2060,7 +2056,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
             self.snapshot(&mut ad.snap);
             ad.p0.clone_from(&self.lanes[0].pen);
-            let at_floor = ad.level >= ad.max_level;
+            let at_floor = ad.levels.at_floor();
             if !self.adaptive_step(t, h) {
                 return;
             }
@@ -2093,13 +2089,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             if err > 1.0 && !at_floor {
                 self.restore(&ad.snap);
                 self.lanes[0].stats.rejected_steps += 1;
-                // the local error goes as h^3: the level that brings it to 0.9 of the tolerance
-                let up = if err.is_finite() {
-                    ((err / 0.729).log2() / 3.0).ceil().max(1.0) as u32
-                } else {
-                    2
-                };
-                ad.level = (ad.level + up).min(ad.max_level);
+                ad.levels.reject(err);
                 continue;
             }
             let stats = &mut self.lanes[0].stats;
@@ -2108,16 +2098,10 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
             if cut {
                 stats.event_steps += 1;
-            } else if err <= 0.1 && ad.level > 0 && h == dt / f64::from(1u32 << ad.level.min(30)) {
-                ad.level -= 1;
-            }
-            stats.adaptive_steps += 1;
-            stats.min_step = if stats.min_step > 0.0 {
-                stats.min_step.min(taken)
             } else {
-                taken
-            };
-            stats.max_step = stats.max_step.max(taken);
+                ad.levels.accept(err, h, dt);
+            }
+            adaptive::count_step(stats, taken);
             let reached = if last && !cut { t1 } else { t + taken };
             if !cut {
                 self.peaks_within_step(t, taken, &ad.snap);
@@ -2153,27 +2137,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             if norm2(q0) <= c && norm2(q1) <= c {
                 continue;
             }
-            for k in 1..8 {
-                let s = f64::from(k) / 8.0;
-                let (s2, s3) = (s * s, s * s * s);
-                let (h00, h10, h01, h11) = (
-                    2.0 * s3 - 3.0 * s2 + 1.0,
-                    s3 - 2.0 * s2 + s,
-                    -2.0 * s3 + 3.0 * s2,
-                    s3 - s2,
-                );
-                let (d00, d10, d01, d11) = (
-                    6.0 * s2 - 6.0 * s,
-                    3.0 * s2 - 4.0 * s + 1.0,
-                    -6.0 * s2 + 6.0 * s,
-                    3.0 * s2 - 2.0 * s,
-                );
-                let mut q = [0.0; 2];
-                let mut qd = [0.0; 2];
-                for i in 0..2 {
-                    q[i] = h00 * q0[i] + h10 * h * v0[i] + h01 * q1[i] + h11 * h * v1[i];
-                    qd[i] = (d00 * q0[i] + d01 * q1[i]) / h + d10 * v0[i] + d11 * v1[i];
-                }
+            for (s, q, qd) in adaptive::hermite_points((q0, v0), (q1, v1), h) {
                 let terms = lane.contact_terms(jj, q, qd);
                 if terms.penetration <= 0.0 {
                     continue;

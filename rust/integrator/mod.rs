@@ -1,9 +1,11 @@
 //! Time integrators, one file per stepper kind (the table in [`crate::plan`]): [`constant`]
 //! (Newmark on a contact-free effective matrix factorized once, contact by Woodbury, lockstep
 //! lanes) and [`newton`] (Newton iterations on the moving-frame equations, the band LU
-//! refactorized when the Jacobian changes); [`events`] locates contact entry and exit for both,
+//! refactorized when the Jacobian changes); `adaptive` holds the parts of adaptive steps both
+//! share; [`events`] locates contact entry and exit for both,
 //! and one divergence rule serves both.
 
+pub(crate) mod adaptive;
 pub mod constant;
 pub mod divergence;
 pub mod events;

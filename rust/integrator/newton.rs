@@ -80,6 +80,7 @@
 
 use nalgebra::Matrix6;
 
+use super::adaptive;
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
 use crate::contact::friction::FrictionEval;
@@ -2524,15 +2525,8 @@ impl<'a> NewtonRun<'a> {
     /// (at least 1/24), over the tolerance `atol + rtol |y|`, largest over the unknowns
     /// (infinite when not finite).
     fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
-        let c = (self.settings.newmark.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h;
-        let mut e = 0.0f64;
-        for i in 0..self.n {
-            let r = c * (self.ydd[i] - a0[i]).abs() / (tol.atol + tol.rtol * self.y[i].abs());
-            if r.is_nan() || r > e {
-                e = if r.is_finite() { r } else { f64::INFINITY };
-            }
-        }
-        e
+        let unknowns = (0..self.n).map(|i| (self.ydd[i], a0[i], self.y[i]));
+        adaptive::local_error(self.settings.newmark.beta, h, unknowns, tol)
     }
 
     /// Puts back the state saved in `ad` (the start of a trial step at `t`, s).
@@ -2559,11 +2553,10 @@ impl<'a> NewtonRun<'a> {
     fn adaptive_advance(&mut self, t0: f64, t1: f64, k: u64, ad: &mut AdaptiveScratch) -> Result<()> {
         let tol = self.settings.adaptive.expect("adaptive settings");
         let dt = self.settings.dt;
-        let max_level = ((dt / tol.h_min).log2().floor().max(0.0) as u32).min(30);
         let mut t = t0;
         while t1 - t > 1e-9 * dt {
             let rest = t1 - t;
-            let mut h = dt / f64::from(1u32 << ad.level.min(30));
+            let mut h = ad.levels.step(dt);
             if h >= rest || rest - h < 1e-3 * h {
                 h = rest;
             }
@@ -2578,7 +2571,7 @@ impl<'a> NewtonRun<'a> {
                 let s = self.joint_state(j, &self.y, &self.yd);
                 ad.q0.push(s);
             }
-            let at_floor = ad.level >= max_level;
+            let at_floor = ad.levels.at_floor();
             let mut err = match self.step(t, h, k, 0) {
                 Ok(()) => self.local_error(h, &ad.ydd, &tol),
                 Err(e @ Error::NotConverged { .. }) => {
@@ -2593,31 +2586,25 @@ impl<'a> NewtonRun<'a> {
             // the substep to it is the one to judge (the whole step carries the jump of the
             // contact force, which the step after the cut resolves)
             let mut taken = h;
-            let mut cut = None;
+            let mut cut = false;
             if err.is_finite() {
                 self.penetrations(&mut ad.p1);
                 if let Some((theta, j)) = earliest_crossing(&ad.p0, &ad.p1) {
                     taken = self.adaptive_cut(t, h, k, ad, theta, j)?;
                     err = self.local_error(taken, &ad.ydd, &tol);
-                    cut = Some(j);
+                    cut = true;
                 }
             }
             if err > 1.0 && !at_floor {
                 self.restore_adaptive(ad, t);
                 self.stats.rejected_steps += 1;
-                // the local error goes as h^3: the level that brings it to 0.9 of the tolerance
-                let up = if err.is_finite() {
-                    ((err / 0.729).log2() / 3.0).ceil().max(1.0) as u32
-                } else {
-                    2
-                };
-                ad.level = (ad.level + up).min(max_level);
+                ad.levels.reject(err);
                 continue;
             }
             if err > 1.0 {
                 self.stats.floor_steps += 1;
             }
-            if cut.is_some() {
+            if cut {
                 // the accelerations and the recorded force at the cut are the right limit: each
                 // joint at its crossing there is taken on the new side of its circle (the
                 // dashpot's entry force acts from the cut on, as on the constant stepper)
@@ -2637,18 +2624,10 @@ impl<'a> NewtonRun<'a> {
                 self.stats.event_steps += 1;
             } else {
                 self.peaks_within_step(h, ad);
-                if err <= 0.1 && ad.level > 0 && h == dt / f64::from(1u32 << ad.level.min(30)) {
-                    ad.level -= 1;
-                }
+                ad.levels.accept(err, h, dt);
             }
             t = if taken == rest { t1 } else { t + taken };
-            self.stats.adaptive_steps += 1;
-            self.stats.min_step = if self.stats.min_step > 0.0 {
-                self.stats.min_step.min(taken)
-            } else {
-                taken
-            };
-            self.stats.max_step = self.stats.max_step.max(taken);
+            adaptive::count_step(&mut self.stats, taken);
             if t < t1 {
                 self.track_joints(t, None);
                 if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
@@ -2677,27 +2656,7 @@ impl<'a> NewtonRun<'a> {
             if q0[0].hypot(q0[1]) <= c && q1[0].hypot(q1[1]) <= c {
                 continue;
             }
-            for k in 1..8 {
-                let s = f64::from(k) / 8.0;
-                let (s2, s3) = (s * s, s * s * s);
-                let (h00, h10, h01, h11) = (
-                    2.0 * s3 - 3.0 * s2 + 1.0,
-                    s3 - 2.0 * s2 + s,
-                    -2.0 * s3 + 3.0 * s2,
-                    s3 - s2,
-                );
-                let (d00, d10, d01, d11) = (
-                    6.0 * s2 - 6.0 * s,
-                    3.0 * s2 - 4.0 * s + 1.0,
-                    -6.0 * s2 + 6.0 * s,
-                    3.0 * s2 - 2.0 * s,
-                );
-                let mut q = [0.0; 2];
-                let mut qd = [0.0; 2];
-                for i in 0..2 {
-                    q[i] = h00 * q0[i] + h10 * h * v0[i] + h01 * q1[i] + h11 * h * v1[i];
-                    qd[i] = (d00 * q0[i] + d01 * q1[i]) / h + d10 * v0[i] + d11 * v1[i];
-                }
+            for (_, q, qd) in adaptive::hermite_points((q0, v0), (q1, v1), h) {
                 let terms = self.law_terms(j, q, qd);
                 if terms.penetration <= 0.0 {
                     continue;
@@ -2768,7 +2727,7 @@ impl<'a> NewtonRun<'a> {
             .collect();
         self.track_sliders(0.0, true);
         self.record(0.0);
-        let adaptive = self.settings.adaptive.is_some().then(|| AdaptiveScratch {
+        let adaptive = self.settings.adaptive.map(|a| AdaptiveScratch {
             y: vec![0.0; self.n],
             yd: vec![0.0; self.n],
             ydd: vec![0.0; self.n],
@@ -2778,7 +2737,7 @@ impl<'a> NewtonRun<'a> {
             p0: Vec::with_capacity(self.mech.joints.len()),
             p1: Vec::with_capacity(self.mech.joints.len()),
             pc: Vec::with_capacity(self.mech.joints.len()),
-            level: 0,
+            levels: adaptive::Levels::new(self.settings.dt, a.h_min),
         });
         let events =
             (self.settings.events && !self.mech.joints.is_empty() && adaptive.is_none()).then(EventScratch::default);
@@ -2859,7 +2818,7 @@ struct AdaptiveScratch {
     p0: Vec<f64>,
     p1: Vec<f64>,
     pc: Vec<f64>,
-    level: u32,
+    levels: adaptive::Levels,
 }
 
 impl Stepper for NewtonLoop<'_, '_> {
