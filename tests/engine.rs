@@ -107,9 +107,9 @@ fn at_rest() -> Arc<RotatingFrame> {
 }
 
 fn beam(elements: usize) -> Link {
-    Link {
-        name: "beam".into(),
-        section: BeamSection {
+    Link::new(
+        "beam",
+        BeamSection {
             length: 1.0,
             elements,
             youngs_modulus: 2e11,
@@ -118,13 +118,8 @@ fn beam(elements: usize) -> Link {
             area: 1e-4,
             inertia: 1e-9,
         },
-        frame: at_rest(),
-        terms: Default::default(),
-        rotary_inertia: false,
-        initial_displacement: None,
-        initial_velocity: None,
-        rigid: None,
-    }
+        at_rest(),
+    )
 }
 
 /// The constant stepper's compiled input of a mechanism of free `links` (what the plan derives).

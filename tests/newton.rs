@@ -13,7 +13,7 @@ use flexclear::integrator::newton::{simulate_mechanism, NewtonRun};
 use flexclear::kinematics::{
     FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
 };
-use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support, Terms};
+use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support};
 use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec};
@@ -48,9 +48,9 @@ fn link(
     inertia: f64,
     frame: Arc<dyn FrameKinematics>,
 ) -> Link {
-    Link {
-        name: name.into(),
-        section: BeamSection {
+    Link::new(
+        name,
+        BeamSection {
             length,
             elements,
             youngs_modulus: e,
@@ -60,12 +60,7 @@ fn link(
             inertia,
         },
         frame,
-        terms: Terms::default(),
-        rotary_inertia: false,
-        initial_displacement: None,
-        initial_velocity: None,
-        rigid: None,
-    }
+    )
 }
 
 /// One link clamped at node 0 (the frame origin).

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use flexclear::integrator::newton::{simulate_mechanism, NewtonRun};
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
-use flexclear::model::mechanism::{Endpoint, Link, Mechanism, NodalLoad, Pin, RigidBody, Terms};
+use flexclear::model::mechanism::{Endpoint, Link, Mechanism, NodalLoad, Pin, RigidBody};
 use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
 use flexclear::plan::{Plan, StepperKind};
@@ -30,9 +30,9 @@ fn beam(
     inertia: f64,
     frame: Arc<dyn FrameKinematics>,
 ) -> Link {
-    Link {
-        name: "bar".into(),
-        section: BeamSection {
+    Link::new(
+        "bar",
+        BeamSection {
             length,
             elements,
             youngs_modulus: e,
@@ -42,12 +42,7 @@ fn beam(
             inertia,
         },
         frame,
-        terms: Terms::default(),
-        rotary_inertia: false,
-        initial_displacement: None,
-        initial_velocity: None,
-        rigid: None,
-    }
+    )
 }
 
 fn rigid(length: f64, body: RigidBody, frame: Arc<dyn FrameKinematics>) -> Link {

@@ -608,30 +608,22 @@ impl<'a> NewtonRun<'a> {
         };
         for (l, ld) in mech.links.iter().zip(&links) {
             let a = ld.active;
-            if ld.rigid_moment.is_some() {
-                let mut t = vec!["rigid: M"];
-                if a.coriolis {
-                    t.push("M_COR");
-                }
-                if a.coupling {
-                    t.push("M_IC");
-                }
-                if a.load {
-                    t.push("M_R a_R");
-                }
-                stats.terms.push(format!("{}: {}", l.name, t.join(", ")));
-                continue;
-            }
-            let mut t = vec!["M", "K1"];
-            if l.section.damping > 0.0 {
-                t.push("D1");
-            }
-            if a.geometric {
-                t.extend(["K2", "K3"]);
+            // a rigid link carries its inertia terms only
+            let mut t = if ld.rigid_moment.is_some() {
+                vec!["rigid: M"]
+            } else {
+                let mut t = vec!["M", "K1"];
                 if l.section.damping > 0.0 {
-                    t.push("D2");
+                    t.push("D1");
                 }
-            }
+                if a.geometric {
+                    t.extend(["K2", "K3"]);
+                    if l.section.damping > 0.0 {
+                        t.push("D2");
+                    }
+                }
+                t
+            };
             if a.coriolis {
                 t.push("M_COR");
             }

@@ -121,6 +121,21 @@ impl RigidBody {
 }
 
 impl Link {
+    /// A flexible link named `name` of `section` in `frame`: terms chosen automatically, no rotary
+    /// inertia, starting undeformed at rest in its frame.
+    pub fn new(name: impl Into<String>, section: BeamSection, frame: Arc<dyn FrameKinematics>) -> Self {
+        Link {
+            name: name.into(),
+            section,
+            frame,
+            terms: Terms::default(),
+            rotary_inertia: false,
+            initial_displacement: None,
+            initial_velocity: None,
+            rigid: None,
+        }
+    }
+
     /// Element length l = L / N, m.
     pub fn element_length(&self) -> f64 {
         self.section.element_length()

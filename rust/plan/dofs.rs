@@ -447,7 +447,7 @@ mod tests {
     use super::*;
     use crate::contact::{DampingLaw, SpringDamper};
     use crate::kinematics::{FrameKinematics, RotatingFrame, Rotation};
-    use crate::model::mechanism::{Clearance, Link, Pin, Slider, Support, Terms};
+    use crate::model::mechanism::{Clearance, Link, Pin, Slider, Support};
     use crate::model::section::BeamSection;
     use crate::model::Motion;
     use crate::plan::{Plan, StepperKind};
@@ -458,9 +458,9 @@ mod tests {
     }
 
     fn link(name: &str, elements: usize) -> Link {
-        Link {
-            name: name.into(),
-            section: BeamSection {
+        Link::new(
+            name,
+            BeamSection {
                 length: 0.1 * elements as f64,
                 elements,
                 youngs_modulus: 2e11,
@@ -469,13 +469,8 @@ mod tests {
                 area: 1e-4,
                 inertia: 1e-9,
             },
-            frame: frame(Rotation::Fixed { angle: 0.0 }),
-            terms: Terms::default(),
-            rotary_inertia: false,
-            initial_displacement: None,
-            initial_velocity: None,
-            rigid: None,
-        }
+            frame(Rotation::Fixed { angle: 0.0 }),
+        )
     }
 
     fn node(link: usize, node: usize) -> Endpoint {

@@ -18,6 +18,7 @@
 
 use std::sync::Arc;
 
+use super::bearing::hertz_pin_stiffness;
 use super::{bad, finite, positive};
 use crate::contact::laws::{LankaraniNikravesh, NormalContact};
 use crate::contact::ContactLaw;
@@ -91,15 +92,6 @@ impl Default for FloresSliderCrank {
             friction: None,
         }
     }
-}
-
-/// The Hertz stiffness of a journal of radius `journal_radius` in a bearing of radius
-/// `bearing_radius`, both of modulus `youngs_modulus` (Pa) and Poisson's ratio `poisson_ratio`:
-/// `K = (4/3) E* sqrt(R_B R_J / (R_B - R_J))`, `E* = E / (2 (1 - nu^2))`, N/m^1.5 (as
-/// `flexclear.contact.pin_in_hole(..., model="hertz")`).
-pub fn hertz_pin_stiffness(bearing_radius: f64, journal_radius: f64, youngs_modulus: f64, poisson_ratio: f64) -> f64 {
-    let es = youngs_modulus / (2.0 * (1.0 - poisson_ratio * poisson_ratio));
-    4.0 / 3.0 * es * (bearing_radius * journal_radius / (bearing_radius - journal_radius)).sqrt()
 }
 
 impl FloresSliderCrank {

@@ -14,8 +14,8 @@ pub mod slider_yoke;
 pub mod spin_up;
 pub mod spinning_beam;
 
-pub use bearing::{hertz_secant, BearingDerived};
-pub use flores::{hertz_pin_stiffness, FloresSliderCrank};
+pub use bearing::{hertz_pin_stiffness, hertz_secant, BearingDerived};
+pub use flores::FloresSliderCrank;
 pub use four_bar::{FlexibleFourBar, FourBarPin};
 pub use slider_crank::{FlexibleSliderCrank, SliderCrankPin};
 pub use slider_yoke::{SliderYoke, SliderYokeGeometry};
