@@ -174,6 +174,14 @@ def _crank_sample(parameters: dict) -> list:
     return parameter_function({**inputs, "functionData": data})
 
 
+def print_rates(ex: dict, tp: dict, lanes: list[int]) -> None:
+    """Exudyn's samples/s on its subset beside flexclear's on the whole study, and their ratio."""
+    n = len(ex["values"])
+    print(f"Exudyn: {ex['rate']:.3f} samples/s ({ex['seconds']:.1f} s for {n})")
+    print(f"flexclear (2 threads, lanes={max(lanes)}, whole study): {tp['rate_2']:.1f} samples/s")
+    print(f"ratio flexclear / Exudyn: {tp['rate_2'] / ex['rate']:.1f}x")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=1000)
@@ -222,9 +230,7 @@ def main(argv=None) -> int:
             n = args.exudyn_samples
             print(f"== Exudyn ParameterVariation, first {n} samples of the slider-crank study, 2 processes")
             ex = exudyn_crank_subset(tp["frame"], n)
-            print(f"Exudyn: {ex['rate']:.3f} samples/s ({ex['seconds']:.1f} s for {n})")
-            print(f"flexclear (2 threads, lanes={max(lanes)}, whole study): {tp['rate_2']:.1f} samples/s")
-            print(f"ratio flexclear / Exudyn: {tp['rate_2'] / ex['rate']:.1f}x")
+            print_rates(ex, tp, lanes)
             print("clearance [m] | K_B [N/m] | w [rad/s] | max force [N] flexclear / Exudyn | impacts")
             for i, (inp, v) in enumerate(zip(ex["samples"], ex["values"])):
                 row = tp["frame"].iloc[i]
@@ -249,9 +255,7 @@ def main(argv=None) -> int:
         n = args.exudyn_samples
         print(f"== Exudyn ParameterVariation, first {n} clearances, 2 processes")
         ex = exudyn_subset(tp["frame"], n)
-        print(f"Exudyn: {ex['rate']:.3f} samples/s ({ex['seconds']:.1f} s for {n})")
-        print(f"flexclear (2 threads, lanes={max(lanes)}, whole study): {tp['rate_2']:.1f} samples/s")
-        print(f"ratio flexclear / Exudyn: {tp['rate_2'] / ex['rate']:.1f}x")
+        print_rates(ex, tp, lanes)
         print(
             "clearance [m] | max penetration [m] flexclear / Exudyn | "
             "max force [N] flexclear / Exudyn | impacts"

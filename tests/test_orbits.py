@@ -61,13 +61,16 @@ def test_orbit_arguments_are_checked(crank_study, tmp_path):
     assert np.isfinite(crank_study.frame["crank_pin.max_force"]).all()
 
 
-def test_montecarlo_cli_draws_orbits(tmp_path):
+def _reduced_study_report(tmp_path, study_file: str, samples: str, t_end: str) -> tuple[str, object]:
+    """``flexclear montecarlo --orbits 2`` on a reference study file of benches/studies with its
+    sample count and run length replaced (``samples``, ``t_end``: ``(old, new)`` line parts);
+    returns the report's text and the output folder."""
     from pathlib import Path
 
     from flexclear.cli import main
 
-    ref = (Path(__file__).parent.parent / "benches" / "studies" / "slider_crank_clearance.toml").read_text()
-    small = ref.replace("samples = 256", "samples = 4").replace("t_end = 0.1 ", "t_end = 0.005 ")
+    ref = (Path(__file__).parent.parent / "benches" / "studies" / study_file).read_text()
+    small = ref.replace(*samples).replace(*t_end)
     assert small != ref
     (tmp_path / "s.toml").write_text(small)
     out = tmp_path / "out"
@@ -75,26 +78,27 @@ def test_montecarlo_cli_draws_orbits(tmp_path):
         main(["montecarlo", str(tmp_path / "s.toml"), "--out", str(out), "--no-progress", "--orbits", "2"])
         == 0
     )
-    report = (out / "report.md").read_text()
+    return (out / "report.md").read_text(), out
+
+
+def test_montecarlo_cli_draws_orbits(tmp_path):
+    report, out = _reduced_study_report(
+        tmp_path,
+        "slider_crank_clearance.toml",
+        ("samples = 256", "samples = 4"),
+        ("t_end = 0.1 ", "t_end = 0.005 "),
+    )
     assert "## Journal orbits (crank_pin)" in report and (out / "orbits.png").exists()
 
 
 def test_the_four_bar_study_file_runs_from_the_cli(tmp_path):
     # benches/studies/four_bar_clearance.toml, reduced to 4 samples of 10 ms: a four-bar with a
     # clearance joint runs as a study from a study file (issue 14, "Done when")
-    from pathlib import Path
-
-    from flexclear.cli import main
-
-    ref = (Path(__file__).parent.parent / "benches" / "studies" / "four_bar_clearance.toml").read_text()
-    small = ref.replace("samples = 128", "samples = 4").replace("t_end = 0.126 ", "t_end = 0.01 ")
-    assert small != ref
-    (tmp_path / "s.toml").write_text(small)
-    out = tmp_path / "out"
-    assert (
-        main(["montecarlo", str(tmp_path / "s.toml"), "--out", str(out), "--no-progress", "--orbits", "2"])
-        == 0
+    report, out = _reduced_study_report(
+        tmp_path,
+        "four_bar_clearance.toml",
+        ("samples = 128", "samples = 4"),
+        ("t_end = 0.126 ", "t_end = 0.01 "),
     )
-    report = (out / "report.md").read_text()
     assert "## Journal orbits (rocker_pin)" in report and (out / "orbits.png").exists()
     assert "- 4 samples: 4 ok" in report and "| rocker_pin.max_force | 4 |" in report
