@@ -2557,11 +2557,13 @@ impl<'a> NewtonRun<'a> {
             ad.ydd.copy_from_slice(&self.ydd);
             ad.aa.copy_from_slice(&self.aa);
             ad.fric_z.copy_from_slice(&self.fric_z);
-            self.penetrations(&mut ad.p0);
+            // the joints' states at the start, and their penetrations from them
             ad.q0.clear();
-            for j in 0..self.mech.joints.len() {
-                let s = self.joint_state(j, &self.y, &self.yd);
-                ad.q0.push(s);
+            ad.p0.clear();
+            for (j, jt) in self.mech.joints.iter().enumerate() {
+                let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+                ad.p0.push(q[0].hypot(q[1]) - jt.clearance);
+                ad.q0.push((q, qd));
             }
             let at_floor = ad.levels.at_floor();
             let mut err = match self.step(t, h, k, 0) {
