@@ -78,8 +78,6 @@
 //!
 //! Nothing allocates inside the time loop.
 
-use nalgebra::Matrix6;
-
 use super::adaptive;
 use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
@@ -359,6 +357,13 @@ pub struct NewtonRun<'a> {
     signature: Vec<f64>,
     sig_new: Vec<f64>,
     frames: Vec<FrameState>,
+    /// Per link, `R(angle)` of its frame at [`Self::t_frames`] (one `sin_cos` per link and step,
+    /// not per use).
+    rots: Vec<[[f64; 2]; 2]>,
+    /// Per node of every link (link `li`'s from `node_off[li]`), its transform at the current
+    /// frames ([`node_t`]), refreshed by [`Self::update_frames`].
+    node_ts: Vec<NodeT>,
+    node_off: Vec<usize>,
     y: Vec<f64>,
     yd: Vec<f64>,
     ydd: Vec<f64>,
@@ -667,6 +672,9 @@ impl<'a> NewtonRun<'a> {
             signature: Vec::new(),
             sig_new: Vec::new(),
             frames: vec![FrameState::default(); mech.links.len()],
+            rots: vec![rot(0.0); mech.links.len()],
+            node_ts: Vec::new(),
+            node_off: Vec::new(),
             y: vec![0.0; n],
             yd: vec![0.0; n],
             ydd: vec![0.0; n],
@@ -716,6 +724,7 @@ impl<'a> NewtonRun<'a> {
             fric_secant: false,
             cont: None,
         };
+        run.refresh_transforms();
         if run.settings.coupling == Coupling::Continuous && nj > 0 {
             run.cont = Some(Box::new(continuous::Contact::new(nj, n)));
             for j in &mech.joints {
@@ -898,7 +907,7 @@ impl<'a> NewtonRun<'a> {
                 (_, Some((r, Some(l)))) if r != 0.0 => (r, Some(l)),
                 _ => (0.0, None),
             };
-            let rt = axes.map(|l| rot(self.frames[l].angle));
+            let rt = axes.map(|l| self.rots[l]);
             let mut cols = [(NONE, [0.0; 2]); 6];
             for (slot, e, sgn) in [(0, &jt.journal, 1.0), (3, &jt.bearing, -1.0)] {
                 let on_axes = match e {
@@ -1005,7 +1014,7 @@ impl<'a> NewtonRun<'a> {
             }
             if let Some(l) = rs.rows.axes[j] {
                 // R^T G R
-                let r = rot(self.frames[l].angle);
+                let r = self.rots[l];
                 let mut gr = [[0.0; 2]; 2];
                 for p in 0..2 {
                     for q in 0..2 {
@@ -1148,12 +1157,26 @@ impl<'a> NewtonRun<'a> {
         for (f, l) in self.frames.iter_mut().zip(&self.mech.links) {
             *f = l.frame.frame(t);
         }
+        self.refresh_transforms();
+    }
+
+    /// Recomputes the per-link rotations and per-node transforms from the current frames.
+    fn refresh_transforms(&mut self) {
+        self.node_off.clear();
+        self.node_ts.clear();
+        for (li, ld) in self.links.iter().enumerate() {
+            self.rots[li] = rot(self.frames[li].angle);
+            self.node_off.push(self.node_ts.len());
+            for map in &ld.nodes {
+                self.node_ts.push(node_t(map, &self.frames[li], &self.slider_angle));
+            }
+        }
     }
 
     /// Node transforms of link `li` for the current frames.
     #[inline]
     fn nt(&self, li: usize, node: usize) -> NodeT {
-        node_t(&self.links[li].nodes[node], &self.frames[li], &self.slider_angle)
+        self.node_ts[self.node_off[li] + node]
     }
 
     /// Local displacement, velocity and acceleration (u, v, th) of a node from global unknowns.
@@ -1216,7 +1239,7 @@ impl<'a> NewtonRun<'a> {
     /// Nominal acceleration `a_R` of the point at `x` in link-frame components, gravity removed.
     fn a_ref(&self, li: usize, x: f64) -> [f64; 2] {
         let f = &self.frames[li];
-        let r = rot(f.angle);
+        let r = self.rots[li];
         let g = self.mech.gravity;
         let a = [f.origin_acc[0] - g[0], f.origin_acc[1] - g[1]];
         let a0 = [r[0][0] * a[0] + r[1][0] * a[1], r[0][1] * a[0] + r[1][1] * a[1]];
@@ -1489,7 +1512,7 @@ impl<'a> NewtonRun<'a> {
                 let z = &self.ydd; // unused by the first two rows
                 let w = Self::local(&nt, y, yd, z);
                 let f = &self.frames[*link];
-                let r = rot(f.angle);
+                let r = self.rots[*link];
                 let (wl, wd) = (
                     [w[0][0], w[0][1]],
                     [w[1][0] - f.rate * w[0][1], w[1][1] + f.rate * w[0][0]],
@@ -1536,13 +1559,13 @@ impl<'a> NewtonRun<'a> {
                 let f = &self.frames[*link];
                 if m.lever != 0.0 && m.rot != NONE {
                     // node 1 of a rigid link: R [0, L] theta; velocity extra rate R S [0, L]
-                    let r = rot(f.angle);
+                    let r = self.rots[*link];
                     let col = [r[0][1] * m.lever, r[1][1] * m.lever];
                     out[2] = (m.rot, col, [-f.rate * col[1], f.rate * col[0]]);
                 }
                 match m.trans {
                     Trans::Local(ix) => {
-                        let r = rot(f.angle);
+                        let r = self.rots[*link];
                         for k in 0..2 {
                             // column k of R; velocity extra: rate R S e_k
                             let col = [r[0][k], r[1][k]];
@@ -1657,6 +1680,34 @@ impl<'a> NewtonRun<'a> {
         res.map_err(|e| self.name_pivot(e))
     }
 
+    /// The constant and axial-force parts of the Jacobian of an element of link `li` on its own
+    /// unknowns (`T = I`): `base = M + gh C0 + bh2 K0` with the frame's rate and acceleration
+    /// (`C0 = D1 + 2 w G`, `K0 = K1 + a G - w^2 MT`, each term as the link carries it) and `geo =
+    /// bh2 (K2 + K3) + gh eta K2`, so that the element's is `base + fax geo` at axial force `fax`
+    /// (N) plus the tangent of the axial force.
+    fn link_jacobian_terms(&self, li: usize, bh2: f64, gh: f64) -> (Mat6, Mat6) {
+        let ld = &self.links[li];
+        let f = &self.frames[li];
+        let mut base = ld.m + ld.d1 * gh + ld.k1 * bh2;
+        let mut g_coef = 0.0;
+        if ld.active.coriolis {
+            g_coef += 2.0 * f.rate * gh;
+        }
+        if ld.active.coupling {
+            g_coef += f.accel * bh2;
+            base -= ld.mt * (f.rate * f.rate * bh2);
+        }
+        if g_coef != 0.0 {
+            base += ld.g * g_coef;
+        }
+        let geo = if ld.active.geometric {
+            (ld.k2u + ld.k3u) * bh2 + ld.k2u * (ld.eta_e * gh)
+        } else {
+            Mat6::zeros()
+        };
+        (base, geo)
+    }
+
     /// Assembles `A + gh B + bh2 K` into `lu`, where the Jacobian of the residual with respect
     /// to the accelerations is that with `gh = gamma dt`, `bh2 = beta dt^2`.
     ///
@@ -1670,9 +1721,57 @@ impl<'a> NewtonRun<'a> {
         lu.clear();
         for li in 0..self.links.len() {
             let ld = &self.links[li];
+            // The element Jacobian of a link is an affine function of a few scalars: with the
+            // link's terms combined once here, an element on its own unknowns (T = I) takes
+            // `base + fax geo` and the axial-force tangent's two columns, no 6 x 6 product.
+            let (base, geo) = self.link_jacobian_terms(li, bh2, gh);
+            let rigid_kk = ld.rigid_moment.map(|mc| -mc * self.a_ref(li, 0.0)[0] * bh2);
             let mut prev = self.nt(li, 0);
             for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
+                if prev.plain && next.plain {
+                    let idx = [
+                        prev.idx[0],
+                        prev.idx[1],
+                        prev.idx[2],
+                        next.idx[0],
+                        next.idx[1],
+                        next.idx[2],
+                    ];
+                    let mut je = base;
+                    if ld.active.geometric {
+                        let w0 = Self::local(&prev, &self.y, &self.yd, &self.ydd);
+                        let w1 = Self::local(&next, &self.y, &self.yd, &self.ydd);
+                        let fax = ld.ea_l * (w1[0][0] - w0[0][0]);
+                        je += geo * fax;
+                        if tangent {
+                            // d/dQ of F(Q) (K23 Q + D2 Qd), F = EA/l (u2 - u1): bh2 g dF/dQ^T,
+                            // non-zero in the columns of u1 and u2 only
+                            let (q, qd) = (element_vec(&w0, &w1, 0), element_vec(&w0, &w1, 1));
+                            let g = (ld.k2u + ld.k3u) * q + ld.k2u * (qd * ld.eta_e);
+                            let s = ld.ea_l * bh2;
+                            for r in 0..6 {
+                                je[(r, 0)] -= s * g[r];
+                                je[(r, 3)] += s * g[r];
+                            }
+                        }
+                    }
+                    if let Some(v) = rigid_kk {
+                        je[(2, 2)] += v;
+                    }
+                    for a in 0..6 {
+                        if idx[a] == NONE {
+                            continue;
+                        }
+                        for b in 0..6 {
+                            if idx[b] != NONE && je[(a, b)] != 0.0 {
+                                lu.add(idx[a], idx[b], je[(a, b)]);
+                            }
+                        }
+                    }
+                    prev = next;
+                    continue;
+                }
                 let mut kg = None;
                 let fax = if ld.active.geometric {
                     let w0 = Self::local(&prev, &self.y, &self.yd, &self.ydd);
@@ -1705,25 +1804,42 @@ impl<'a> NewtonRun<'a> {
                     next.idx[1],
                     next.idx[2],
                 ];
-                let je = if prev.plain && next.plain {
-                    ld.m + c * gh + k * bh2
-                } else {
-                    let mut t = Matrix6::zeros();
-                    let mut td = Matrix6::zeros();
-                    let mut tdd = Matrix6::zeros();
-                    for (o, nt) in [(0, &prev), (3, &next)] {
-                        for r in 0..3 {
-                            for cc in 0..3 {
-                                t[(o + r, o + cc)] = nt.t[r][cc];
-                                td[(o + r, o + cc)] = nt.td[r][cc];
-                                tdd[(o + r, o + cc)] = nt.tdd[r][cc];
+                // T^T (M Ta + C Tv + bh2 K T) with T = diag(T0, T1) block by block: a node on
+                // its own unknowns has T = I, Ta = I, Tv = gh I
+                let mut x = Mat6::zeros();
+                for (o, nt) in [(0, &prev), (3, &next)] {
+                    if nt.plain {
+                        for r in 0..6 {
+                            for cc in o..o + 3 {
+                                x[(r, cc)] = ld.m[(r, cc)] + gh * c[(r, cc)] + bh2 * k[(r, cc)];
                             }
                         }
+                        continue;
                     }
-                    let ta = t + td * (2.0 * gh) + tdd * bh2;
-                    let tv = t * gh + td * bh2;
-                    t.transpose() * (ld.m * ta + c * tv + k * (t * bh2))
-                };
+                    for cc in 0..3 {
+                        let ta = [0, 1, 2].map(|q| nt.t[q][cc] + 2.0 * gh * nt.td[q][cc] + bh2 * nt.tdd[q][cc]);
+                        let tv = [0, 1, 2].map(|q| gh * nt.t[q][cc] + bh2 * nt.td[q][cc]);
+                        let tk = [0, 1, 2].map(|q| bh2 * nt.t[q][cc]);
+                        for r in 0..6 {
+                            let mut v = 0.0;
+                            for q in 0..3 {
+                                v += ld.m[(r, o + q)] * ta[q] + c[(r, o + q)] * tv[q] + k[(r, o + q)] * tk[q];
+                            }
+                            x[(r, o + cc)] = v;
+                        }
+                    }
+                }
+                let mut je = x;
+                for (o, nt) in [(0, &prev), (3, &next)] {
+                    if nt.plain {
+                        continue;
+                    }
+                    for cc in 0..6 {
+                        for r in 0..3 {
+                            je[(o + r, cc)] = (0..3).map(|q| nt.t[q][r] * x[(o + q, cc)]).sum();
+                        }
+                    }
+                }
                 for a in 0..6 {
                     if idx[a] == NONE {
                         continue;
@@ -2252,7 +2368,7 @@ impl<'a> NewtonRun<'a> {
                     hist.midspan.push(vm - 0.5 * (buf[0][0][1] + buf[nn - 1][0][1]));
                 }
                 if ch.energy {
-                    let r = rot(f.angle);
+                    let r = self.rots[li];
                     let v0 = [
                         r[0][0] * f.origin_vel[0] + r[1][0] * f.origin_vel[1],
                         r[0][1] * f.origin_vel[0] + r[1][1] * f.origin_vel[1],

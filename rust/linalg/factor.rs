@@ -13,6 +13,12 @@ pub trait Factor {
     fn dim(&self) -> usize;
     /// Overwrites `x` (length [`Factor::dim`]) with `A^-1 x`.
     fn solve_in_place(&mut self, x: &mut [f64]);
+    /// Solves for two right-hand sides, each result bitwise that of [`Factor::solve_in_place`]
+    /// (a factor may interleave the two substitutions).
+    fn solve_pair_in_place(&mut self, x: &mut [f64], y: &mut [f64]) {
+        self.solve_in_place(x);
+        self.solve_in_place(y);
+    }
 }
 
 impl Factor for Cholesky {
@@ -34,5 +40,9 @@ impl Factor for BandLu {
     #[inline]
     fn solve_in_place(&mut self, x: &mut [f64]) {
         BandLu::solve_in_place(self, x);
+    }
+    #[inline]
+    fn solve_pair_in_place(&mut self, x: &mut [f64], y: &mut [f64]) {
+        BandLu::solve_pair_in_place(self, x, y);
     }
 }

@@ -58,11 +58,10 @@ impl Woodbury {
         self.z.clear();
         self.z.resize(n * m, 0.0);
         for b in 0..p.blocks() {
-            for r in 0..2 {
-                let col = &mut self.z[(2 * b + r) * n..(2 * b + r + 1) * n];
-                p.scatter(b, r, col);
-                factor.solve_in_place(col);
-            }
+            let (c0, c1) = self.z[2 * b * n..(2 * b + 2) * n].split_at_mut(n);
+            p.scatter(b, 0, c0);
+            p.scatter(b, 1, c1);
+            factor.solve_pair_in_place(c0, c1);
         }
         self.w.clear();
         self.w.resize(m * m, 0.0);
