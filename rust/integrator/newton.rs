@@ -145,6 +145,24 @@ fn joint_spec(record: &RecordSpec) -> RecordSpec {
     }
 }
 
+/// The largest `|v|` of `r`, infinite when some entry is not finite (four running maxima: no
+/// dependency chain through every entry; maxima are exact, so the result is that of a plain
+/// fold).
+#[inline]
+fn max_abs_or_inf(r: &[f64]) -> f64 {
+    let mut m = [0.0f64; 4];
+    let mut finite = true;
+    for (i, v) in r.iter().enumerate() {
+        finite &= v.is_finite();
+        m[i % 4] = m[i % 4].max(v.abs());
+    }
+    if finite {
+        m[0].max(m[1]).max(m[2].max(m[3]))
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// The running extremes of one clearance joint that the stepper tracks itself (every step from
 /// [`RecordSpec::start`] on, the law at the reached state), and whether its histories are kept.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1206,6 +1224,16 @@ impl<'a> NewtonRun<'a> {
     /// Adds `T^T f` (f: local generalized force of a node) into `r`.
     #[inline]
     fn project(nt: &NodeT, f: [f64; 3], r: &mut [f64]) {
+        if nt.plain {
+            // T the identity on the node's own unknowns
+            for c in 0..3 {
+                let i = nt.idx[c];
+                if i != NONE {
+                    r[i] += f[c];
+                }
+            }
+            return;
+        }
         for c in 0..3 {
             let i = nt.idx[c];
             if i != NONE {
@@ -2071,10 +2099,7 @@ impl<'a> NewtonRun<'a> {
             let mut dx = Vec::new();
             if failure.is_none() {
                 self.residual(h, t + h);
-                last_res = self.r.iter().fold(
-                    0.0f64,
-                    |m, v| if v.is_finite() { m.max(v.abs()) } else { f64::INFINITY },
-                );
+                last_res = max_abs_or_inf(&self.r);
                 dx = std::mem::take(&mut self.r);
                 if rate_step {
                     if iters == 1 && self.rate.as_ref().is_some_and(|r| r.any) {
@@ -2108,17 +2133,21 @@ impl<'a> NewtonRun<'a> {
                 self.check_divergence(t, step)?;
                 return Err(e);
             }
-            let mut dmax = 0.0f64;
-            let mut ymax = 0.0f64;
+            // the largest correction and displacement, four running maxima each (no chain
+            // through every unknown; the maxima are exact, so the order does not matter)
+            let mut dm = [0.0f64; 4];
+            let mut ym = [0.0f64; 4];
             for i in 0..self.n {
                 let da = -dx[i];
                 self.a[i] += da;
                 self.ydd[i] = self.a[i];
                 self.y[i] = self.y_pred[i] + bh2 * self.a[i];
                 self.yd[i] = self.v_pred[i] + gh * self.a[i];
-                dmax = dmax.max((bh2 * da).abs());
-                ymax = ymax.max(self.y[i].abs());
+                dm[i % 4] = dm[i % 4].max((bh2 * da).abs());
+                ym[i % 4] = ym[i % 4].max(self.y[i].abs());
             }
+            let dmax = dm[0].max(dm[1]).max(dm[2].max(dm[3]));
+            let ymax = ym[0].max(ym[1]).max(ym[2].max(ym[3]));
             // f64::max skips NaN: a non-finite correction is caught here, not by dmax
             let finite = dx.iter().all(|d| d.is_finite());
             self.r = dx;
