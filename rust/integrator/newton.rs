@@ -382,6 +382,9 @@ pub struct NewtonRun<'a> {
     /// frames ([`node_t`]), refreshed by [`Self::update_frames`].
     node_ts: Vec<NodeT>,
     node_off: Vec<usize>,
+    /// Per link, per element on its own unknowns (both nodes plain, else `None`): the band
+    /// positions of its 36 entries (column-major, `NONE` for a held slot), fixed for the run.
+    elem_pos: Vec<Vec<Option<Box<[usize; 36]>>>>,
     y: Vec<f64>,
     yd: Vec<f64>,
     ydd: Vec<f64>,
@@ -693,6 +696,7 @@ impl<'a> NewtonRun<'a> {
             rots: vec![rot(0.0); mech.links.len()],
             node_ts: Vec::new(),
             node_off: Vec::new(),
+            elem_pos: Vec::new(),
             y: vec![0.0; n],
             yd: vec![0.0; n],
             ydd: vec![0.0; n],
@@ -743,6 +747,28 @@ impl<'a> NewtonRun<'a> {
             cont: None,
         };
         run.refresh_transforms();
+        run.elem_pos = (0..run.links.len())
+            .map(|li| {
+                (0..run.mech.links[li].section.elements)
+                    .map(|e| {
+                        let (p, q) = (run.nt(li, e), run.nt(li, e + 1));
+                        if !(p.plain && q.plain) {
+                            return None;
+                        }
+                        let idx = [p.idx[0], p.idx[1], p.idx[2], q.idx[0], q.idx[1], q.idx[2]];
+                        let mut pos = [NONE; 36];
+                        for c in 0..6 {
+                            for r in 0..6 {
+                                if idx[r] != NONE && idx[c] != NONE {
+                                    pos[r + 6 * c] = run.lu.position(idx[r], idx[c]);
+                                }
+                            }
+                        }
+                        Some(Box::new(pos))
+                    })
+                    .collect()
+            })
+            .collect();
         if run.settings.coupling == Coupling::Continuous && nj > 0 {
             run.cont = Some(Box::new(continuous::Contact::new(nj, n)));
             for j in &mech.joints {
@@ -1193,8 +1219,8 @@ impl<'a> NewtonRun<'a> {
 
     /// Node transforms of link `li` for the current frames.
     #[inline]
-    fn nt(&self, li: usize, node: usize) -> NodeT {
-        self.node_ts[self.node_off[li] + node]
+    fn nt(&self, li: usize, node: usize) -> &NodeT {
+        &self.node_ts[self.node_off[li] + node]
     }
 
     /// Local displacement, velocity and acceleration (u, v, th) of a node from global unknowns.
@@ -1283,7 +1309,7 @@ impl<'a> NewtonRun<'a> {
             let ld = &self.links[li];
             let le = self.mech.links[li].element_length();
             let mut prev = self.nt(li, 0);
-            let mut wprev = Self::local(&prev, &self.y, &self.yd, &self.ydd);
+            let mut wprev = Self::local(prev, &self.y, &self.yd, &self.ydd);
             let (c0, k0) = self.element_ck(li, 0.0);
             let k23 = ld.k2u + ld.k3u;
             // the nominal acceleration of the frame origin and the frame's rates: the same for
@@ -1293,7 +1319,7 @@ impl<'a> NewtonRun<'a> {
             let d2 = ld.k2u * ld.eta_e;
             for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
-                let wn = Self::local(&next, &self.y, &self.yd, &self.ydd);
+                let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
                 let (q, qd, qdd) = (
                     element_vec(&wprev, &wn, 0),
                     element_vec(&wprev, &wn, 1),
@@ -1311,8 +1337,8 @@ impl<'a> NewtonRun<'a> {
                 if let Some(mc) = ld.rigid_moment {
                     f[2] -= mc * self.a_ref(li, 0.0)[0] * q[2];
                 }
-                Self::project(&prev, [f[0], f[1], f[2]], &mut r);
-                Self::project(&next, [f[3], f[4], f[5]], &mut r);
+                Self::project(prev, [f[0], f[1], f[2]], &mut r);
+                Self::project(next, [f[3], f[4], f[5]], &mut r);
                 prev = next;
                 wprev = wn;
             }
@@ -1323,14 +1349,14 @@ impl<'a> NewtonRun<'a> {
                     continue;
                 }
                 let nt = self.nt(li, nd);
-                let w = Self::local(&nt, &self.y, &self.yd, &self.ydd);
+                let w = Self::local(nt, &self.y, &self.yd, &self.ydd);
                 let fr = &self.frames[li];
                 let ar = self.a_ref(li, nd as f64 * le);
                 let (om, al) = (fr.rate, fr.accel);
                 // m [wdd + 2 om S wd + (al S - om^2) w + a_R]
                 let fx = m * (w[2][0] - 2.0 * om * w[1][1] - al * w[0][1] - om * om * w[0][0] + ar[0]);
                 let fy = m * (w[2][1] + 2.0 * om * w[1][0] + al * w[0][0] - om * om * w[0][1] + ar[1]);
-                Self::project(&nt, [fx - fl[0], fy - fl[1], -fl[2]], &mut r);
+                Self::project(nt, [fx - fl[0], fy - fl[1], -fl[2]], &mut r);
             }
         }
         // Sliders: m (sdd + e . a_nominal) along the guide.
@@ -1538,7 +1564,7 @@ impl<'a> NewtonRun<'a> {
             Endpoint::Node { link, node } => {
                 let nt = self.nt(*link, *node);
                 let z = &self.ydd; // unused by the first two rows
-                let w = Self::local(&nt, y, yd, z);
+                let w = Self::local(nt, y, yd, z);
                 let f = &self.frames[*link];
                 let r = self.rots[*link];
                 let (wl, wd) = (
@@ -1755,21 +1781,23 @@ impl<'a> NewtonRun<'a> {
             let (base, geo) = self.link_jacobian_terms(li, bh2, gh);
             let rigid_kk = ld.rigid_moment.map(|mc| -mc * self.a_ref(li, 0.0)[0] * bh2);
             let mut prev = self.nt(li, 0);
+            // the nodes' local states (the axial forces' inputs), each node's once
+            let local_state = |nt: &NodeT| {
+                if ld.active.geometric {
+                    Self::local(nt, &self.y, &self.yd, &self.ydd)
+                } else {
+                    [[0.0; 3]; 3]
+                }
+            };
+            let mut wprev = local_state(prev);
             for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
-                if prev.plain && next.plain {
-                    let idx = [
-                        prev.idx[0],
-                        prev.idx[1],
-                        prev.idx[2],
-                        next.idx[0],
-                        next.idx[1],
-                        next.idx[2],
-                    ];
+                let wnext = local_state(next);
+                let (w0, w1) = (wprev, wnext);
+                wprev = wnext;
+                if let Some(pos) = &self.elem_pos[li][e] {
                     let mut je = base;
                     if ld.active.geometric {
-                        let w0 = Self::local(&prev, &self.y, &self.yd, &self.ydd);
-                        let w1 = Self::local(&next, &self.y, &self.yd, &self.ydd);
                         let fax = ld.ea_l * (w1[0][0] - w0[0][0]);
                         je += geo * fax;
                         if tangent {
@@ -1787,14 +1815,9 @@ impl<'a> NewtonRun<'a> {
                     if let Some(v) = rigid_kk {
                         je[(2, 2)] += v;
                     }
-                    for a in 0..6 {
-                        if idx[a] == NONE {
-                            continue;
-                        }
-                        for b in 0..6 {
-                            if idx[b] != NONE && je[(a, b)] != 0.0 {
-                                lu.add(idx[a], idx[b], je[(a, b)]);
-                            }
+                    for (&p, &v) in pos.iter().zip(je.as_slice()) {
+                        if p != NONE && v != 0.0 {
+                            lu.add_at(p, v);
                         }
                     }
                     prev = next;
@@ -1802,8 +1825,6 @@ impl<'a> NewtonRun<'a> {
                 }
                 let mut kg = None;
                 let fax = if ld.active.geometric {
-                    let w0 = Self::local(&prev, &self.y, &self.yd, &self.ydd);
-                    let w1 = Self::local(&next, &self.y, &self.yd, &self.ydd);
                     if tangent {
                         // d/dQ of F(Q) (K23 Q + D2 Qd), F = EA/l (u2 - u1): a rank-1 term.
                         let (q, qd) = (element_vec(&w0, &w1, 0), element_vec(&w0, &w1, 1));
@@ -2137,14 +2158,22 @@ impl<'a> NewtonRun<'a> {
             // through every unknown; the maxima are exact, so the order does not matter)
             let mut dm = [0.0f64; 4];
             let mut ym = [0.0f64; 4];
-            for i in 0..self.n {
-                let da = -dx[i];
-                self.a[i] += da;
-                self.ydd[i] = self.a[i];
-                self.y[i] = self.y_pred[i] + bh2 * self.a[i];
-                self.yd[i] = self.v_pred[i] + gh * self.a[i];
+            let n = self.n;
+            let (av, yddv, yv, ydv) = (
+                &mut self.a[..n],
+                &mut self.ydd[..n],
+                &mut self.y[..n],
+                &mut self.yd[..n],
+            );
+            let (ypv, vpv, dxv) = (&self.y_pred[..n], &self.v_pred[..n], &dx[..n]);
+            for i in 0..n {
+                let da = -dxv[i];
+                av[i] += da;
+                yddv[i] = av[i];
+                yv[i] = ypv[i] + bh2 * av[i];
+                ydv[i] = vpv[i] + gh * av[i];
                 dm[i % 4] = dm[i % 4].max((bh2 * da).abs());
-                ym[i % 4] = ym[i % 4].max(self.y[i].abs());
+                ym[i % 4] = ym[i % 4].max(yv[i].abs());
             }
             let dmax = dm[0].max(dm[1]).max(dm[2].max(dm[3]));
             let ymax = ym[0].max(ym[1]).max(ym[2].max(ym[3]));
@@ -2268,7 +2297,7 @@ impl<'a> NewtonRun<'a> {
             // a rigid link's state is node 0's (node 1 follows it)
             let nodes = if l.rigid.is_some() { 1 } else { l.nodes() };
             for nd in 0..nodes {
-                let nt = self.nt(li, nd);
+                let nt = *self.nt(li, nd);
                 for (src, dst) in [(&l.initial_displacement, 0), (&l.initial_velocity, 1)] {
                     let Some(v) = src else { continue };
                     let w = [v[3 * nd], v[3 * nd + 1], v[3 * nd + 2]];
@@ -2374,7 +2403,7 @@ impl<'a> NewtonRun<'a> {
                 buf.clear();
                 for nd in 0..nn {
                     let nt = self.nt(li, nd);
-                    buf.push(Self::local(&nt, &self.y, &self.yd, &self.ydd));
+                    buf.push(Self::local(nt, &self.y, &self.yd, &self.ydd));
                 }
                 if ch.displacements {
                     for w in &buf {

@@ -73,6 +73,23 @@ impl BandLu {
         self.a[i * w + j + self.b - i] += v;
     }
 
+    /// The storage position of entry `(i, j)` (`|i - j| <= b`), for [`Self::add_at`]: callers
+    /// that add into the same entries at every assembly compute it once.
+    #[inline]
+    pub fn position(&self, i: usize, j: usize) -> usize {
+        assert!(
+            i.abs_diff(j) <= self.b && i < self.n && j < self.n,
+            "entry outside the band"
+        );
+        i * (2 * self.b + 1) + j + self.b - i
+    }
+
+    /// Adds `v` at a position from [`Self::position`].
+    #[inline]
+    pub fn add_at(&mut self, pos: usize, v: f64) {
+        self.a[pos] += v;
+    }
+
     /// Entry (i, j) (zero outside the band).
     pub fn get(&self, i: usize, j: usize) -> f64 {
         if i.abs_diff(j) > self.b {

@@ -280,7 +280,7 @@ impl NewtonRun<'_> {
         match e {
             Endpoint::Node { link, node } => {
                 let nt = self.nt(*link, *node);
-                let w = Self::local(&nt, &self.y, &self.yd, ydd);
+                let w = Self::local(nt, &self.y, &self.yd, ydd);
                 let f = &self.frames[*link];
                 let (om, al) = (f.rate, f.accel);
                 let l = [
