@@ -385,6 +385,9 @@ pub struct NewtonRun<'a> {
     /// Per link, per element on its own unknowns (both nodes plain, else `None`): the band
     /// positions of its 36 entries (column-major, `NONE` for a held slot), fixed for the run.
     elem_pos: Vec<Vec<Option<Box<[usize; 36]>>>>,
+    /// Per slider, its guide's frame at [`Self::t_frames`] and `(cos, sin)` of the guide angle.
+    slider_frames: Vec<FrameState>,
+    slider_dir: Vec<[f64; 2]>,
     y: Vec<f64>,
     yd: Vec<f64>,
     ydd: Vec<f64>,
@@ -697,6 +700,8 @@ impl<'a> NewtonRun<'a> {
             node_ts: Vec::new(),
             node_off: Vec::new(),
             elem_pos: Vec::new(),
+            slider_frames: vec![FrameState::default(); mech.sliders.len()],
+            slider_dir: mech.sliders.iter().map(|s| [s.angle.cos(), s.angle.sin()]).collect(),
             y: vec![0.0; n],
             yd: vec![0.0; n],
             ydd: vec![0.0; n],
@@ -1215,6 +1220,9 @@ impl<'a> NewtonRun<'a> {
                 self.node_ts.push(node_t(map, &self.frames[li], &self.slider_angle));
             }
         }
+        for (f, sl) in self.slider_frames.iter_mut().zip(&self.mech.sliders) {
+            *f = sl.path.frame(self.t_frames);
+        }
     }
 
     /// Node transforms of link `li` for the current frames.
@@ -1365,8 +1373,13 @@ impl<'a> NewtonRun<'a> {
             if i == NONE || sl.mass == 0.0 {
                 continue;
             }
-            let fs = sl.path.frame(t);
-            let e = [sl.angle.cos(), sl.angle.sin()];
+            // the guide's frame of the current frames (the residual of a step is at its end)
+            let fs = if t == self.t_frames {
+                self.slider_frames[s]
+            } else {
+                sl.path.frame(t)
+            };
+            let e = self.slider_dir[s];
             let g = self.mech.gravity;
             r[i] += sl.mass * (self.ydd[i] + e[0] * (fs.origin_acc[0] - g[0]) + e[1] * (fs.origin_acc[1] - g[1]));
         }
