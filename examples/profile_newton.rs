@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! cargo run --release --example profile_newton -- crank-pin 0.1     # Simeon's slider-crank, clearance at the crank pin
+//! cargo run --release --example profile_newton -- ideal 0.1         # the same with ideal pins
 //! cargo run --release --example profile_newton -- spin-newton 0.02  # spinning beam in a bearing, Newton stepper
 //! cargo run --release --example profile_newton -- spin-rate 0.02    # the same on the constant-rate stepper
 //! ```
@@ -46,8 +47,14 @@ fn main() {
         }
         .build()
         .expect("slider-crank scene"),
+        "ideal" => FlexibleSliderCrank {
+            clearance_at: None,
+            ..Default::default()
+        }
+        .build()
+        .expect("slider-crank scene"),
         "spin-newton" | "spin-rate" => spinning_beam_in_a_bearing(),
-        other => panic!("unknown case {other:?}: crank-pin, spin-newton or spin-rate"),
+        other => panic!("unknown case {other:?}: crank-pin, ideal, spin-newton or spin-rate"),
     };
     let t0 = Instant::now();
     let out = if case == "spin-rate" {
@@ -58,6 +65,7 @@ fn main() {
     .expect("run");
     let el = t0.elapsed().as_secs_f64();
     let st = &out.stats;
+    let (force, impacts) = out.record.extremes.first().map_or((0.0, 0), |x| (x.max_force, x.impacts));
     println!(
         "{case}: {} steps, {:.3} us/step, stepper {}, factorizations {}, iterations {}, woodbury steps {}, max force {:.6e} N, impacts {}",
         st.steps,
@@ -66,7 +74,7 @@ fn main() {
         st.factorizations,
         st.iterations,
         st.woodbury_steps,
-        out.record.extremes[0].max_force,
-        out.record.extremes[0].impacts
+        force,
+        impacts
     );
 }
