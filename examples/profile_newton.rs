@@ -40,6 +40,12 @@ fn main() {
         tol: 1e-10,
         max_iter: 50,
     };
+    if let Some(age) = std::env::var("FLEXCLEAR_JACOBIAN_AGE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        s.newton.jacobian_age = age;
+    }
     let mech = match case {
         "crank-pin" => FlexibleSliderCrank {
             clearance_at: Some(SliderCrankPin::CrankPin),
@@ -65,7 +71,11 @@ fn main() {
     .expect("run");
     let el = t0.elapsed().as_secs_f64();
     let st = &out.stats;
-    let (force, impacts) = out.record.extremes.first().map_or((0.0, 0), |x| (x.max_force, x.impacts));
+    let (force, impacts) = out
+        .record
+        .extremes
+        .first()
+        .map_or((0.0, 0), |x| (x.max_force, x.impacts));
     println!(
         "{case}: {} steps, {:.3} us/step, stepper {}, factorizations {}, iterations {}, woodbury steps {}, max force {:.6e} N, impacts {}",
         st.steps,

@@ -123,15 +123,27 @@ pub struct NewtonSettings {
     /// How many times a step that does not converge may be halved (0 ..= 20; 0 = fail at once
     /// with [`Error::NotConverged`]).
     pub step_halving: u32,
+    /// The most steps the moving-frame (Newton) stepper solves with one factorization of its
+    /// Jacobian without the contact terms (0 or 1: a new one every step). The Jacobian moves
+    /// slowly from step to step (the frames' rates and the axial forces of the geometric terms),
+    /// so an older factor still converges, to the same `tol`, in about as many iterations; it
+    /// is refactorized at once when the step size changes, when a step needed more than
+    /// [`JACOBIAN_REUSE_ITERATIONS`] iterations, or, within a step, at the iteration after that.
+    pub jacobian_age: u32,
 }
 
+/// The iterations a step may take on a reused Jacobian factor ([`NewtonSettings::jacobian_age`])
+/// before it is refactorized at the current iterate (and the next step starts on a new one).
+pub const JACOBIAN_REUSE_ITERATIONS: usize = 3;
+
 impl Default for NewtonSettings {
-    /// Tolerance 1e-8, 25 iterations, no halving.
+    /// Tolerance 1e-8, 25 iterations, no halving, a Jacobian factor kept for up to 8 steps.
     fn default() -> Self {
         NewtonSettings {
             tol: 1e-8,
             max_iter: 25,
             step_halving: 0,
+            jacobian_age: 8,
         }
     }
 }

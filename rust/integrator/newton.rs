@@ -89,6 +89,7 @@ use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
+use crate::run::JACOBIAN_REUSE_ITERATIONS;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
 use crate::plan::dofs::{self, DofMap, LinkTerms, NodeMap, Trans, NONE};
@@ -455,6 +456,17 @@ pub struct NewtonRun<'a> {
     /// The step being taken refactorizes the whole Jacobian (a Newton step redone after it did
     /// not converge on the contact-free factor).
     direct: bool,
+    /// Steps solved with the current Jacobian factor (the contact-free one of the Woodbury
+    /// solver, else the whole Jacobian), counting the step being taken.
+    factor_age: u32,
+    /// The step being taken solves with a factor from an earlier step
+    /// ([`NewtonSettings::jacobian_age`](crate::run::NewtonSettings::jacobian_age)).
+    reusing: bool,
+    /// The last step converged within [`JACOBIAN_REUSE_ITERATIONS`] iterations: the next may
+    /// reuse its factor.
+    reuse_ok: bool,
+    /// The length of the frame part of the Jacobian's signature ([`Self::frame_signature`]).
+    frame_sig_len: usize,
     /// Some clearance joint has friction (evaluated at every iterate, its tangent in the
     /// refactorized Jacobian: see [`JointFrictionState`]).
     friction: bool,
@@ -744,6 +756,10 @@ impl<'a> NewtonRun<'a> {
             limit,
             rate: None,
             direct: false,
+            factor_age: 0,
+            reusing: false,
+            reuse_ok: false,
+            frame_sig_len: 0,
             friction: mech.joints.iter().any(|j| j.friction.is_some()),
             fric: vec![JointFrictionState::default(); nj],
             fric_z: vec![0.0; nj],
@@ -993,11 +1009,19 @@ impl<'a> NewtonRun<'a> {
     /// forces of geometric terms, which are taken at the step's start as in the Newton path) and
     /// rebuilds the Woodbury columns when the factor or the rows of `P` changed. For the
     /// constant-rate stepper that is once per run. Fails as [`Self::factorize`].
-    fn rate_prepare(&mut self, h: f64) -> Result<()> {
+    fn rate_prepare(&mut self, h: f64, force: bool) -> Result<()> {
         let mut rs = self.rate.take().expect("contact-free solver");
         let mut sig = std::mem::take(&mut rs.sig_new);
         self.frame_signature(h, &mut sig);
-        let refactor = !rs.ready || sig != rs.signature || self.nonlinear_geometric;
+        let moved = sig != rs.signature || self.nonlinear_geometric;
+        let newton = rs.fixed_step.is_none();
+        let same_step = rs.signature.first() == Some(&h);
+        let reuse = rs.ready && !force && moved && newton && self.may_reuse(same_step);
+        self.reusing = reuse;
+        let refactor = !rs.ready || force || (moved && !reuse);
+        if refactor {
+            self.factor_age = 0;
+        }
         let mut res = Ok(());
         if refactor {
             std::mem::swap(&mut rs.signature, &mut sig);
@@ -1679,6 +1703,7 @@ impl<'a> NewtonRun<'a> {
     fn jacobian_changed(&mut self, h: f64, geometric: bool) -> bool {
         let mut s = std::mem::take(&mut self.sig_new);
         self.frame_signature(h, &mut s);
+        self.frame_sig_len = s.len();
         if self.implicit_contact {
             for (k, c) in &self.contact_tan {
                 s.extend([k[0][0], k[0][1], k[1][0], k[1][1], c[0][0], c[0][1], c[1][0], c[1][1]]);
@@ -1693,9 +1718,33 @@ impl<'a> NewtonRun<'a> {
         if self.friction {
             s.extend(self.fric.iter().flat_map(|f| [f.kf, f.kn]));
         }
-        let changed = (geometric && self.nonlinear_geometric) || s != self.signature;
+        let fl = self.frame_sig_len;
+        let changed = if self.signature.len() != s.len() {
+            true
+        } else if s[fl..] != self.signature[fl..] {
+            // the contact or friction terms moved: the whole Jacobian again
+            true
+        } else {
+            let frame_moved = (geometric && self.nonlinear_geometric) || s[..fl] != self.signature[..fl];
+            if frame_moved && geometric && self.may_reuse(s[0] == self.signature[0]) {
+                // the first iteration of a step on the factor of an earlier one
+                self.reusing = true;
+                false
+            } else {
+                // later iterations on a reused factor look at the contact part only
+                frame_moved && !self.reusing
+            }
+        };
         self.sig_new = s;
         changed
+    }
+
+    /// Whether the step being started may solve with the factor of an earlier step
+    /// ([`NewtonSettings::jacobian_age`](crate::run::NewtonSettings::jacobian_age)): the same
+    /// step size (`same_step`), younger than the age limit, the last step converged within
+    /// [`JACOBIAN_REUSE_ITERATIONS`] iterations, and not a step redone on the whole Jacobian.
+    fn may_reuse(&self, same_step: bool) -> bool {
+        same_step && !self.direct && self.reuse_ok && self.factor_age < self.settings.newton.jacobian_age
     }
 
     /// The part of the Jacobian's signature that does not depend on the contact (the step `h`,
@@ -1733,6 +1782,8 @@ impl<'a> NewtonRun<'a> {
     /// Assembles and factorizes the Jacobian `d r / d a` at the current iterate.
     fn factorize(&mut self, h: f64) -> Result<()> {
         std::mem::swap(&mut self.signature, &mut self.sig_new);
+        self.factor_age = 0;
+        self.reusing = false;
         let (bh2, gh) = self.settings.newmark.coefficients(h);
         let mut lu = std::mem::replace(&mut self.lu, BandLu::new(0, 0));
         self.assemble(bh2, gh, &mut lu, true, true);
@@ -2118,12 +2169,22 @@ impl<'a> NewtonRun<'a> {
             if iterate_friction {
                 self.evaluate_friction(h);
             }
+            // a step on an earlier step's factor that has not converged after
+            // JACOBIAN_REUSE_ITERATIONS iterations continues on a new one, at the current iterate
+            let refresh = self.reusing && iters == JACOBIAN_REUSE_ITERATIONS + 1;
             let prepared = if rate_step {
-                let res = if iters == 1 { self.rate_prepare(h) } else { Ok(()) };
-                if iters == 1 || iterate_contact {
+                let res = if iters == 1 || refresh {
+                    self.rate_prepare(h, refresh)
+                } else {
+                    Ok(())
+                };
+                if iters == 1 || iterate_contact || refresh {
                     self.rate_blocks(bh2, gh);
                 }
                 res
+            } else if refresh {
+                self.jacobian_changed(h, false);
+                self.factorize(h)
             } else if (iters == 1 || iterate_contact || iterate_friction) && self.jacobian_changed(h, iters == 1) {
                 self.factorize(h)
             } else {
@@ -2224,6 +2285,9 @@ impl<'a> NewtonRun<'a> {
         };
         self.stats.iterations += iters as u64;
         self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
+        self.factor_age = self.factor_age.saturating_add(1);
+        self.reuse_ok = converged && iters <= JACOBIAN_REUSE_ITERATIONS;
+        self.reusing = false;
         if converged {
             if nm.is_alpha() {
                 // aa_{n+1} = b + (1 - alpha_f)/(1 - alpha_m) a_{n+1}
@@ -2893,7 +2957,7 @@ impl<'a> NewtonRun<'a> {
             // the constant-rate stepper's one factorization (and its Woodbury columns), before
             // the time loop: nothing is allocated there
             self.update_frames(h);
-            let res = self.rate_prepare(h);
+            let res = self.rate_prepare(h, false);
             self.update_frames(0.0);
             if let Err(e) = res {
                 return Err(self.fail(e, 0.0));

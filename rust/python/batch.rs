@@ -81,6 +81,7 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
             tol: c.tol.unwrap_or(1e-8),
             max_iter: c.max_iter.unwrap_or(25),
             step_halving: c.step_halving,
+            ..NewtonSettings::default()
         },
         stepper: None,
         ..Settings::new(t_end, dt)

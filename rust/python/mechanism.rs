@@ -632,6 +632,7 @@ impl PyMechanism {
                 tol,
                 max_iter,
                 step_halving,
+                ..NewtonSettings::default()
             },
             record: RecordSpec {
                 every,
