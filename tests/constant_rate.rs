@@ -176,10 +176,18 @@ fn newton_puts_contact_changes_on_the_step_factor() {
     s.newton.jacobian_age = 8;
     let c = simulate_any(&mech, &s, &mut |_| true).unwrap();
     assert!(3 * c.stats.factorizations < c.stats.steps, "{}", c.stats.factorizations);
-    assert!(c.stats.iterations < a.stats.iterations * 5 / 4, "{} vs {}", c.stats.iterations, a.stats.iterations);
+    assert!(
+        c.stats.iterations < a.stats.iterations * 5 / 4,
+        "{} vs {}",
+        c.stats.iterations,
+        a.stats.iterations
+    );
     assert_eq!(c.record.extremes[0].impacts, b.record.extremes[0].impacts);
     let (du, df) = difference(&c, &b);
-    assert!(du < 1e-7 && df < 1e-7, "reused factors: displacements {du:e}, force {df:e}");
+    assert!(
+        du < 1e-7 && df < 1e-7,
+        "reused factors: displacements {du:e}, force {df:e}"
+    );
     eprintln!(
         "age 1: {} factorizations, {} iterations; age 8: {} factorizations, {} iterations, differences {du:e} {df:e}",
         a.stats.factorizations, a.stats.iterations, c.stats.factorizations, c.stats.iterations

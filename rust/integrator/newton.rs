@@ -383,6 +383,9 @@ pub struct NewtonRun<'a> {
     /// frames ([`node_t`]), refreshed by [`Self::update_frames`].
     node_ts: Vec<NodeT>,
     node_off: Vec<usize>,
+    /// Per link, its element matrices `(C, K)` at zero axial force for the current frames
+    /// ([`Self::element_ck`]), refreshed with the transforms.
+    link_ck: Vec<(Mat6, Mat6)>,
     /// Per link, per element on its own unknowns (both nodes plain, else `None`): the band
     /// positions of its 36 entries (column-major, `NONE` for a held slot), fixed for the run.
     elem_pos: Vec<Vec<Option<Box<[usize; 36]>>>>,
@@ -711,6 +714,7 @@ impl<'a> NewtonRun<'a> {
             rots: vec![rot(0.0); mech.links.len()],
             node_ts: Vec::new(),
             node_off: Vec::new(),
+            link_ck: Vec::new(),
             elem_pos: Vec::new(),
             slider_frames: vec![FrameState::default(); mech.sliders.len()],
             slider_dir: mech.sliders.iter().map(|s| [s.angle.cos(), s.angle.sin()]).collect(),
@@ -1235,15 +1239,31 @@ impl<'a> NewtonRun<'a> {
 
     /// Recomputes the per-link rotations and per-node transforms from the current frames.
     fn refresh_transforms(&mut self) {
-        self.node_off.clear();
-        self.node_ts.clear();
-        for (li, ld) in self.links.iter().enumerate() {
-            self.rots[li] = rot(self.frames[li].angle);
-            self.node_off.push(self.node_ts.len());
-            for map in &ld.nodes {
-                self.node_ts.push(node_t(map, &self.frames[li], &self.slider_angle));
+        if self.node_off.len() != self.links.len() {
+            // first call: every node; later calls recompute only the nodes whose transform
+            // depends on the frames (a node on its own unknowns has T = I throughout)
+            self.node_off.clear();
+            self.node_ts.clear();
+            for (li, ld) in self.links.iter().enumerate() {
+                self.node_off.push(self.node_ts.len());
+                for map in &ld.nodes {
+                    self.node_ts.push(node_t(map, &self.frames[li], &self.slider_angle));
+                }
             }
         }
+        for (li, ld) in self.links.iter().enumerate() {
+            self.rots[li] = rot(self.frames[li].angle);
+            let off = self.node_off[li];
+            for (k, map) in ld.nodes.iter().enumerate() {
+                if !self.node_ts[off + k].plain {
+                    self.node_ts[off + k] = node_t(map, &self.frames[li], &self.slider_angle);
+                }
+            }
+        }
+        let mut ck = std::mem::take(&mut self.link_ck);
+        ck.clear();
+        ck.extend((0..self.links.len()).map(|li| self.element_ck(li, 0.0)));
+        self.link_ck = ck;
         for (f, sl) in self.slider_frames.iter_mut().zip(&self.mech.sliders) {
             *f = sl.path.frame(self.t_frames);
         }
@@ -1342,7 +1362,7 @@ impl<'a> NewtonRun<'a> {
             let le = self.mech.links[li].element_length();
             let mut prev = self.nt(li, 0);
             let mut wprev = Self::local(prev, &self.y, &self.yd, &self.ydd);
-            let (c0, k0) = self.element_ck(li, 0.0);
+            let (c0, k0) = self.link_ck[li];
             let k23 = ld.k2u + ld.k3u;
             // the nominal acceleration of the frame origin and the frame's rates: the same for
             // every element of the link (one rotation per link, not per element)
