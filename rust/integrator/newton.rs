@@ -442,6 +442,10 @@ pub struct NewtonRun<'a> {
     /// Per unknown: whether it is a displacement in metres (nodal translations, slider travel),
     /// checked against the divergence limit; rotations are checked for finiteness only.
     translational: Vec<bool>,
+    /// Per unknown, the length (m) its error is measured in: 1 for a displacement, the element
+    /// length of its link for a rotation (its error as the displacement it makes over an
+    /// element), for the adaptive steps' error norm.
+    err_scale: Vec<f64>,
     /// Per joint: its running extremes and whether its histories are kept.
     track: Vec<JointTrack>,
     /// Histories on the output grid (kept apart from `rec`, which an event step clones): sample
@@ -751,6 +755,7 @@ impl<'a> NewtonRun<'a> {
             nonlinear_geometric,
             stats,
             translational,
+            err_scale: vec![1.0; n],
             track,
             hist_time: Vec::new(),
             hist_links: vec![LinkHistory::default(); mech.links.len()],
@@ -771,6 +776,14 @@ impl<'a> NewtonRun<'a> {
             fric_secant: false,
             cont: None,
         };
+        for (li, ld) in run.links.iter().enumerate() {
+            let le = run.mech.links[li].element_length();
+            for m in &ld.nodes {
+                if m.rot != NONE {
+                    run.err_scale[m.rot] = le;
+                }
+            }
+        }
         run.refresh_transforms();
         run.elem_pos = (0..run.links.len())
             .map(|li| {
@@ -2788,7 +2801,10 @@ impl<'a> NewtonRun<'a> {
     /// (at least 1/24), over the tolerance `atol + rtol |y|`, largest over the unknowns
     /// (infinite when not finite).
     fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
-        let unknowns = (0..self.n).map(|i| (self.ydd[i], a0[i], self.y[i]));
+        let unknowns = (0..self.n).map(|i| {
+            let s = self.err_scale[i];
+            (self.ydd[i] * s, a0[i] * s, self.y[i] * s)
+        });
         adaptive::local_error(self.settings.newmark.beta, h, unknowns, tol)
     }
 
