@@ -435,6 +435,11 @@ pub struct NewtonRun<'a> {
     jforce: Vec<[f64; 2]>,
     jq: Vec<[f64; 2]>,
     jqd: Vec<[f64; 2]>,
+    /// Each joint's `(q, qd)` at the current iterate, as [`Self::evaluate_contacts`] found them,
+    /// and whether they still hold (the residual that follows in the iteration takes them
+    /// instead of evaluating them again; cleared when the residual has used them).
+    jstate: Vec<([f64; 2], [f64; 2])>,
+    jstate_fresh: bool,
     /// Scratch for recording: local states of a link's nodes (reused, no allocation per record).
     node_states: Vec<[[f64; 3]; 3]>,
     nonlinear_geometric: bool,
@@ -750,6 +755,8 @@ impl<'a> NewtonRun<'a> {
             jforce: vec![[0.0; 2]; nj],
             jq: vec![[0.0; 2]; nj],
             jqd: vec![[0.0; 2]; nj],
+            jstate: vec![([0.0; 2], [0.0; 2]); nj],
+            jstate_fresh: false,
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
             switches: vec![0; mech.joints.len()],
             nonlinear_geometric,
@@ -1291,6 +1298,11 @@ impl<'a> NewtonRun<'a> {
     /// Local displacement, velocity and acceleration (u, v, th) of a node from global unknowns.
     #[inline]
     fn local(nt: &NodeT, y: &[f64], yd: &[f64], ydd: &[f64]) -> [[f64; 3]; 3] {
+        let [i, j, k] = nt.idx;
+        if nt.plain && i != NONE && j != NONE && k != NONE {
+            // T the identity on the node's three unknowns
+            return [[y[i], y[j], y[k]], [yd[i], yd[j], yd[k]], [ydd[i], ydd[j], ydd[k]]];
+        }
         let g = |v: &[f64], i: usize| if i == NONE { 0.0 } else { v[i] };
         let (q, qd, qdd) = (
             [g(y, nt.idx[0]), g(y, nt.idx[1]), g(y, nt.idx[2])],
@@ -1340,7 +1352,7 @@ impl<'a> NewtonRun<'a> {
         let f = &self.frames[li];
         let mut c = ld.d1;
         let mut k = ld.k1;
-        if ld.active.geometric {
+        if ld.active.geometric && fax != 0.0 {
             k += ld.k2u * fax + ld.k3u * fax;
             if ld.eta_e > 0.0 {
                 c += ld.k2u * (fax * ld.eta_e);
@@ -1441,8 +1453,13 @@ impl<'a> NewtonRun<'a> {
             r[i] += sl.mass * (self.ydd[i] + e[0] * (fs.origin_acc[0] - g[0]) + e[1] * (fs.origin_acc[1] - g[1]));
         }
         // Clearance joints: the force on the journal is external (moved to the left: minus).
+        let fresh = std::mem::take(&mut self.jstate_fresh);
         for j in 0..self.mech.joints.len() {
-            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+            let (q, qd) = if fresh {
+                self.jstate[j]
+            } else {
+                self.joint_state(j, &self.y, &self.yd)
+            };
             let f = self.contact[j].force(q, qd);
             self.apply_joint_force(j, [-f[0], -f[1]], &mut r);
         }
@@ -2113,7 +2130,9 @@ impl<'a> NewtonRun<'a> {
             let (mut q, qd) = if from_start {
                 self.joint_state(j, &self.y_pred, &self.v_pred)
             } else {
-                self.joint_state(j, &self.y, &self.yd)
+                let st = self.joint_state(j, &self.y, &self.yd);
+                self.jstate[j] = st;
+                st
             };
             let hint = self.status_hint[j];
             if from_start && hint.is_finite() {
@@ -2138,10 +2157,12 @@ impl<'a> NewtonRun<'a> {
             }
             self.contact[j] = terms;
         }
+        self.jstate_fresh = !from_start;
     }
 
     /// One Newmark step from `t` of size `h`. On failure the state is restored.
     fn step(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
+        self.jstate_fresh = false;
         let nm = self.settings.newmark;
         let (bh2, gh) = nm.coefficients(h);
         // State at the start (kept for contact terms and for a retry).
@@ -2366,6 +2387,7 @@ impl<'a> NewtonRun<'a> {
     }
 
     fn restore(&mut self) {
+        self.jstate_fresh = false;
         self.y.copy_from_slice(&self.y0);
         self.yd.copy_from_slice(&self.yd0);
         self.ydd.copy_from_slice(&self.ydd0);
