@@ -65,7 +65,11 @@ fn main() {
     .expect("run");
     let el = t0.elapsed().as_secs_f64();
     let st = &out.stats;
-    let (force, impacts) = out.record.extremes.first().map_or((0.0, 0), |x| (x.max_force, x.impacts));
+    let (force, impacts) = out
+        .record
+        .extremes
+        .first()
+        .map_or((0.0, 0), |x| (x.max_force, x.impacts));
     println!(
         "{case}: {} steps, {:.3} us/step, stepper {}, factorizations {}, iterations {}, woodbury steps {}, max force {:.6e} N, impacts {}",
         st.steps,
