@@ -6,7 +6,7 @@
 //! the joint histories as dicts ([`joint_histories`]).
 
 use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, ToPyArray};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -135,14 +135,22 @@ pub struct PySliderReference {
 }
 
 /// One slider of a [`PySliderReference`]: name, position (m), velocity (m/s), acceleration (m/s^2).
-type SliderColumns = (String, Vec<f64>, Vec<f64>, Vec<f64>);
+type SliderColumns<'py> = (
+    String,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+);
 
 #[pymethods]
 impl PySliderReference {
     #[new]
-    fn new(py: Python<'_>, time: Vec<f64>, sliders: Vec<SliderColumns>) -> PyResult<Self> {
-        let sliders = sliders.into_iter().map(|(n, x, v, a)| (n, [x, v, a])).collect();
-        let inner = crate::record::SliderReference::new(time, sliders).map_err(|e| super::err(py, e))?;
+    fn new<'py>(py: Python<'py>, time: PyReadonlyArray1<'py, f64>, sliders: Vec<SliderColumns<'py>>) -> PyResult<Self> {
+        let vec = |a: &PyReadonlyArray1<'py, f64>| a.as_array().to_vec();
+        let sliders = (sliders.iter())
+            .map(|(n, x, v, a)| (n.clone(), [vec(x), vec(v), vec(a)]))
+            .collect();
+        let inner = crate::record::SliderReference::new(vec(&time), sliders).map_err(|e| super::err(py, e))?;
         Ok(PySliderReference {
             inner: std::sync::Arc::new(inner),
         })
