@@ -377,11 +377,11 @@ class SliderHistory:
 class SliderReference:
     """The sliders' motion on an output grid, shared by the runs that compare with it: `time` (s)
     and per slider `(name, position m, velocity m/s, acceleration m/s^2)` on it."""
-    def __init__(
-        self,
+    def __new__(
+        cls,
         time: npt.NDArray[np.float64],
         sliders: list[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]],
-    ) -> None: ...
+    ) -> SliderReference: ...
     def __len__(self) -> int: ...
 
 @final
