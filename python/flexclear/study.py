@@ -781,6 +781,7 @@ class Study:
                 try:
                     model = self._scene_fn(**kw)
                     self._ideal[key] = model.simulate(t_end, dt, record=record, progress=False, **options)
+                    self._ideal[key]._slider_reference()  # the core's shared copy, built once here
                 except FlexclearError:
                     self._ideal[key] = None
             return self._ideal[key]
