@@ -446,6 +446,12 @@ def test_slider_deviations_online_equal_the_history_based_ones():
 
 
 def test_a_run_without_histories_keeps_o_outputs_whatever_its_length():
+    # the constant stepper (slider-yoke) and the Newton one (slider-crank, four-bar)
+    for other in (scenes.slider_yoke(), scenes.four_bar()):
+        assert [_stored(other.simulate(t, 1e-5, record=Record(histories=False))) for t in (0.002, 0.008)] == [
+            0,
+            0,
+        ]
     model = scenes.slider_crank(clearance_at="crank_pin")
     sizes = [_stored(model.simulate(t, 1e-5, record=Record(histories=False))) for t in (0.002, 0.008)]
     assert sizes == [0, 0]
