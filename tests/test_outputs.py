@@ -286,6 +286,7 @@ def test_slider_histories_follow_the_slider_crank_kinematics():
     # without histories the slider keeps its exact peak only: the histories are an explicit opt-in
     lean = scenes.slider_crank().simulate(0.02, 1e-5, record=Record(contact_modes=True, histories=False))
     assert lean.slider("slider").max_acceleration == s.max_acceleration
+    assert "position=<not recorded>" in repr(lean.slider("slider"))  # the repr shows, never raises
     with pytest.raises(fc.RecordingError, match=r"Record\(sliders=True\)"):
         _ = lean.slider("slider").position
     with pytest.raises(fc.RecordingError, match="slider_reference"):

@@ -335,7 +335,7 @@ class LinkResult:
         return ox + c * lx - s * ly, oy + s * lx + c * ly
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(repr=False)
 class SliderResult:
     """Motion of one slider along its guide (a model in moving frames): the nominal path of its
     pin plus its elastic travel, projected on the guide direction.
@@ -381,6 +381,10 @@ class SliderResult:
         if type(value) is _NotRecorded:
             raise RecordingError(value.message)
         return value
+
+    def __repr__(self) -> str:
+        fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
+        return f"SliderResult({', '.join(fields)})"
 
 
 _EMPTY = np.empty(0)
