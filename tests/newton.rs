@@ -16,7 +16,7 @@ use flexclear::kinematics::{
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support};
 use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
-use flexclear::record::{LinkChannels, RecordSpec};
+use flexclear::record::{LinkChannels, RecordSpec, SliderReference};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Error;
 use flexclear::RunOutput;
@@ -1233,5 +1233,149 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
         let (_, _, h_dev, gain) = run(coupling, 0.004);
         assert!(gain > 0.5, "{coupling:?}: energy gain {gain}");
         assert!(h_dev < 1e-9);
+    }
+}
+
+/// A slider-crank run of `t_end` s at 1e-5 s with `record`, with the clearance joint at the crank
+/// pin (or ideal pins).
+fn crank_run(clearance: bool, t_end: f64, record: RecordSpec) -> RunOutput {
+    let mech = FlexibleSliderCrank {
+        clearance_at: clearance.then_some(SliderCrankPin::CrankPin),
+        clearance: 2e-4,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
+    let mut settings = Settings::new(t_end, 1e-5);
+    settings.record = record;
+    simulate_mechanism(&mech, &settings, &mut |_| true).unwrap()
+}
+
+/// The reference of a run's slider histories.
+fn reference_of(out: &RunOutput) -> Arc<SliderReference> {
+    let sliders = (out.record.sliders.iter())
+        .map(|s| {
+            (
+                s.name.clone(),
+                [s.position.clone(), s.velocity.clone(), s.acceleration.clone()],
+            )
+        })
+        .collect();
+    Arc::new(SliderReference::new(out.record.time.clone(), sliders).unwrap())
+}
+
+#[test]
+fn slider_deviations_online_equal_those_of_the_histories_and_memory_is_o_outputs() {
+    let (every, start) = (3, 1e-3);
+    let bare = RecordSpec {
+        histories: false,
+        every,
+        start,
+        links: LinkChannels {
+            displacements: false,
+            ..LinkChannels::default()
+        },
+        ..RecordSpec::default()
+    };
+    let ideal = crank_run(
+        false,
+        4e-3,
+        RecordSpec {
+            sliders: true,
+            ..bare.clone()
+        },
+    );
+    let reference = reference_of(&ideal);
+    // the sample with its histories: the deviations the history-based way
+    let full = crank_run(
+        true,
+        4e-3,
+        RecordSpec {
+            sliders: true,
+            slider_reference: Some(reference.clone()),
+            ..bare.clone()
+        },
+    );
+    let h = &full.record.sliders[0];
+    let keep: Vec<bool> = full.record.time.iter().map(|&t| t >= start).collect();
+    for (c, (x, r)) in [
+        (&h.position, &reference.sliders[0].1[0]),
+        (&h.velocity, &reference.sliders[0].1[1]),
+        (&h.acceleration, &reference.sliders[0].1[2]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let d: Vec<f64> = (x.iter().zip(r).zip(&keep))
+            .filter(|(_, &k)| k)
+            .map(|((a, b), _)| (a - b).abs())
+            .collect();
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        let max = d.iter().fold(0.0f64, |m, &v| m.max(v));
+        assert!(max > 0.0);
+        assert_eq!(h.deviation_peak()[c], max);
+        assert!(
+            (h.deviation_mean()[c] - mean).abs() <= 1e-14 * mean,
+            "{c}: {} {mean}",
+            h.deviation_mean()[c]
+        );
+    }
+    // without histories: the same deviations and peak, and nothing per output point
+    let run = |t_end: f64, reference: Option<Arc<SliderReference>>| {
+        crank_run(
+            true,
+            t_end,
+            RecordSpec {
+                slider_reference: reference,
+                ..bare.clone()
+            },
+        )
+    };
+    let lean = run(4e-3, Some(reference.clone()));
+    let s = &lean.record.sliders[0];
+    assert_eq!(
+        (s.deviation_mean(), s.deviation_peak()),
+        (h.deviation_mean(), h.deviation_peak())
+    );
+    assert_eq!(s.max_acceleration, h.max_acceleration);
+    let stored = |o: &RunOutput| {
+        let r = &o.record;
+        r.time.len()
+            + r.links
+                .iter()
+                .map(|l| l.frame.len() * 4 + l.displacements.len() + l.midspan.len())
+                .sum::<usize>()
+            + r.sliders
+                .iter()
+                .map(|s| s.position.len() + s.velocity.len() + s.acceleration.len())
+                .sum::<usize>()
+            + r.joints
+                .iter()
+                .map(|j| j.penetration.len() + j.force.len())
+                .sum::<usize>()
+    };
+    assert_eq!(stored(&lean), 0);
+    assert_eq!(stored(&run(1e-3, None)), stored(&run(4e-3, None)));
+    // an ideal joint deviates by exactly 0 from the ideal run
+    let same = crank_run(
+        false,
+        4e-3,
+        RecordSpec {
+            slider_reference: Some(reference.clone()),
+            ..bare.clone()
+        },
+    );
+    assert_eq!(same.record.sliders[0].deviation_peak(), [0.0; 3]);
+    // a reference on another grid is refused, naming the parameter
+    let mech = FlexibleSliderCrank::default().build().unwrap();
+    for (t_end, every) in [(5e-3, every), (4e-3, 2)] {
+        let mut settings = Settings::new(t_end, 1e-5);
+        settings.record = RecordSpec {
+            every,
+            slider_reference: Some(reference.clone()),
+            ..bare.clone()
+        };
+        let e = simulate_mechanism(&mech, &settings, &mut |_| true).err().unwrap().error;
+        assert!(e.to_string().contains("record.slider_reference"), "{e}");
     }
 }

@@ -258,7 +258,9 @@ def test_orbit_is_the_journal_position_history():
 
 def test_slider_histories_follow_the_slider_crank_kinematics():
     r_c, l_r, w = 0.15, 0.30, 150.0
-    res = scenes.slider_crank().simulate(0.02, 1e-5, record=Record(contact_modes=True, histories=False))
+    res = scenes.slider_crank().simulate(
+        0.02, 1e-5, record=Record(contact_modes=True, histories=False, sliders=True)
+    )
     assert res.slider_names == ["slider"]
     s = res.slider("slider")
     t = res.time
@@ -281,6 +283,14 @@ def test_slider_histories_follow_the_slider_crank_kinematics():
     assert s.max_acceleration > r_c * w**2 * (1 + r_c / l_r)
     with pytest.raises(fc.ModelError, match="unknown slider"):
         res.slider("piston")
+    # without histories the slider keeps its exact peak only: the histories are an explicit opt-in
+    lean = scenes.slider_crank().simulate(0.02, 1e-5, record=Record(contact_modes=True, histories=False))
+    assert lean.slider("slider").max_acceleration == s.max_acceleration
+    assert "position=<not recorded>" in repr(lean.slider("slider"))  # the repr shows, never raises
+    with pytest.raises(fc.RecordingError, match=r"Record\(sliders=True\)"):
+        _ = lean.slider("slider").position
+    with pytest.raises(fc.RecordingError, match="slider_reference"):
+        _ = s.position_deviation_mean
 
 
 def test_slider_peak_counts_every_step_whatever_the_record_stride():
@@ -356,9 +366,13 @@ def test_study_slider_outputs_against_the_ideal_mechanism():
     # the same numbers by hand for the first sample
     row = f.iloc[0]
     res = scenes.slider_crank(clearance_at="crank_pin", clearance=row["clearance"]).simulate(
-        0.004, 1e-5, record=Record(histories=False, displacements=False)
+        0.004, 1e-5, record=Record(histories=False, sliders=True)
     )
-    ideal = scenes.slider_crank().simulate(0.004, 1e-5, record=Record(histories=False)).slider("slider")
+    ideal = (
+        scenes.slider_crank()
+        .simulate(0.004, 1e-5, record=Record(histories=False, sliders=True))
+        .slider("slider")
+    )
     x = res.slider("slider")
     assert row["slider.max_acceleration"] == x.max_acceleration
     dev = np.abs(x.position - ideal.position)
@@ -369,7 +383,7 @@ def test_study_slider_outputs_against_the_ideal_mechanism():
     assert row["slider.position_deviation_max"] > 0
     # an ideal joint has zero deviation: a clearance joint that never closes follows the ideal
     # mechanism's path only as far as the journal floats, so compare the ideal with itself
-    same = scenes.slider_crank().simulate(0.004, 1e-5, record=Record(histories=False))
+    same = scenes.slider_crank().simulate(0.004, 1e-5, record=Record(histories=False, sliders=True))
     from flexclear.study import _slider_outputs
 
     zero = _slider_outputs(same, same, "slider", 0.0)
@@ -380,6 +394,101 @@ def test_study_slider_outputs_against_the_ideal_mechanism():
     )
     with pytest.raises(fc.InvalidParameterError, match="sliders"):
         Study("slider_yoke", sliders=True)
+
+
+def _stored(res) -> int:
+    """Values the run's output holds in arrays (time, joint, node, link and slider histories)."""
+    raw = res._raw
+    parts = [raw.time]
+    for group, fields in (
+        (raw.joints, ("penetration", "force", "qx", "qy", "friction", "slip")),
+        (raw.nodes, ("u", "v", "theta")),
+        (raw.links, ("frame", "displacements", "axial_force", "midspan", "kinetic", "strain", "momentum")),
+        (raw.sliders, ("position", "velocity", "acceleration")),
+    ):
+        parts += [np.asarray(getattr(h, f)) for h in group for f in fields]
+    return sum(p.size for p in parts)
+
+
+def test_slider_deviations_online_equal_the_history_based_ones():
+    every, start = 2, 1e-3
+    rec = dict(histories=False, every=every, start=start)
+    ideal = scenes.slider_crank().simulate(0.004, 1e-5, record=Record(sliders=True, **rec))
+    i = ideal.slider("slider")
+    model = scenes.slider_crank(clearance_at="crank_pin", clearance=2e-4)
+    full = model.simulate(0.004, 1e-5, record=Record(sliders=True, slider_reference=ideal, **rec))
+    lean = model.simulate(0.004, 1e-5, record=Record(slider_reference=ideal, **rec))
+    x, y = full.slider("slider"), lean.slider("slider")
+    keep = full.time >= start
+    assert np.array_equal(full.time, ideal.time) and 0 < keep.sum() < keep.size
+    for ch in ("position", "velocity", "acceleration"):
+        dev = np.abs(getattr(x, ch) - getattr(i, ch))[keep]
+        # a running sum against numpy's pairwise sum: equal to round-off
+        assert getattr(x, f"{ch}_deviation_mean") == pytest.approx(np.mean(dev), rel=1e-12)
+        assert getattr(x, f"{ch}_deviation_max") == np.max(dev) > 0
+        # the same online without the histories (nothing else differs between the two runs)
+        for m in ("mean", "max"):
+            assert getattr(y, f"{ch}_deviation_{m}") == getattr(x, f"{ch}_deviation_{m}")
+    assert y.max_acceleration == x.max_acceleration
+    # an ideal joint deviates by exactly 0 from the ideal run
+    same = scenes.slider_crank().simulate(0.004, 1e-5, record=Record(slider_reference=ideal, **rec))
+    s = same.slider("slider")
+    assert all(
+        getattr(s, f"{c}_deviation_{m}") == 0.0
+        for c in ("position", "velocity", "acceleration")
+        for m in ("mean", "max")
+    )
+    # a reference on another grid is refused, never misaligned
+    for t_end, dt, k in ((0.005, 1e-5, every), (0.004, 2e-5, every), (0.004, 1e-5, 3)):
+        with pytest.raises(fc.InvalidParameterError, match="record.slider_reference"):
+            model.simulate(t_end, dt, record=Record(slider_reference=ideal, histories=False, every=k))
+    with pytest.raises(fc.InvalidParameterError, match="record.slider_reference"):
+        model.simulate(0.004, 1e-5, record=Record(slider_reference=lean))  # no histories to compare with
+
+
+def test_a_run_without_histories_keeps_o_outputs_whatever_its_length():
+    # the constant stepper (slider-yoke) and the Newton one (slider-crank, four-bar)
+    for other in (scenes.slider_yoke(), scenes.four_bar()):
+        assert [_stored(other.simulate(t, 1e-5, record=Record(histories=False))) for t in (0.002, 0.008)] == [
+            0,
+            0,
+        ]
+    model = scenes.slider_crank(clearance_at="crank_pin")
+    sizes = [_stored(model.simulate(t, 1e-5, record=Record(histories=False))) for t in (0.002, 0.008)]
+    assert sizes == [0, 0]
+    r = model.simulate(0.002, 1e-5, record=Record(histories=False))
+    assert r.time.size == 0 and model.memory_estimate(0.008, 1e-5, Record(histories=False)) == 0
+    # what is asked for explicitly is kept on the grid (and only that grows with the run)
+    kept = model.simulate(0.002, 1e-5, record=Record(histories=False, sliders=True))
+    assert kept.time.size == kept.slider("slider").position.size == 201
+    # a study sample with slider outputs: the same stored values over T and 4T (its deviations
+    # online against the ideal run)
+    from flexclear import study as st
+
+    runs = []
+    for t_end in (0.002, 0.008):
+        s = Study(
+            "slider_crank",
+            vary={"clearance": Uniform(1e-4, 3e-4)},
+            fixed={"clearance_at": "crank_pin"},
+            samples=1,
+            t_end=t_end,
+            dt=1e-5,
+            sliders=True,
+        )
+        kw = s._scene_kwargs({"clearance": 2e-4})
+        sample = s._scene_fn(**kw)
+        sample._build_kwargs = kw
+        simulate = sample.simulate
+
+        def spy(*a, _simulate=simulate, **k):
+            runs.append(_simulate(*a, **k))
+            return runs[-1]
+
+        sample.simulate = spy
+        out = st._run_one_moving(s, sample, t_end, 1e-5, {})
+        assert out["status"] == "ok" and out["sliders"]["slider"]["position_deviation_max"] > 0
+    assert [_stored(r) for r in runs] == [0, 0]
 
 
 def test_slider_histories_in_pandas():

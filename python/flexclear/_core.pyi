@@ -17,6 +17,7 @@ __all__ = [
     "NodeHistory",
     "LinkHistory",
     "SliderHistory",
+    "SliderReference",
     "slider_yoke",
     "slider_crank",
     "flores_slider_crank",
@@ -241,6 +242,8 @@ class Mechanism:
         nodes: list[tuple[int, int]] = ...,
         contact_modes: bool = ...,
         adaptive: Optional[tuple[float, float, float]] = ...,
+        sliders: bool = ...,
+        slider_reference: Optional[SliderReference] = ...,
     ) -> RunOutput:
         """Runs the model; returns its output (what `flexclear.Result` reads). A failed run raises
         the matching `flexclear` exception with what it recorded as `exc.partial` (a
@@ -363,6 +366,23 @@ class SliderHistory:
     def acceleration(self) -> npt.NDArray[np.float64]: ...
     @property
     def max_acceleration(self) -> float: ...
+    @property
+    def deviation(self) -> bool: ...
+    @property
+    def deviation_mean(self) -> tuple[float, float, float]: ...
+    @property
+    def deviation_max(self) -> tuple[float, float, float]: ...
+
+@final
+class SliderReference:
+    """The sliders' motion on an output grid, shared by the runs that compare with it: `time` (s)
+    and per slider `(name, position m, velocity m/s, acceleration m/s^2)` on it."""
+    def __new__(
+        cls,
+        time: npt.NDArray[np.float64],
+        sliders: list[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]],
+    ) -> SliderReference: ...
+    def __len__(self) -> int: ...
 
 @final
 class RunOutput:

@@ -182,6 +182,17 @@ def _as_record(record: Any) -> Record:
     )
     if not nodes_ok:
         raise _bad("record.nodes", rec.nodes, "a list of (link name, node index) pairs")
+    if not isinstance(rec.sliders, (bool, np.bool_)):
+        raise _bad("record.sliders", rec.sliders, "True or False")
+    ref = rec.slider_reference
+    if ref is not None and not (
+        isinstance(ref, Result) and ref.record is not None and (ref.record.histories or ref.record.sliders)
+    ):
+        raise _bad(
+            "record.slider_reference",
+            type(ref).__name__,
+            "None or a Result whose slider histories were kept (Record(sliders=True) or histories=True)",
+        )
     return rec
 
 
@@ -965,7 +976,7 @@ class Model:
         n_joints = len(self.joint_names) if rec.joints is None else len(rec.joints)
         per_joint = 2 + (2 if rec.position else 0)
         moving = kind == MOVING
-        disp = moving if rec.displacements is None else bool(rec.displacements)
+        disp = (moving and bool(rec.histories)) if rec.displacements is None else bool(rec.displacements)
         if moving and rec.nodes:
             disp = True
         link_channels = 0
@@ -974,9 +985,12 @@ class Model:
                 link_channels += 3 * (n + 1) + (n if rec.axial_force else 0) + (1 if rec.midspan else 0)
         ch: dict[str, int] = {}
         if moving:
+            # without histories the output grid is kept only for what is asked on it
+            if not (rec.histories or rec.sliders or disp or rec.energy):
+                return 0, 0, 0, {}
             records = steps // every + 2
             ch["time and link frames"] = 1 + 4 * len(elements)
-            if self._slider_ids:
+            if self._slider_ids and (rec.histories or rec.sliders):
                 ch["slider histories"] = 3 * len(self._slider_ids)
             if disp:
                 ch["link displacements"] = link_channels
@@ -1287,7 +1301,8 @@ class Model:
         nodes = [
             (self._link_index(ln), self._node(self._link_index(ln), n, "record.nodes")) for ln, n in rec.nodes
         ]
-        displacements = (kind == MOVING) if rec.displacements is None else bool(rec.displacements)
+        default = kind == MOVING and bool(rec.histories)  # histories=False: no output grid unless asked
+        displacements = default if rec.displacements is None else bool(rec.displacements)
         if kind == MOVING and nodes:
             displacements = True  # node histories come from the link displacements
         if (rec.midspan or rec.axial_force) and not displacements:
@@ -1430,4 +1445,6 @@ def _joint_record_kwargs(rec: Record, joints) -> dict:
         start=float(rec.start),
         impact_log=bool(rec.impact_log),
         contact_modes=bool(rec.contact_modes),
+        sliders=bool(rec.sliders),
+        slider_reference=None if rec.slider_reference is None else rec.slider_reference._slider_reference(),
     )

@@ -33,8 +33,8 @@ class Record:
     displacements : bool or None
         Keep every node of every link (see :meth:`Result.link`). ``None`` (default): on for a
         model with a link in a rotating or mechanism frame (as the moving-frame reports read
-        them), off for a model whose links all translate (its histories can be long; ask for
-        ``nodes`` or switch this on).
+        them) unless ``histories=False``, off for a model whose links all translate (its
+        histories can be long; ask for ``nodes`` or switch this on).
     midspan, axial_force : bool
         Link channels: transverse deflection at mid-length relative to the chord (m) and the
         element axial forces (N, tension positive). Need the displacements of the link.
@@ -45,12 +45,28 @@ class Record:
     every : int
         Keep every k-th step (the initial state is always kept).
     histories : bool
-        False keeps only the running extremes of the joints (memory independent of run length).
+        False keeps only the running extremes (memory independent of run length): no joint
+        histories, and in moving frames no output grid (:attr:`Result.time`, the link frames)
+        unless something on it is asked for explicitly (``displacements=True``, ``nodes``,
+        ``midspan``, ``axial_force``, ``energy`` or ``sliders``). Peaks (the joints' extremes,
+        the sliders' ``max_acceleration``) stay exact over every step.
     start : float
         Joint extremes and impact logs start at this time, s (and every history, while every
         link translates; in moving frames the histories share the links' grid from t = 0).
     impact_log : bool
         Also keep an :class:`ImpactLog` per recorded joint: one entry per contact episode.
+    sliders : bool
+        Keep the sliders' position, velocity and acceleration histories (:meth:`Result.slider`,
+        with :attr:`Result.time`) even with ``histories=False`` (with ``histories=True`` they are
+        kept anyway; without either, reading them raises :class:`~flexclear.RecordingError`).
+    slider_reference : Result, optional
+        A run of a mechanism with the same sliders over the same ``t_end``, ``dt`` and ``every``
+        whose slider histories were kept (e.g. the same mechanism with ideal joints, run with
+        ``Record(histories=False, sliders=True)``): each slider then accumulates online, at every
+        output point from ``start`` on, the mean and peak of ``|x - x_ref|`` for its position,
+        velocity and acceleration (:class:`SliderResult` ``position_deviation_mean``, ...), in
+        O(1) memory per slider whatever the run length. A reference on another grid is refused
+        (:class:`~flexclear.InvalidParameterError` naming ``record.slider_reference``).
     contact_modes : bool
         Also track every joint's contact modes (the time fractions of free flight, impact and
         continuous contact) and the energy dissipated in it (:class:`JointResult`): O(1) memory,
@@ -70,6 +86,8 @@ class Record:
     start: float = 0.0
     impact_log: bool = False
     contact_modes: bool = False
+    sliders: bool = False
+    slider_reference: Optional[Result] = None
 
 
 @dataclasses.dataclass
@@ -317,7 +335,7 @@ class LinkResult:
         return ox + c * lx - s * ly, oy + s * lx + c * ly
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(repr=False)
 class SliderResult:
     """Motion of one slider along its guide (a model in moving frames): the nominal path of its
     pin plus its elastic travel, projected on the guide direction.
@@ -336,6 +354,14 @@ class SliderResult:
     max_acceleration : float
         Largest magnitude of the acceleration along the guide over every step from
         ``Record.start`` (whatever ``Record.every``), m/s^2.
+    position_deviation_mean, position_deviation_max : float
+        Mean and peak ``|x - x_ref|`` against ``Record.slider_reference`` over the output points
+        from ``Record.start`` on, m; likewise ``velocity_deviation_*`` (m/s) and
+        ``acceleration_deviation_*`` (m/s^2). Accumulated online during the run (O(1) memory);
+        reading them without a reference raises :class:`~flexclear.RecordingError`.
+
+    The histories raise :class:`~flexclear.RecordingError` when the run did not keep them
+    (``Record(histories=False)`` without ``sliders=True``).
     """
 
     name: str
@@ -343,9 +369,27 @@ class SliderResult:
     velocity: np.ndarray
     acceleration: np.ndarray
     max_acceleration: float
+    position_deviation_mean: Any = float("nan")
+    position_deviation_max: Any = float("nan")
+    velocity_deviation_mean: Any = float("nan")
+    velocity_deviation_max: Any = float("nan")
+    acceleration_deviation_mean: Any = float("nan")
+    acceleration_deviation_max: Any = float("nan")
+
+    def __getattribute__(self, name: str) -> Any:
+        value = object.__getattribute__(self, name)
+        if type(value) is _NotRecorded:
+            raise RecordingError(value.message)
+        return value
+
+    def __repr__(self) -> str:
+        fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
+        return f"SliderResult({', '.join(fields)})"
 
 
 _EMPTY = np.empty(0)
+#: The history channels of a slider.
+_SLIDER_CHANNELS = ("position", "velocity", "acceleration")
 #: The joint outputs of ``Record(contact_modes=True)``.
 _IMPACT_FIELDS = ("time", "speed", "peak_force", "peak_penetration", "duration")
 _MODE_OUTPUTS = (
@@ -434,6 +478,7 @@ class Result:
     def __getstate__(self) -> dict:
         d = dict(self.__dict__)
         d["_raw"] = _plain(d["_raw"])  # the engine's output objects, as plain attribute objects
+        d.pop("_slider_ref", None)  # the core's copy of the slider histories: rebuilt on demand
         if d["error"] is not None:
             d["error"] = (type(d["error"]), str(d["error"]))
         return d
@@ -505,14 +550,47 @@ class Result:
         the output grid, :attr:`time`) and its peak acceleration."""
         for h in self._raw.sliders:
             if h.name == name:
-                return SliderResult(
-                    name=name,
-                    position=h.position,
-                    velocity=h.velocity,
-                    acceleration=h.acceleration,
-                    max_acceleration=h.max_acceleration,
-                )
+                rec = self.record
+                hist: dict[str, Any] = {c: getattr(h, c) for c in _SLIDER_CHANNELS}
+                if rec is not None and not (rec.histories or rec.sliders):
+                    gone = _NotRecorded(
+                        f"the histories of slider {name!r} were not recorded: Record(histories=False) "
+                        "keeps its max_acceleration only; run with Record(sliders=True) (or "
+                        "histories=True) to read position, velocity, acceleration"
+                    )
+                    hist = dict.fromkeys(_SLIDER_CHANNELS, gone)
+                devs: dict[str, Any] = {}
+                tracked = getattr(h, "deviation", False)
+                for c, mean, peak in zip(
+                    _SLIDER_CHANNELS,
+                    getattr(h, "deviation_mean", (np.nan,) * 3),
+                    getattr(h, "deviation_max", (np.nan,) * 3),
+                ):
+                    if tracked:
+                        devs[f"{c}_deviation_mean"], devs[f"{c}_deviation_max"] = float(mean), float(peak)
+                    else:
+                        gone = _NotRecorded(
+                            f"the deviation of slider {name!r} was not tracked: run with "
+                            "Record(slider_reference=<a run with the slider histories on the same grid>)"
+                        )
+                        devs[f"{c}_deviation_mean"] = devs[f"{c}_deviation_max"] = gone
+                return SliderResult(name=name, **hist, max_acceleration=h.max_acceleration, **devs)
         raise _unknown("slider", name, self.slider_names)
+
+    def _slider_reference(self) -> Any:
+        """The core's :class:`~flexclear._core.SliderReference` of this run's slider histories
+        (built once, then shared by every run that compares with it; needs the histories)."""
+        ref = self.__dict__.get("_slider_ref")
+        if ref is None:
+            from . import _core
+
+            sliders = [self.slider(n) for n in self.slider_names]
+            columns = [
+                (s.name, *(np.asarray(getattr(s, c), dtype=float) for c in _SLIDER_CHANNELS)) for s in sliders
+            ]
+            ref = _core.SliderReference(np.asarray(self.time, dtype=float), columns)
+            self._slider_ref = ref
+        return ref
 
     def link(self, name: str) -> LinkResult:
         """Histories of flexible link ``name`` (see :class:`Record` for what is kept)."""

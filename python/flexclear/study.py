@@ -277,7 +277,8 @@ OUTPUTS = {
 }
 #: Per-slider outputs of ``Study(sliders=True)`` (columns ``"<slider>.<output>"``), with units: the
 #: peak acceleration along the guide and the deviation of the slider's motion from the same
-#: mechanism with ideal joints (mean absolute and peak over the recorded samples).
+#: mechanism with ideal joints (mean absolute and peak over the output points from ``start`` on),
+#: computed online during each sample's run in O(1) memory per slider (``Record.slider_reference``).
 SLIDER_OUTPUTS = {
     "max_acceleration": "peak acceleration along the guide, m/s^2",
     "position_deviation_mean": "mean |x - x_ideal| along the guide, m",
@@ -534,7 +535,12 @@ class Study:
         acceleration from the same mechanism with ideal joints (the build called with
         ``clearance_at=None``; one ideal run per study structure, i.e. per distinct set of the
         other parameters, ``t_end`` and ``dt``, not per sample), mean absolute and peak over the
-        recorded samples. Needs a build with a ``clearance_at`` parameter (``slider_crank``).
+        output points from ``start`` on (every step, or every ``history_every``-th). The
+        deviation is computed online during each sample's run against the ideal run's slider
+        histories (shared by the samples of the structure): O(1) memory per slider and sample,
+        whatever the run length (a sample retried at a smaller step, whose grid no longer lines
+        up with the ideal run's, keeps its slider histories and compares them interpolated).
+        Needs a build with a ``clearance_at`` parameter (``slider_crank``).
     orbit : bool
         Also keep the journal-centre orbit of each reported joint: columns
         ``"<joint>.qx_history"`` and ``"<joint>.qy_history"``, the journal centre relative to the
@@ -767,10 +773,15 @@ class Study:
             if key not in self._ideal:
                 from .result import Record
 
-                record = Record(histories=False, displacements=False, every=self.history_every or 1)
+                # the slider histories only: the reference every sample of the structure compares
+                # with online (Record.slider_reference)
+                record = Record(
+                    histories=False, displacements=False, sliders=True, every=self.history_every or 1
+                )
                 try:
                     model = self._scene_fn(**kw)
                     self._ideal[key] = model.simulate(t_end, dt, record=record, progress=False, **options)
+                    self._ideal[key]._slider_reference()  # the core's shared copy, built once here
                 except FlexclearError:
                     self._ideal[key] = None
             return self._ideal[key]
@@ -1442,21 +1453,31 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
 
     hist = study.history_every is not None
     dt0 = dt
-    record = Record(
-        joints=study.joints,
-        displacements=False,
-        histories=hist,
-        every=study.history_every or 1,
-        start=study.start,
-        position=study.orbit,
-        contact_modes=study._modes,
-    )
+    if study.tol is not None:
+        options = {**options, "tol": study.tol}
+    ideal = None
+    if study.sliders:
+        ideal = study._ideal_run(getattr(model, "_build_kwargs", None), t_end, dt0, options)
     retries = 0
     t0 = time.perf_counter()
     while True:
+        # the slider deviations: online against the ideal run (O(1) memory per slider) while the
+        # grids line up; after a retry at a smaller step they do not, and the sample keeps its
+        # slider histories for the history-based comparison (the ideal run interpolated onto
+        # its times, _slider_outputs)
+        online = ideal is not None and dt == dt0
+        record = Record(
+            joints=study.joints,
+            displacements=False,
+            histories=hist,
+            every=study.history_every or 1,
+            start=study.start,
+            position=study.orbit,
+            contact_modes=study._modes,
+            sliders=study.sliders and ideal is not None and not online,
+            slider_reference=ideal if online else None,
+        )
         try:
-            if study.tol is not None:
-                options = {**options, "tol": study.tol}
             res = model.simulate(t_end, dt, study.method, record=record, progress=False, **options)
         except FlexclearError as e:
             from .errors import ConvergenceError, SimulationDivergedError, SingularMatrixError
@@ -1488,9 +1509,21 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
         out.update(extremes=extremes, joints=joints)
         if study.sliders:
-            ideal = study._ideal_run(getattr(model, "_build_kwargs", None), t_end, dt0, options)
-            out["sliders"] = {n: _slider_outputs(res, ideal, n, study.start) for n in study._slider_names}
+            out["sliders"] = {
+                n: _online_slider_outputs(res, n) if online else _slider_outputs(res, ideal, n, study.start)
+                for n in study._slider_names
+            }
         return out
+
+
+def _online_slider_outputs(res, name: str) -> dict:
+    """:data:`SLIDER_OUTPUTS` of slider ``name`` of run ``res``, which accumulated its deviations
+    from the ideal run online (``Record.slider_reference``)."""
+    s = res.slider(name)
+    return {o: float(getattr(s, o)) for o in SLIDER_OUTPUTS}
+
+
+_SLIDER_CH = ("position", "velocity", "acceleration")
 
 
 def _slider_outputs(res, ideal, name: str, start: float) -> dict:
@@ -1500,10 +1533,13 @@ def _slider_outputs(res, ideal, name: str, start: float) -> dict:
     s = res.slider(name)
     out = {"max_acceleration": s.max_acceleration}
     i = ideal.slider(name) if ideal is not None else None
+    if i is None:  # no ideal run: no deviation (nor slider histories: they were not kept)
+        out.update({f"{ch}_deviation_{m}": float("nan") for ch in _SLIDER_CH for m in ("mean", "max")})
+        return out
     keep = res.time >= start
-    for ch in ("position", "velocity", "acceleration"):
+    for ch in _SLIDER_CH:
         x = getattr(s, ch)
-        if i is None or not x.size:
+        if not x.size:
             dev = np.full(1, np.nan)
         elif np.array_equal(ideal.time, res.time):
             dev = np.abs(x - getattr(i, ch))[keep]

@@ -142,6 +142,8 @@ fn joint_spec(record: &RecordSpec) -> RecordSpec {
         every: 1,
         histories: false,
         joint_position: false,
+        sliders: false,
+        slider_reference: None,
         ..record.clone()
     }
 }
@@ -459,6 +461,14 @@ pub struct NewtonRun<'a> {
     hist_links: Vec<LinkHistory>,
     /// Slider histories and peak accelerations (outside `rec`: an event step clones `rec`).
     hist_sliders: Vec<SliderHistory>,
+    /// Whether the output grid (times, link frames and channels, joint histories) is kept: with
+    /// `RecordSpec::histories`, or when link channels or slider histories are asked for. Without
+    /// it a run keeps nothing per output point (O(outputs) memory).
+    keep_grid: bool,
+    /// Whether the slider histories are kept (`RecordSpec::histories` or `RecordSpec::sliders`).
+    keep_sliders: bool,
+    /// Output points passed so far: the index into `RecordSpec::slider_reference`'s grid.
+    slider_point: usize,
     hist_joints: Vec<JointHistory>,
     hist_slot: Vec<Option<usize>>,
     limit: f64,
@@ -572,6 +582,10 @@ impl<'a> NewtonRun<'a> {
         }
         let link_nodes: Vec<usize> = mech.links.iter().map(|l| l.nodes()).collect();
         settings.record.validate(mech.joints.len(), &link_nodes)?;
+        if let Some(r) = &settings.record.slider_reference {
+            let names: Vec<&str> = mech.sliders.iter().map(|s| s.name.as_str()).collect();
+            r.check_grid(&names, settings.t_end, settings.dt, settings.record.every)?;
+        }
         mech.validate(settings.t_end)?;
         let DofMap {
             nodes: node_maps,
@@ -767,6 +781,12 @@ impl<'a> NewtonRun<'a> {
             hist_time: Vec::new(),
             hist_links: vec![LinkHistory::default(); mech.links.len()],
             hist_sliders: Vec::new(),
+            keep_grid: {
+                let (r, ch) = (&settings.record, settings.record.links);
+                r.histories || r.sliders || ch.displacements || ch.axial_force || ch.midspan || ch.energy
+            },
+            keep_sliders: settings.record.histories || settings.record.sliders,
+            slider_point: 0,
             hist_joints,
             hist_slot,
             limit,
@@ -2519,6 +2539,9 @@ impl<'a> NewtonRun<'a> {
     }
 
     fn record(&mut self, t: f64) {
+        if !self.keep_grid {
+            return;
+        }
         let settings = self.settings;
         let rec = &settings.record;
         let mut buf = std::mem::take(&mut self.node_states);
@@ -2686,10 +2709,15 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// The sliders' motion along their guides at `t` (s), nominal path plus elastic unknown, into
-    /// the recorder: the peak acceleration (from [`RecordSpec::start`] on), and the histories
-    /// when `keep` (an output step).
+    /// the recorder: the peak acceleration (from [`RecordSpec::start`] on), and at an output step
+    /// (`keep`) the histories (when kept) and the deviation from
+    /// [`RecordSpec::slider_reference`] (from `start` on; the reference's grid was checked against
+    /// the run's in [`Self::new`], so the run's output point `k` is the reference's point `k`).
     fn track_sliders(&mut self, t: f64, keep: bool) {
-        let counted = t >= self.settings.record.start;
+        let settings = self.settings;
+        let counted = t >= settings.record.start;
+        let reference = settings.record.slider_reference.as_deref().filter(|_| keep);
+        let point = self.slider_point;
         for (s, sl) in self.mech.sliders.iter().enumerate() {
             let fs = sl.path.frame(t);
             let e = [sl.angle.cos(), sl.angle.sin()];
@@ -2705,7 +2733,23 @@ impl<'a> NewtonRun<'a> {
                 along(fs.origin_vel) + own[1],
                 along(fs.origin_acc) + own[2],
             ];
-            self.hist_sliders[s].take(state, counted, keep);
+            let h = &mut self.hist_sliders[s];
+            h.take(state, counted, keep && self.keep_sliders);
+            if let Some(r) = reference.filter(|_| counted) {
+                // the grids line up (checked), so `point` is in range; NaN (never a misaligned
+                // point) should they not
+                let at = |c: usize| {
+                    r.sliders
+                        .get(s)
+                        .and_then(|h| h.1[c].get(point))
+                        .copied()
+                        .unwrap_or(f64::NAN)
+                };
+                h.deviate(state, [at(0), at(1), at(2)]);
+            }
+        }
+        if keep {
+            self.slider_point += 1;
         }
     }
 
@@ -3025,6 +3069,7 @@ impl<'a> NewtonRun<'a> {
         self.hist_sliders = (self.mech.sliders.iter())
             .map(|s| SliderHistory {
                 name: s.name.clone(),
+                deviation: self.settings.record.slider_reference.is_some(),
                 ..Default::default()
             })
             .collect();

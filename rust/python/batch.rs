@@ -247,6 +247,8 @@ pub(super) fn run_batch<'py>(
             energy: false,
         },
         contact_modes,
+        sliders: false,
+        slider_reference: None,
     };
     let max_iter = max_iter.map(|m| count_at_least_1(py, "max_iter", m)).transpose()?;
     let step_halving = u32::try_from(step_halving)

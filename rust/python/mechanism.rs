@@ -553,7 +553,8 @@ impl PyMechanism {
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
-                        nodes=Vec::new(), contact_modes=false, adaptive=None))]
+                        nodes=Vec::new(), contact_modes=false, adaptive=None, sliders=false,
+                        slider_reference=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -589,6 +590,8 @@ impl PyMechanism {
         nodes: Vec<(usize, usize)>,
         contact_modes: bool,
         adaptive: Option<(f64, f64, f64)>,
+        sliders: bool,
+        slider_reference: Option<PyRef<'py, super::output::PySliderReference>>,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -649,12 +652,19 @@ impl PyMechanism {
                 impacts: impact_log,
                 nodes,
                 contact_modes,
+                sliders,
+                slider_reference: slider_reference.map(|r| r.inner.clone()),
             },
             stepper,
             adaptive: adaptive.map(|(rtol, atol, h_min)| crate::run::Adaptive { rtol, atol, h_min }),
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
+        if let Some(r) = &settings.record.slider_reference {
+            // whatever the stepper: a reference must line up with this run's sliders and grid
+            let names: Vec<&str> = mech.sliders.iter().map(|s| s.name.as_str()).collect();
+            (r.check_grid(&names, t_end, dt, every)).map_err(|e| err(py, e))?;
+        }
         if matches!(crate::plan::Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant) {
             settings.coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
         }

@@ -98,6 +98,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<output::PyNodeHistory>()?;
     m.add_class::<output::PyLinkHistory>()?;
     m.add_class::<output::PySliderHistory>()?;
+    m.add_class::<output::PySliderReference>()?;
     m.add_function(wrap_pyfunction!(scenes::slider_yoke, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::slider_crank, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::flores_slider_crank, m)?)?;

@@ -6,7 +6,7 @@
 //! the joint histories as dicts ([`joint_histories`]).
 
 use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, ToPyArray};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -109,7 +109,10 @@ pub struct PyLinkHistory {
 }
 
 /// The histories of one slider along its guide: `name`, `position` (m), `velocity` (m/s),
-/// `acceleration` (m/s^2) on the output grid, and `max_acceleration` (m/s^2, every step).
+/// `acceleration` (m/s^2) on the output grid (empty unless kept), `max_acceleration` (m/s^2,
+/// every step), and with a reference motion (`slider_reference`) `deviation_mean` and
+/// `deviation_max`: mean and peak `|x - x_ref|` over the output points from `start` on, per
+/// channel (position m, velocity m/s, acceleration m/s^2), accumulated online; NaN without one.
 #[pyclass(module = "flexclear._core", name = "SliderHistory", frozen, get_all)]
 pub struct PySliderHistory {
     name: String,
@@ -117,6 +120,46 @@ pub struct PySliderHistory {
     velocity: Py<PyArray1<f64>>,
     acceleration: Py<PyArray1<f64>>,
     max_acceleration: f64,
+    deviation: bool,
+    deviation_mean: (f64, f64, f64),
+    deviation_max: (f64, f64, f64),
+}
+
+/// The sliders' motion on an output grid, shared by the runs that compare with it
+/// (`simulate(slider_reference=...)`): `time` (s) and per slider `(name, position m, velocity
+/// m/s, acceleration m/s^2)`, each history one value per grid point. Built once (the arrays are
+/// copied into the core), then every run holds the same copy.
+#[pyclass(module = "flexclear._core", name = "SliderReference", frozen)]
+pub struct PySliderReference {
+    pub(super) inner: std::sync::Arc<crate::record::SliderReference>,
+}
+
+/// One slider of a [`PySliderReference`]: name, position (m), velocity (m/s), acceleration (m/s^2).
+type SliderColumns<'py> = (
+    String,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+);
+
+#[pymethods]
+impl PySliderReference {
+    #[new]
+    fn new<'py>(py: Python<'py>, time: PyReadonlyArray1<'py, f64>, sliders: Vec<SliderColumns<'py>>) -> PyResult<Self> {
+        let vec = |a: &PyReadonlyArray1<'py, f64>| a.as_array().to_vec();
+        let sliders = (sliders.iter())
+            .map(|(n, x, v, a)| (n.clone(), [vec(x), vec(v), vec(a)]))
+            .collect();
+        let inner = crate::record::SliderReference::new(vec(&time), sliders).map_err(|e| super::err(py, e))?;
+        Ok(PySliderReference {
+            inner: std::sync::Arc::new(inner),
+        })
+    }
+
+    /// Number of grid points.
+    fn __len__(&self) -> usize {
+        self.inner.time.len()
+    }
 }
 
 /// The output of any run: `time` (s, the output grid), `joints` (the recorded joints'
@@ -250,12 +293,16 @@ pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]
     }
     let sliders = (rec.sliders.into_iter())
         .map(|h| {
+            let (deviation_mean, deviation_max) = (h.deviation_mean().into(), h.deviation_peak().into());
             let s = PySliderHistory {
                 name: h.name,
                 position: arr(py, h.position),
                 velocity: arr(py, h.velocity),
                 acceleration: arr(py, h.acceleration),
                 max_acceleration: h.max_acceleration,
+                deviation: h.deviation,
+                deviation_mean,
+                deviation_max,
             };
             Py::new(py, s)
         })

@@ -3,6 +3,8 @@
 //! cost O(joints) memory whatever the run length; and, when asked, an impact log per chosen joint
 //! (one entry per contact episode: memory grows with the number of impacts, not of steps).
 
+use std::sync::Arc;
+
 use crate::error::{Error, Result};
 
 /// What to record. The default records every joint's penetration and force at every step.
@@ -16,8 +18,18 @@ pub struct RecordSpec {
     pub nodes: Vec<(usize, usize)>,
     /// Keep every k-th step (k >= 1); step 0 (the initial state) is always a sample.
     pub every: usize,
-    /// Keep histories at all; `false` keeps only the running extremes.
+    /// Keep histories at all; `false` keeps only the running extremes (and, on the Newton
+    /// stepper, the output grid with the link channels and slider histories only when those are
+    /// asked for: `links` or `sliders`).
     pub histories: bool,
+    /// Keep the sliders' position, velocity and acceleration histories (and the output grid they
+    /// live on) even when `histories` is `false`. With `histories` they are kept anyway.
+    pub sliders: bool,
+    /// A reference motion of the sliders on this run's output grid (e.g. the same mechanism with
+    /// ideal joints): each slider accumulates online, at every output point from `start` on, the
+    /// sum and the largest of `|x - x_ref|` per channel ([`SliderHistory::deviation_sum`]): O(1)
+    /// memory per slider. Shared (one reference for many runs).
+    pub slider_reference: Option<Arc<SliderReference>>,
     /// Histories and extremes start at this time, s (e.g. to skip a transient).
     pub start: f64,
     /// Keep an impact log ([`Impact`]) of the recorded joints (independent of `histories`).
@@ -67,6 +79,8 @@ impl Default for RecordSpec {
             nodes: Vec::new(),
             every: 1,
             histories: true,
+            sliders: false,
+            slider_reference: None,
             start: 0.0,
             impacts: false,
             links: LinkChannels::default(),
@@ -107,6 +121,72 @@ impl RecordSpec {
                 }
                 _ => {}
             }
+        }
+        Ok(())
+    }
+}
+
+/// The sliders' motion along their guides on an output grid: the reference of
+/// [`RecordSpec::slider_reference`] (typically the histories of the same mechanism with ideal
+/// joints, run with the same `t_end`, `dt` and `every`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SliderReference {
+    /// The output grid, s.
+    pub time: Vec<f64>,
+    /// Per slider, in the mechanism's order: its name and its position (m), velocity (m/s) and
+    /// acceleration (m/s^2) along the guide on `time`.
+    pub sliders: Vec<(String, [Vec<f64>; 3])>,
+}
+
+impl SliderReference {
+    /// A reference from its grid and slider histories; every history must have the grid's length.
+    pub fn new(time: Vec<f64>, sliders: Vec<(String, [Vec<f64>; 3])>) -> Result<Self> {
+        for (name, h) in &sliders {
+            if let Some(x) = h.iter().find(|x| x.len() != time.len()) {
+                return Err(Error::param(
+                    "slider_reference",
+                    format!("{} values for slider {name:?}", x.len()),
+                    format!("one value per grid point ({})", time.len()),
+                ));
+            }
+        }
+        Ok(SliderReference { time, sliders })
+    }
+
+    /// Checks that the reference lines up with a run of sliders `names` (in order) on the grid
+    /// `t_k = k dt`, `k = 0 ..= steps` (`steps = round(t_end / dt)`, at least 1), keeping every
+    /// `every`-th step and the last: the same number of points at bitwise the same times. A
+    /// reference on another grid is refused (never silently misaligned).
+    pub fn check_grid(&self, names: &[&str], t_end: f64, dt: f64, every: usize) -> Result<()> {
+        let mine: Vec<&str> = self.sliders.iter().map(|(n, _)| n.as_str()).collect();
+        if mine != names {
+            return Err(Error::param(
+                "record.slider_reference",
+                format!("sliders {mine:?}"),
+                format!("the run's sliders {names:?}, in order"),
+            ));
+        }
+        let steps = (t_end / dt).round().max(1.0) as u64;
+        let every = every.max(1) as u64;
+        let points = 1 + steps / every + u64::from(!steps.is_multiple_of(every));
+        let grid = std::iter::once(0).chain((1..=steps).filter(|k| k.is_multiple_of(every) || *k == steps));
+        let same = self.time.len() as u64 == points
+            && grid
+                .zip(&self.time)
+                .all(|(k, &t)| (k as f64 * dt).to_bits() == t.to_bits());
+        if !same {
+            return Err(Error::param(
+                "record.slider_reference",
+                format!(
+                    "a grid of {} points ending at {:?} s",
+                    self.time.len(),
+                    self.time.last()
+                ),
+                format!(
+                    "the run's output grid: {points} points k dt (dt = {dt} s, every {every}-th step of {steps} \
+                     and the last); run the reference with the same t_end, dt and every"
+                ),
+            ));
         }
         Ok(())
     }
@@ -202,6 +282,16 @@ pub struct SliderHistory {
     pub acceleration: Vec<f64>,
     /// Largest magnitude of the acceleration along the guide, m/s^2 (every step from `start`).
     pub max_acceleration: f64,
+    /// Whether the deviations from a reference motion are accumulated
+    /// ([`RecordSpec::slider_reference`]); when not, they stay zero and their means are NaN.
+    pub deviation: bool,
+    /// Sums of `|x - x_ref|` over the output points from `start` on, per channel: position (m),
+    /// velocity (m/s), acceleration (m/s^2).
+    pub deviation_sum: [f64; 3],
+    /// Largest `|x - x_ref|` over the same points, per channel (NaN if any was NaN).
+    pub deviation_max: [f64; 3],
+    /// Output points that entered the sums.
+    pub deviation_points: u64,
 }
 
 impl SliderHistory {
@@ -217,6 +307,37 @@ impl SliderHistory {
             self.velocity.push(state[1]);
             self.acceleration.push(state[2]);
         }
+    }
+
+    /// Adds an output point's deviation from the reference `reference` (position m, velocity
+    /// m/s, acceleration m/s^2) to the sums and maxima.
+    #[inline]
+    pub fn deviate(&mut self, state: [f64; 3], reference: [f64; 3]) {
+        for c in 0..3 {
+            let d = (state[c] - reference[c]).abs();
+            self.deviation_sum[c] += d;
+            if d > self.deviation_max[c] || d.is_nan() {
+                self.deviation_max[c] = d; // NaN propagates, as in a max over the histories
+            }
+        }
+        self.deviation_points += 1;
+    }
+
+    /// Mean `|x - x_ref|` per channel over the output points from `start` on (position m,
+    /// velocity m/s, acceleration m/s^2); NaN without a reference or before any point.
+    pub fn deviation_mean(&self) -> [f64; 3] {
+        if !self.deviation || self.deviation_points == 0 {
+            return [f64::NAN; 3];
+        }
+        self.deviation_sum.map(|s| s / self.deviation_points as f64)
+    }
+
+    /// Largest `|x - x_ref|` per channel (as [`Self::deviation_mean`]; NaN when it is).
+    pub fn deviation_peak(&self) -> [f64; 3] {
+        if !self.deviation || self.deviation_points == 0 {
+            return [f64::NAN; 3];
+        }
+        self.deviation_max
     }
 }
 
