@@ -79,18 +79,21 @@ pub(crate) fn local_error(
     tol: &Adaptive,
 ) -> LocalError {
     let c = (beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h;
-    let mut e = 0.0f64;
+    // plain comparisons (one `maxsd` each, where `f64::max`'s NaN rule costs more): the
+    // largest ratio, and the sum of the ratios, NaN when any is (they are >= 0)
+    let (mut e, mut sum) = (0.0f64, 0.0f64);
     let (mut abs, mut y_max) = (0.0f64, 0.0f64);
     for (a1, a0, y) in unknowns {
         let d = c * (a1 - a0).abs();
-        let r = d / (tol.atol + tol.rtol * y.abs());
-        if r.is_nan() || r > e {
-            e = if r.is_finite() { r } else { f64::INFINITY };
-        }
-        abs = abs.max(d);
-        y_max = y_max.max(y.abs());
+        let ya = y.abs();
+        let r = d / (tol.atol + tol.rtol * ya);
+        e = if r > e { r } else { e };
+        sum += r;
+        abs = if d > abs { d } else { abs };
+        y_max = if ya > y_max { ya } else { y_max };
     }
-    LocalError { ratio: e, abs, y_max }
+    let ratio = if sum.is_nan() || !e.is_finite() { f64::INFINITY } else { e };
+    LocalError { ratio, abs, y_max }
 }
 
 /// The factor between the sum of the accepted steps' local errors and the achieved-accuracy
