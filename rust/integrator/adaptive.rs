@@ -92,7 +92,11 @@ pub(crate) fn local_error(
         abs = if d > abs { d } else { abs };
         y_max = if ya > y_max { ya } else { y_max };
     }
-    let ratio = if sum.is_nan() || !e.is_finite() { f64::INFINITY } else { e };
+    let ratio = if sum.is_nan() || !e.is_finite() {
+        f64::INFINITY
+    } else {
+        e
+    };
     LocalError { ratio, abs, y_max }
 }
 
