@@ -317,18 +317,44 @@ def test_the_achieved_accuracy_estimates_exist_for_adaptive_runs_only():
     assert r.stats["error_estimate"] > 0 and r.stats["peak_force_error_estimate"] > 0
 
 
-@pytest.mark.parametrize("stepper", [None, "newton"])
-def test_the_peak_force_estimate_bounds_the_slider_yoke_peak_force_error(stepper):
-    # stats["peak_force_error_estimate"] on the Table 1 scene against the converged reference
-    # (9.202 N, given to 4 digits: its rounding, 5.5e-5 relative, counts against the estimate):
-    # the estimate is an upper one and says the peak is within the tolerance
+def _slider_yoke_converged_peak_force() -> float:
+    """The slider-yoke Table 1 peak force (N) to about 1e-8 relative: the fixed event-aware
+    steps converge at first order there (9.2020307, 9.2020327, 9.2020335 N at dt 4e-6, 2e-6,
+    1e-6 s), extrapolated from the last two (the extrapolations from the first two and the last
+    two agree within 2e-8). The accuracy report's reference, 9.202 N, has 4 digits."""
+    m = fc.scenes.slider_yoke(clearance=1e-4)
+    rec = fc.Record(histories=False)
+    f = [
+        m.simulate(0.03, dt, iterate=True, events=True, record=rec).joint(m.joint_names[0]).max_force
+        for dt in (2e-6, 1e-6)
+    ]
+    assert f[1] == pytest.approx(_reference("slider-yoke", "peak_force"), abs=5e-4)
+    return 2 * f[1] - f[0]
+
+
+def test_the_peak_force_estimate_bounds_the_slider_yoke_peak_force_error():
+    # stats["peak_force_error_estimate"] on the Table 1 scene (constant stepper: the joint's own
+    # local errors) against the converged peak force: an upper estimate, within a factor 30
+    # (measured: 2.9e-5 for an actual 5.1e-6 at tol 1e-2, 1.9e-6 for 1.5e-6 at 1e-5)
+    ref = _slider_yoke_converged_peak_force()
+    m = fc.scenes.slider_yoke(clearance=1e-4)
+    for tol in (1e-2, 1e-5):
+        r = m.simulate(0.03, tol=tol, record=fc.Record(histories=False))
+        assert r.stats["stepper"] == "constant"
+        actual = abs(r.joint(m.joint_names[0]).max_force / ref - 1)
+        est = r.stats["peak_force_error_estimate"]
+        assert actual <= est <= 30 * actual
+
+
+def test_the_newton_peak_force_estimate_is_an_upper_one_on_the_slider_yoke():
+    # on the Newton stepper each joint carries the step's largest local error over the unknowns
+    # and the velocity bound h |a_(n+1) - a_n| / 6: upper, and looser (9.5e-3 at tol 1e-2)
     m = fc.scenes.slider_yoke(clearance=1e-4)
     tol = 0.01
-    r = m.simulate(0.03, tol=tol, record=fc.Record(histories=False), stepper=stepper)
+    r = m.simulate(0.03, tol=tol, record=fc.Record(histories=False), stepper="newton")
     ref = _reference("slider-yoke", "peak_force")
-    actual = abs(r.joint(m.joint_names[0]).max_force / ref - 1) + 0.0005 / ref
-    est = r.stats["peak_force_error_estimate"]
-    assert actual <= est <= tol
+    actual = abs(r.joint(m.joint_names[0]).max_force / ref - 1) + 0.0005 / ref  # its rounding
+    assert actual <= r.stats["peak_force_error_estimate"] <= tol
 
 
 def test_the_peak_force_estimate_bounds_the_stiff_bearing_peak_force_error():

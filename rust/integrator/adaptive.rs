@@ -132,12 +132,14 @@ pub(crate) fn count_step(stats: &mut RunStats, h: f64, err: &LocalError) {
 /// The achieved-accuracy estimate of each clearance joint's largest contact force
 /// (`RunStats::peak_force_error_estimate`): the joint's relative displacement and velocity carry
 /// the sums of the accepted steps' local errors up to the instant of the peak, `E_q = sum e_q`
-/// (m, `e_q` the step's Zienkiewicz-Xie error of the joint's displacement) and
-/// `E_v = sum 2 e_q / h` (m/s: the velocity error of a step whose acceleration changes by
-/// `|a_(n+1) - a_n|` is at most `h |a_(n+1) - a_n| / 6`, twice `e_q / h` for average
-/// acceleration); at the peak they go through the law's terms there, `|dF| = |k| E_q + |c| E_v`
-/// (the secant stiffness and damping, N/m and N s/m, row-sum norms), times
-/// [`ERROR_ESTIMATE_FACTOR`], over the peak force.
+/// (m) and `E_v = sum e_v` (m/s); at the peak they go through the law's terms there,
+/// `|dF| = |k| E_q + |c| E_v` (the secant stiffness and damping, N/m and N s/m, row-sum norms),
+/// times [`ERROR_ESTIMATE_FACTOR`], over the peak force. Where the joint's relative
+/// acceleration is known (the constant stepper, [`Self::add_joint`]) `e_q` is its
+/// Zienkiewicz-Xie error and `e_v` its velocity error from the second difference of that
+/// acceleration; else ([`Self::add`], Newton) `e_q` is the step's largest error over the
+/// unknowns and `e_v` the bound `2 e_q / h` (for average acceleration `h |a_(n+1) - a_n| / 6`,
+/// the velocity error of a step whose acceleration changes by that much), looser.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ForceErrors {
     /// `E_q` per joint, m.
@@ -148,6 +150,10 @@ pub(crate) struct ForceErrors {
     peak: Vec<f64>,
     /// The relative error estimate of that force per joint.
     est: Vec<f64>,
+    /// Per joint, the change of its relative acceleration over the last accepted step, m/s^2,
+    /// and that step's length, s (0: none to difference, at the start and after a cut).
+    prev_da: Vec<[f64; 2]>,
+    prev_h: Vec<f64>,
 }
 
 fn norm_inf(m: &Mat2) -> f64 {
@@ -162,11 +168,38 @@ impl ForceErrors {
             ev: vec![0.0; joints],
             peak: vec![0.0; joints],
             est: vec![0.0; joints],
+            prev_da: vec![[0.0; 2]; joints],
+            prev_h: vec![0.0; joints],
         }
     }
 
+    /// Adds an accepted step of length `h` (s) of joint `j` whose relative acceleration
+    /// changed by `da` (m/s^2), under Newmark `beta`, `gamma` (where the joint's relative
+    /// acceleration is known: the constant stepper). Displacement: the Zienkiewicz-Xie
+    /// `c h^2 |da|`. Velocity: `|gamma - 1/2| h |da|` plus `h^3 |a''| / 12`, `a''` from the
+    /// second difference of the joint's acceleration over this step and the last one (the
+    /// bound `h |da| / 6` where there is no last one: at the start and after a cut, whose
+    /// restart makes the acceleration jump). `cut`: this step ended at a cut.
+    pub(crate) fn add_joint(&mut self, j: usize, da: [f64; 2], h: f64, (beta, gamma): (f64, f64), cut: bool) {
+        let c = (beta - 1.0 / 6.0).abs().max(1.0 / 24.0);
+        let n = da[0].hypot(da[1]);
+        self.eq[j] += c * h * h * n;
+        let (p, hp) = (self.prev_da[j], self.prev_h[j]);
+        let third = if hp > 0.0 {
+            let s = 2.0 / (h + hp);
+            let add = [s * (da[0] / h - p[0] / hp), s * (da[1] / h - p[1] / hp)];
+            h * h * h * add[0].hypot(add[1]) / 12.0
+        } else {
+            h * n / 6.0
+        };
+        self.ev[j] += (gamma - 0.5).abs() * h * n + third;
+        self.prev_da[j] = da;
+        self.prev_h[j] = if cut { 0.0 } else { h };
+    }
+
     /// Adds the local displacement error `e_q` (m) of joint `j` in an accepted step of length
-    /// `h` (s).
+    /// `h` (s), with the velocity error bound `2 e_q / h` (where the joint's own acceleration is
+    /// not known: the Newton stepper).
     pub(crate) fn add(&mut self, j: usize, e_q: f64, h: f64) {
         self.eq[j] += e_q;
         self.ev[j] += 2.0 * e_q / h;
@@ -245,6 +278,26 @@ mod tests {
                 assert!((x[i] - q(t)[i]).abs() < 1e-14 && (xd[i] - v(t)[i]).abs() < 1e-13);
             }
         }
+    }
+
+    #[test]
+    fn joint_velocity_errors_take_the_second_difference_of_the_acceleration() {
+        // a(t) = t^2 along x: a'' = 2; over steps of 0.1 and then 0.2 s the second difference
+        // gives it exactly; the first step (nothing to difference) takes the bound h |da| / 6
+        let mut f = ForceErrors::new(1);
+        let a = |t: f64| t * t;
+        let nm = (0.25, 0.5);
+        f.add_joint(0, [a(0.1) - a(0.0), 0.0], 0.1, nm, false);
+        assert!((f.ev[0] - 0.1 * 0.01 / 6.0).abs() < 1e-15);
+        assert!((f.eq[0] - 0.01 * 0.01 / 12.0).abs() < 1e-15);
+        f.add_joint(0, [a(0.3) - a(0.1), 0.0], 0.2, nm, false);
+        let third = 0.2f64.powi(3) * 2.0 / 12.0;
+        assert!((f.ev[0] - 0.1 * 0.01 / 6.0 - third).abs() < 1e-15);
+        // a cut leaves nothing to difference: the next step takes the bound again
+        f.add_joint(0, [1.0, 0.0], 0.1, nm, true);
+        let before = f.ev[0];
+        f.add_joint(0, [2.0, 0.0], 0.1, nm, false);
+        assert!((f.ev[0] - before - 0.1 * 2.0 / 6.0).abs() < 1e-15);
     }
 
     #[test]

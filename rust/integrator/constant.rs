@@ -2105,8 +2105,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 ad.levels.accept(err.ratio, h, dt);
             }
             adaptive::count_step(stats, taken, &err);
-            // the joints' local displacement errors (the restart at a cut changes `a`)
-            let c = (self.lanes[0].settings.newmark.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * taken * taken;
+            // the joints' local displacement and velocity errors (the restart at a cut changes
+            // `a`)
+            let nm = self.lanes[0].settings.newmark;
             for (jj, j) in self.lanes[0].sys.joints.iter().enumerate() {
                 let mut d = [0.0; 2];
                 for k in 0..j.ndof {
@@ -2114,7 +2115,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     d[0] += j.coef[0][k] * da;
                     d[1] += j.coef[1][k] * da;
                 }
-                ad.forces.add(jj, c * norm2(d), taken);
+                ad.forces.add_joint(jj, d, taken, (nm.beta, nm.gamma), cut);
             }
             let reached = if last && !cut { t1 } else { t + taken };
             if !cut {
