@@ -1144,8 +1144,9 @@ class Model:
             local errors of displacement and velocity up to the peak through the law's
             stiffness and damping there, x 10, over the peak; the largest over the joints; an
             upper estimate: 2.9e-5 for an actual 5.1e-6 on the slider-yoke at tol 1e-2,
-            pessimistic in a chatter, looser on the Newton stepper). See ``docs/method.md``, "The achieved
-            accuracy of a run". The iteration tolerance stays ``iter_tol``.
+            pessimistic in a chatter; it speaks for the peak the run found). See
+            ``docs/method.md``, "The achieved accuracy of a run". The iteration tolerance stays
+            ``iter_tol``.
         method : {"modified", "force", "gap", "continuous"}
             How the clearance force enters the step: the paper's modified stiffness/damping
             matrix method, the force reaction method (explicit), a gap element with status

@@ -134,12 +134,10 @@ pub(crate) fn count_step(stats: &mut RunStats, h: f64, err: &LocalError) {
 /// the sums of the accepted steps' local errors up to the instant of the peak, `E_q = sum e_q`
 /// (m) and `E_v = sum e_v` (m/s); at the peak they go through the law's terms there,
 /// `|dF| = |k| E_q + |c| E_v` (the secant stiffness and damping, N/m and N s/m, row-sum norms),
-/// times [`ERROR_ESTIMATE_FACTOR`], over the peak force. Where the joint's relative
-/// acceleration is known (the constant stepper, [`Self::add_joint`]) `e_q` is its
-/// Zienkiewicz-Xie error and `e_v` its velocity error from the second difference of that
-/// acceleration; else ([`Self::add`], Newton) `e_q` is the step's largest error over the
-/// unknowns and `e_v` the bound `2 e_q / h` (for average acceleration `h |a_(n+1) - a_n| / 6`,
-/// the velocity error of a step whose acceleration changes by that much), looser.
+/// times [`ERROR_ESTIMATE_FACTOR`], over the peak force. `e_q` is the Zienkiewicz-Xie error of
+/// the joint's relative displacement and `e_v` its velocity error from the second difference of
+/// the joint's relative acceleration ([`Self::add_joint`]; on the Newton stepper that
+/// acceleration is the joint's velocity map applied to the unknowns' accelerations).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ForceErrors {
     /// `E_q` per joint, m.
@@ -174,8 +172,7 @@ impl ForceErrors {
     }
 
     /// Adds an accepted step of length `h` (s) of joint `j` whose relative acceleration
-    /// changed by `da` (m/s^2), under Newmark `beta`, `gamma` (where the joint's relative
-    /// acceleration is known: the constant stepper). Displacement: the Zienkiewicz-Xie
+    /// changed by `da` (m/s^2), under Newmark `beta`, `gamma`. Displacement: the Zienkiewicz-Xie
     /// `c h^2 |da|`. Velocity: `|gamma - 1/2| h |da|` plus `h^3 |a''| / 12`, `a''` from the
     /// second difference of the joint's acceleration over this step and the last one (the
     /// bound `h |da| / 6` where there is no last one: at the start and after a cut, whose
@@ -195,14 +192,6 @@ impl ForceErrors {
         self.ev[j] += (gamma - 0.5).abs() * h * n + third;
         self.prev_da[j] = da;
         self.prev_h[j] = if cut { 0.0 } else { h };
-    }
-
-    /// Adds the local displacement error `e_q` (m) of joint `j` in an accepted step of length
-    /// `h` (s), with the velocity error bound `2 e_q / h` (where the joint's own acceleration is
-    /// not known: the Newton stepper).
-    pub(crate) fn add(&mut self, j: usize, e_q: f64, h: f64) {
-        self.eq[j] += e_q;
-        self.ev[j] += 2.0 * e_q / h;
     }
 
     /// Whether `force` (N) is above joint `j`'s largest force so far.

@@ -2603,6 +2603,14 @@ impl<'a> NewtonRun<'a> {
             if err.ratio > 1.0 {
                 self.stats.floor_steps += 1;
             }
+            // each joint's change of relative acceleration over the step (before a restart at
+            // a cut changes the accelerations): the velocity map at each end applied to the
+            // accelerations there, the same frames (their terms cancel in the difference)
+            for j in 0..self.mech.joints.len() {
+                let a1 = self.joint_state(j, &self.y, &self.ydd).1;
+                let a0 = self.joint_state(j, &ad.y, &ad.ydd).1;
+                ad.da[j] = [a1[0] - a0[0], a1[1] - a0[1]];
+            }
             if cut {
                 // the accelerations and the recorded force at the cut are the right limit: each
                 // joint at its crossing there is taken on the new side of its circle (the
@@ -2634,7 +2642,7 @@ impl<'a> NewtonRun<'a> {
                     return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
                 }
             }
-            self.track_peak_errors(taken, &err, &mut ad.forces);
+            self.track_peak_errors(taken, cut, &ad.da, &mut ad.forces);
         }
         Ok(())
     }
@@ -2669,16 +2677,17 @@ impl<'a> NewtonRun<'a> {
         }
     }
 
-    /// After an accepted adaptive step of length `h` (s) and local error `err` (its joints
-    /// tracked): each joint's displacement carries the step's largest local error over the
-    /// unknowns (a bound for the joint's own), and a joint whose largest force rose (tracked, or
-    /// at the step's end) takes the estimate of that force's error ([`adaptive::ForceErrors`],
-    /// the law's terms at the step's end, put on the closed side of the circle when it is open
-    /// there: the right limit of an entry's cut), into the stats.
-    fn track_peak_errors(&mut self, h: f64, err: &adaptive::LocalError, forces: &mut adaptive::ForceErrors) {
+    /// After an accepted adaptive step of length `h` (s), ended at a cut or not (its joints
+    /// tracked), in which each joint's relative acceleration changed by `da` (m/s^2): each
+    /// joint's local errors enter its sums ([`adaptive::ForceErrors::add_joint`]), and a joint
+    /// whose largest force rose (tracked, or at the step's end) takes the estimate of that
+    /// force's error (the law's terms at the step's end, put on the closed side of the circle
+    /// when it is open there: the right limit of an entry's cut), into the stats.
+    fn track_peak_errors(&mut self, h: f64, cut: bool, da: &[[f64; 2]], forces: &mut adaptive::ForceErrors) {
         let mut changed = false;
+        let nm = (self.settings.newmark.beta, self.settings.newmark.gamma);
         for j in 0..self.mech.joints.len() {
-            forces.add(j, err.abs, h);
+            forces.add_joint(j, da[j], h, nm, cut);
             let (mut q, qd) = self.joint_state(j, &self.y, &self.yd);
             let c = self.mech.joints[j].clearance;
             let terms = self.law_terms(j, q, qd);
@@ -2777,6 +2786,7 @@ impl<'a> NewtonRun<'a> {
             pc: Vec::with_capacity(self.mech.joints.len()),
             levels: adaptive::Levels::new(self.settings.dt, a.h_min),
             forces: adaptive::ForceErrors::new(self.mech.joints.len()),
+            da: vec![[0.0; 2]; self.mech.joints.len()],
         });
         let events =
             (self.settings.events && !self.mech.joints.is_empty() && adaptive.is_none()).then(EventScratch::default);
@@ -2858,8 +2868,10 @@ struct AdaptiveScratch {
     p1: Vec<f64>,
     pc: Vec<f64>,
     levels: adaptive::Levels,
-    /// The achieved-accuracy estimate of the joints' largest forces.
+    /// The achieved-accuracy estimate of the joints' largest forces, and each joint's change of
+    /// relative acceleration over the accepted step (m/s^2).
     forces: adaptive::ForceErrors,
+    da: Vec<[f64; 2]>,
 }
 
 impl Stepper for NewtonLoop<'_, '_> {
