@@ -301,6 +301,20 @@ pub struct RunStats {
     pub min_step: f64,
     /// See `min_step`.
     pub max_step: f64,
+    /// Adaptive steps: the achieved-accuracy estimate of the trajectory, relative to the
+    /// largest displacement (`local_error_sum / largest_displacement`; 0 without adaptive
+    /// steps). See `integrator/adaptive.rs`, `count_step`.
+    pub error_estimate: f64,
+    /// Adaptive steps: the achieved-accuracy estimate of the largest contact force, relative,
+    /// the largest over the clearance joints (0 without contact or adaptive steps). See
+    /// `integrator/adaptive.rs`, `ForceErrors`.
+    pub peak_force_error_estimate: f64,
+    /// Adaptive steps: the sum over the accepted steps of the largest Zienkiewicz-Xie local
+    /// displacement error over the unknowns, m (rad for rotations).
+    pub local_error_sum: f64,
+    /// Adaptive steps: the largest `|y|` of any unknown at the end of an accepted step, m (rad
+    /// for rotations).
+    pub largest_displacement: f64,
 }
 
 /// What a run produced.

@@ -683,6 +683,8 @@ struct AdaptiveSteps {
     p1: Vec<f64>,
     tol: crate::run::Adaptive,
     levels: Levels,
+    /// The achieved-accuracy estimate of the joints' largest forces.
+    forces: adaptive::ForceErrors,
 }
 
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
@@ -1547,6 +1549,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 p1: Vec::with_capacity(nj),
                 tol,
                 levels: Levels::new(self.sh.grid_dt, tol.h_min),
+                forces: adaptive::ForceErrors::new(nj),
             }
         });
         let events = (L == 1 && settings.events && adaptive.is_none()).then(Events::default);
@@ -2008,8 +2011,8 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// (s) just taken from accelerations `a0` (the single lane), over the tolerance, largest
     /// over the unknowns (infinite when not finite): as the Newton stepper's (`NewtonRun`'s
     /// `local_error`), `c |a_(n+1) - a_n| h^2 / (atol + rtol |u|)` with `c = |beta - 1/6|` (at
-    /// least 1/24).
-    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
+    /// least 1/24); with the absolute error and the largest `|u|` ([`adaptive::LocalError`]).
+    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> adaptive::LocalError {
         let unknowns = self
             .a
             .iter()
@@ -2086,22 +2089,34 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 err = self.local_error(taken, &ad.snap.a, &tol);
                 cut = true;
             }
-            if err > 1.0 && !at_floor {
+            if err.ratio > 1.0 && !at_floor {
                 self.restore(&ad.snap);
                 self.lanes[0].stats.rejected_steps += 1;
-                ad.levels.reject(err);
+                ad.levels.reject(err.ratio);
                 continue;
             }
             let stats = &mut self.lanes[0].stats;
-            if err > 1.0 {
+            if err.ratio > 1.0 {
                 stats.floor_steps += 1;
             }
             if cut {
                 stats.event_steps += 1;
             } else {
-                ad.levels.accept(err, h, dt);
+                ad.levels.accept(err.ratio, h, dt);
             }
-            adaptive::count_step(stats, taken);
+            adaptive::count_step(stats, taken, &err);
+            // the joints' local displacement and velocity errors (the restart at a cut changes
+            // `a`)
+            let nm = self.lanes[0].settings.newmark;
+            for (jj, j) in self.lanes[0].sys.joints.iter().enumerate() {
+                let mut d = [0.0; 2];
+                for k in 0..j.ndof {
+                    let da = self.a[j.dofs[k]][0] - ad.snap.a[j.dofs[k]];
+                    d[0] += j.coef[0][k] * da;
+                    d[1] += j.coef[1][k] * da;
+                }
+                ad.forces.add_joint(jj, d, taken, (nm.beta, nm.gamma), cut);
+            }
             let reached = if last && !cut { t1 } else { t + taken };
             if !cut {
                 self.peaks_within_step(t, taken, &ad.snap);
@@ -2114,7 +2129,27 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 lane.rec
                     .record_substep(reached, &lane.pen, &lane.force, &lane.q, &lane.qd);
             }
+            self.track_peak_errors(&mut ad.forces);
             t = reached;
+        }
+    }
+
+    /// After an accepted adaptive step (its peaks within and its end recorded): each joint whose
+    /// largest force rose takes the estimate of that force's error ([`adaptive::ForceErrors`],
+    /// the law's terms at the step's end), into the stats.
+    fn track_peak_errors(&mut self, forces: &mut adaptive::ForceErrors) {
+        let lane = &mut self.lanes[0];
+        let mut changed = false;
+        for jj in 0..lane.sys.joints.len() {
+            let f = norm2(lane.force[jj]).max(lane.rec.extremes[jj].max_force);
+            if forces.is_peak(jj, f) {
+                let terms = lane.contact_terms(jj, lane.q[jj], lane.qd[jj]);
+                forces.set_peak(jj, f, &terms);
+                changed = true;
+            }
+        }
+        if changed {
+            forces.to_stats(&mut lane.stats);
         }
     }
 

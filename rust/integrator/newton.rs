@@ -2865,8 +2865,10 @@ impl<'a> NewtonRun<'a> {
     /// The Zienkiewicz-Xie estimate of the local displacement error of the step of length `h`
     /// (s) just taken from accelerations `a0`, `c |a_(n+1) - a_n| h^2` with `c = |beta - 1/6|`
     /// (at least 1/24), over the tolerance `atol + rtol |y|`, largest over the unknowns
-    /// (infinite when not finite).
-    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> f64 {
+    /// (infinite when not finite); with the absolute error and the largest `|y|`
+    /// ([`adaptive::LocalError`]). A rotation counts as the displacement it makes over an
+    /// element of its link (rad x element length, m: [`Self::err_scale`]).
+    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> adaptive::LocalError {
         let unknowns = (0..self.n).map(|i| {
             let s = self.err_scale[i];
             (self.ydd[i] * s, a0[i] * s, self.y[i] * s)
@@ -2925,7 +2927,11 @@ impl<'a> NewtonRun<'a> {
                     if at_floor {
                         return Err(e);
                     }
-                    f64::INFINITY
+                    adaptive::LocalError {
+                        ratio: f64::INFINITY,
+                        abs: f64::INFINITY,
+                        y_max: 0.0,
+                    }
                 }
                 Err(e) => return Err(e),
             };
@@ -2934,7 +2940,7 @@ impl<'a> NewtonRun<'a> {
             // contact force, which the step after the cut resolves)
             let mut taken = h;
             let mut cut = false;
-            if err.is_finite() {
+            if err.ratio.is_finite() {
                 self.penetrations(&mut ad.p1);
                 if let Some((theta, j)) = earliest_crossing(&ad.p0, &ad.p1) {
                     taken = self.adaptive_cut(t, h, k, ad, theta, j)?;
@@ -2942,14 +2948,22 @@ impl<'a> NewtonRun<'a> {
                     cut = true;
                 }
             }
-            if err > 1.0 && !at_floor {
+            if err.ratio > 1.0 && !at_floor {
                 self.restore_adaptive(ad, t);
                 self.stats.rejected_steps += 1;
-                ad.levels.reject(err);
+                ad.levels.reject(err.ratio);
                 continue;
             }
-            if err > 1.0 {
+            if err.ratio > 1.0 {
                 self.stats.floor_steps += 1;
+            }
+            // each joint's change of relative acceleration over the step (before a restart at
+            // a cut changes the accelerations): the velocity map at each end applied to the
+            // accelerations there, the same frames (their terms cancel in the difference)
+            for j in 0..self.mech.joints.len() {
+                let a1 = self.joint_state(j, &self.y, &self.ydd).1;
+                let a0 = self.joint_state(j, &ad.y, &ad.ydd).1;
+                ad.da[j] = [a1[0] - a0[0], a1[1] - a0[1]];
             }
             if cut {
                 // the accelerations and the recorded force at the cut are the right limit: each
@@ -2971,10 +2985,10 @@ impl<'a> NewtonRun<'a> {
                 self.stats.event_steps += 1;
             } else {
                 self.peaks_within_step(h, ad);
-                ad.levels.accept(err, h, dt);
+                ad.levels.accept(err.ratio, h, dt);
             }
             t = if taken == rest { t1 } else { t + taken };
-            adaptive::count_step(&mut self.stats, taken);
+            adaptive::count_step(&mut self.stats, taken, &err);
             if t < t1 {
                 self.track_joints(t, None);
                 if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
@@ -2982,6 +2996,7 @@ impl<'a> NewtonRun<'a> {
                     return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
                 }
             }
+            self.track_peak_errors(taken, cut, &ad.da, &mut ad.forces);
         }
         Ok(())
     }
@@ -3013,6 +3028,45 @@ impl<'a> NewtonRun<'a> {
                 tr.max_penetration = tr.max_penetration.max(terms.penetration);
                 tr.max_force = tr.max_force.max(f[0].hypot(f[1]));
             }
+        }
+    }
+
+    /// After an accepted adaptive step of length `h` (s), ended at a cut or not (its joints
+    /// tracked), in which each joint's relative acceleration changed by `da` (m/s^2): each
+    /// joint's local errors enter its sums ([`adaptive::ForceErrors::add_joint`]), and a joint
+    /// whose largest force rose (tracked, or at the step's end) takes the estimate of that
+    /// force's error (the law's terms at the step's end, put on the closed side of the circle
+    /// when it is open there: the right limit of an entry's cut), into the stats.
+    fn track_peak_errors(&mut self, h: f64, cut: bool, da: &[[f64; 2]], forces: &mut adaptive::ForceErrors) {
+        let mut changed = false;
+        let nm = (self.settings.newmark.beta, self.settings.newmark.gamma);
+        for j in 0..self.mech.joints.len() {
+            forces.add_joint(j, da[j], h, nm, cut);
+            let (mut q, qd) = self.joint_state(j, &self.y, &self.yd);
+            let c = self.mech.joints[j].clearance;
+            let terms = self.law_terms(j, q, qd);
+            let end = if terms.penetration > 0.0 {
+                let f = evaluation::recorded_force(&terms, q, qd);
+                f[0].hypot(f[1])
+            } else {
+                0.0
+            };
+            let f = end.max(self.track[j].max_force);
+            if forces.is_peak(j, f) {
+                let r = q[0].hypot(q[1]);
+                let terms = if terms.penetration > 0.0 || !(r > 0.0 && c > 0.0) {
+                    terms
+                } else {
+                    let s = c * (1.0 + 1e-9) / r;
+                    q = [q[0] * s, q[1] * s];
+                    self.law_terms(j, q, qd)
+                };
+                forces.set_peak(j, f, &terms);
+                changed = true;
+            }
+        }
+        if changed {
+            forces.to_stats(&mut self.stats);
         }
     }
 
@@ -3086,6 +3140,8 @@ impl<'a> NewtonRun<'a> {
             p1: Vec::with_capacity(self.mech.joints.len()),
             pc: Vec::with_capacity(self.mech.joints.len()),
             levels: adaptive::Levels::new(self.settings.dt, a.h_min),
+            forces: adaptive::ForceErrors::new(self.mech.joints.len()),
+            da: vec![[0.0; 2]; self.mech.joints.len()],
         });
         let events =
             (self.settings.events && !self.mech.joints.is_empty() && adaptive.is_none()).then(EventScratch::default);
@@ -3167,6 +3223,10 @@ struct AdaptiveScratch {
     p1: Vec<f64>,
     pc: Vec<f64>,
     levels: adaptive::Levels,
+    /// The achieved-accuracy estimate of the joints' largest forces, and each joint's change of
+    /// relative acceleration over the accepted step (m/s^2).
+    forces: adaptive::ForceErrors,
+    da: Vec<[f64; 2]>,
 }
 
 impl Stepper for NewtonLoop<'_, '_> {

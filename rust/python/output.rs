@@ -240,6 +240,13 @@ fn stats_dict(py: Python<'_>, s: RunStats) -> PyResult<Bound<'_, PyDict>> {
     st.set_item("floor_steps", s.floor_steps)?;
     st.set_item("min_step", s.min_step)?;
     st.set_item("max_step", s.max_step)?;
+    // the achieved-accuracy estimate exists for adaptive runs only
+    let adaptive = s.adaptive_steps > 0;
+    st.set_item("error_estimate", adaptive.then_some(s.error_estimate))?;
+    st.set_item(
+        "peak_force_error_estimate",
+        adaptive.then_some(s.peak_force_error_estimate),
+    )?;
     Ok(st)
 }
 
