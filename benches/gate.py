@@ -4,8 +4,9 @@
 
 Fails (exit 1) when the candidate is slower than the baseline beyond the noise on one of the
 gated criterion benches of benches/core.rs: the full slider-yoke run (12 elements, dt 1e-6 s,
-0.1 s, extremes only), 10k Newmark steps with the contact open and closed (modified method), and
-the lockstep study samples (8 lanes). Needs only the standard library, cargo and git.
+0.1 s, extremes only), 10k Newmark steps with the contact open and closed (modified method), the
+lockstep study samples (8 lanes), and 1000 Newton steps of the slider-crank with a clearance at
+the crank pin (moving frames). Needs only the standard library, cargo and git.
 
 How (and why this way):
 
@@ -79,6 +80,12 @@ GATED = [
         "lockstep sample-step, 8 lanes",
         16_000,
         "ns/sample-step",
+    ),
+    (
+        "newton/slider-crank crank pin, 1000 steps, implicit contact",
+        "Newton step, slider-crank crank pin",
+        1000,
+        "ns/step",
     ),
 ]
 
