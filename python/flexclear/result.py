@@ -136,8 +136,24 @@ class _NotRecorded:
         return "<not recorded>"
 
 
+class _Channels:
+    """Reading a field that holds :class:`_NotRecorded` raises its
+    :class:`~flexclear.RecordingError`; the repr shows it as ``<not recorded>`` (for the
+    dataclasses of one joint's or one slider's results)."""
+
+    def __getattribute__(self, name: str) -> Any:
+        value = object.__getattribute__(self, name)
+        if type(value) is _NotRecorded:
+            raise RecordingError(value.message)
+        return value
+
+    def __repr__(self) -> str:
+        fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
+        return f"{type(self).__name__}({', '.join(fields)})"
+
+
 @dataclasses.dataclass(repr=False)
-class JointResult:
+class JointResult(_Channels):
     """Histories and extremes of one clearance joint (the same fields for every model).
 
     Attributes
@@ -229,16 +245,6 @@ class JointResult:
     impact_log: Optional[ImpactLog] = None
     friction: Any = None
     slip: Any = None
-
-    def __getattribute__(self, name: str) -> Any:
-        value = object.__getattribute__(self, name)
-        if type(value) is _NotRecorded:
-            raise RecordingError(value.message)
-        return value
-
-    def __repr__(self) -> str:
-        fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
-        return f"JointResult({', '.join(fields)})"
 
     def orbit(self) -> tuple[np.ndarray, np.ndarray]:
         """The journal-centre orbit: ``(qx, qy)``, the journal centre relative to the bearing
@@ -336,7 +342,7 @@ class LinkResult:
 
 
 @dataclasses.dataclass(repr=False)
-class SliderResult:
+class SliderResult(_Channels):
     """Motion of one slider along its guide (a model in moving frames): the nominal path of its
     pin plus its elastic travel, projected on the guide direction.
 
@@ -375,16 +381,6 @@ class SliderResult:
     velocity_deviation_max: Any = float("nan")
     acceleration_deviation_mean: Any = float("nan")
     acceleration_deviation_max: Any = float("nan")
-
-    def __getattribute__(self, name: str) -> Any:
-        value = object.__getattribute__(self, name)
-        if type(value) is _NotRecorded:
-            raise RecordingError(value.message)
-        return value
-
-    def __repr__(self) -> str:
-        fields = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in dataclasses.fields(self))
-        return f"SliderResult({', '.join(fields)})"
 
 
 _EMPTY = np.empty(0)
