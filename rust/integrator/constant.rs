@@ -1636,42 +1636,35 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
         }
         match sh.sys.proportional_damping {
-            Some(c) if alpha => {
-                for ((u, v), w) in self
-                    .u
-                    .as_flattened()
-                    .iter()
-                    .zip(self.v.as_flattened())
-                    .zip(self.tmp.as_flattened_mut().iter_mut())
-                {
-                    *w = -(*u + c * *v);
-                }
-                matvec(
-                    pat,
-                    sh.k_band.as_ref(),
-                    &sh.sys.stiffness,
-                    &self.tmp,
-                    &mut self.xpad,
-                    &mut self.r,
-                    &mut self.lanes[0].col,
-                    &mut self.col_y,
-                );
-            }
             Some(c) => {
-                // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
-                // in one pass, then r = K w
-                // (lane by lane the same operations; flat, the loop vectorizes across lanes)
-                for ((u, v), (&a, w)) in self
-                    .u
-                    .as_flattened_mut()
-                    .iter_mut()
-                    .zip(self.v.as_flattened_mut().iter_mut())
-                    .zip(self.a.as_flattened().iter().zip(self.tmp.as_flattened_mut().iter_mut()))
-                {
-                    *u += dt * *v + c1 * a;
-                    *v += c2 * a;
-                    *w = -(*u + c * *v); // negated here so that r = K w needs no extra pass
+                if alpha {
+                    // w = -(u~ + c v~) (the alpha predictors above already applied)
+                    for ((u, v), w) in self
+                        .u
+                        .as_flattened()
+                        .iter()
+                        .zip(self.v.as_flattened())
+                        .zip(self.tmp.as_flattened_mut().iter_mut())
+                    {
+                        *w = -(*u + c * *v);
+                    }
+                } else {
+                    // predictors (in place: u, v hold u~, v~ until `complete`) and w = -(u~ + c v~)
+                    // in one pass (lane by lane the same operations; flat, the loop vectorizes
+                    // across lanes)
+                    for ((u, v), (&a, w)) in self
+                        .u
+                        .as_flattened_mut()
+                        .iter_mut()
+                        .zip(self.v.as_flattened_mut().iter_mut())
+                        .zip(self.a.as_flattened().iter().zip(self.tmp.as_flattened_mut().iter_mut()))
+                    {
+                        *u += dt * *v + c1 * a;
+                        *v += c2 * a;
+                        *w = -(*u + c * *v); // negated here so that r = K w needs no extra pass
+                    }
                 }
+                // r = K w
                 matvec(
                     pat,
                     sh.k_band.as_ref(),
