@@ -71,6 +71,22 @@ _STAT_KEYS = (
 )
 
 
+def _check_placement(frame, motion, angle: Optional[float] = None) -> None:
+    """Checks how a link or body is placed: ``frame`` a :class:`Frame` or None, ``motion`` a
+    :class:`~flexclear.motion.Motion` or None, and not ``frame`` together with ``motion`` (or with
+    a non-zero ``angle``, where the caller takes one)."""
+    if frame is not None:
+        if not isinstance(frame, Frame):
+            raise _bad("frame", frame, "a flexclear.Frame")
+        if angle is None and motion is not None:
+            raise _bad("frame", frame, "either `frame` or `motion`, not both")
+        if angle is not None and (motion is not None or angle != 0.0):
+            raise _bad("frame", frame, "either `frame` or `angle`/`motion`, not both")
+    if motion is not None and not isinstance(motion, _core.Motion):
+        allowed = "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
+        raise _bad("motion", motion, allowed)
+
+
 def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
     e = InvalidParameterError(f"invalid parameter `{parameter}` = {value!r}: allowed {allowed}")
     e.parameter, e.value, e.allowed = parameter, repr(value), allowed
@@ -469,11 +485,7 @@ class Model:
             m/s, rad/s).
         """
         self._unique("link", name, self._link_ids)
-        if frame is not None:
-            if not isinstance(frame, Frame):
-                raise _bad("frame", frame, "a flexclear.Frame")
-            if motion is not None or angle != 0.0:
-                raise _bad("frame", frame, "either `frame` or `angle`/`motion`, not both")
+        _check_placement(frame, motion, angle)
         terms = tuple(
             _switch(k, v)
             for k, v in (
@@ -483,10 +495,6 @@ class Model:
                 ("inertia_load", inertia_load),
             )
         )
-        if motion is not None and not isinstance(motion, _core.Motion):
-            raise _bad(
-                "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
-            )
         integral = _is_number(elements) and float(elements).is_integer()
         if isinstance(elements, (bool, np.bool_)) or not integral or abs(elements) > _MAX_COUNT:
             raise _bad("elements", elements, "an integer in 1 ..= 1000000")
@@ -577,15 +585,7 @@ class Model:
             A second link of the same name.
         """
         self._unique("link", name, self._link_ids)
-        if frame is not None:
-            if not isinstance(frame, Frame):
-                raise _bad("frame", frame, "a flexclear.Frame")
-            if motion is not None or angle != 0.0:
-                raise _bad("frame", frame, "either `frame` or `angle`/`motion`, not both")
-        if motion is not None and not isinstance(motion, _core.Motion):
-            raise _bad(
-                "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
-            )
+        _check_placement(frame, motion, angle)
         length = _num("length", length, "a finite number > 0, m")
         mass = _num("mass", mass, "a finite number > 0, kg")
         inertia = _num("inertia", inertia, "a finite number >= 0, kg m^2")
@@ -603,15 +603,7 @@ class Model:
         Points of the body (``point=`` of :meth:`add_joint` and :meth:`add_pin`) are given in
         its frame (for a translating body: global axes from the reference point), m."""
         self._unique("body", name, self.body_names)
-        if motion is not None and not isinstance(motion, _core.Motion):
-            raise _bad(
-                "motion", motion, "a flexclear.motion.Motion (motion.fixed, .harmonic, .tabulated) or None"
-            )
-        if frame is not None:
-            if not isinstance(frame, Frame):
-                raise _bad("frame", frame, "a flexclear.Frame")
-            if motion is not None:
-                raise _bad("frame", frame, "either `frame` or `motion`, not both")
+        _check_placement(frame, motion)
         self._body_frames[name] = (
             frame if frame is not None else Frame.rotating(Rotation.fixed(0.0), origin=motion)
         )
