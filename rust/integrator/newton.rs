@@ -2767,18 +2767,25 @@ impl<'a> NewtonRun<'a> {
     /// the implicit coupling's damping) taken at this state, the right limit at a contact status
     /// change. Solves `J(h -> 0) a = -r(a = 0)`: with `beta h^2 -> 0` the Jacobian is the mass
     /// matrix with the transforms (velocity-coupling terms vanish too).
+    /// `ydd = -M^-1 r` with the residual at `t` (s) of the current state (its accelerations part
+    /// left out by the caller: `ydd` zero) and the mass matrix in [`Self::lu`]
+    /// ([`Self::factorize_mass`]).
+    pub(super) fn mass_accelerations(&mut self, t: f64) {
+        self.residual(0.0, t);
+        let mut dx = std::mem::take(&mut self.r);
+        self.lu.solve_in_place(&mut dx);
+        for (a, d) in self.ydd.iter_mut().zip(&dx) {
+            *a = -d;
+        }
+        self.r = dx;
+    }
+
     fn restart_accelerations(&mut self, t: f64) -> Result<()> {
         self.update_frames(t);
         self.evaluate_contacts_at_state();
         self.ydd.fill(0.0);
         self.factorize_mass()?;
-        self.residual(0.0, t);
-        let mut dx = std::mem::take(&mut self.r);
-        self.lu.solve_in_place(&mut dx);
-        for i in 0..self.n {
-            self.ydd[i] = -dx[i];
-        }
-        self.r = dx;
+        self.mass_accelerations(t);
         self.signature.clear();
         if self.settings.newmark.is_alpha() {
             self.aa.copy_from_slice(&self.ydd); // the alpha schemes (re)start with aa = a

@@ -355,13 +355,7 @@ impl NewtonRun<'_> {
             }
         }
         // the unconstrained accelerations a0 = -M^{-1} r0
-        self.residual(0.0, t);
-        let mut dx = std::mem::take(&mut self.r);
-        self.lu.solve_in_place(&mut dx);
-        for i in 0..self.n {
-            self.ydd[i] = -dx[i];
-        }
-        self.r = dx;
+        self.mass_accelerations(t);
         if m > 0 {
             for a in 0..m {
                 c.rhs[a] = self.radial_accel(c.active[a], &self.ydd);
