@@ -139,7 +139,7 @@ impl BandLu {
                 _ => self.eliminate_general(k),
             }
         }
-        self.pack();
+        self.invert_pivots();
         self.factorizations += 1;
         Ok(())
     }
@@ -198,7 +198,7 @@ impl BandLu {
     }
 
     /// The pivots' reciprocals into [`Self::inv_diag`] (the substitutions multiply by them).
-    fn pack(&mut self) {
+    fn invert_pivots(&mut self) {
         let w = 2 * self.b + 1;
         for (j, d) in self.inv_diag.iter_mut().enumerate() {
             *d = 1.0 / self.a[j * w + self.b];
