@@ -10,12 +10,8 @@ use std::sync::Arc;
 use flexclear::contact::{Coupling, DampingLaw, SpringDamper};
 use flexclear::element::BeamElement;
 use flexclear::integrator::newton::{simulate_mechanism, NewtonRun};
-use flexclear::kinematics::{
-    FourBar, FourBarFrame, FourBarLink, FrameKinematics, RotatingFrame, Rotation, SliderCrank,
-};
+use flexclear::kinematics::{FourBar, FourBarFrame, FourBarLink, FrameKinematics, Rotation, SliderCrank};
 use flexclear::model::mechanism::{Clearance, Endpoint, Link, Mechanism, NodalLoad, Pin, Support};
-use flexclear::model::section::BeamSection;
-use flexclear::model::Motion;
 use flexclear::record::{LinkChannels, RecordSpec, SliderReference};
 use flexclear::scenes::{FlexibleSliderCrank, SliderCrankPin};
 use flexclear::Error;
@@ -23,45 +19,12 @@ use flexclear::RunOutput;
 use flexclear::Settings;
 use nalgebra::{DMatrix, DVector};
 
+mod common;
+use common::{fixed_frame, hub, link};
+
 // ------------------------------------------------------------------------------------------------
 // Helpers
 // ------------------------------------------------------------------------------------------------
-
-/// A frame at the global origin with the given rotation.
-fn hub(rotation: Rotation) -> Arc<dyn FrameKinematics> {
-    Arc::new(RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, rotation).unwrap())
-}
-
-/// A frame at rest.
-fn fixed_frame() -> Arc<dyn FrameKinematics> {
-    hub(Rotation::Fixed { angle: 0.0 })
-}
-
-#[allow(clippy::too_many_arguments)]
-fn link(
-    name: &str,
-    length: f64,
-    elements: usize,
-    e: f64,
-    rho: f64,
-    area: f64,
-    inertia: f64,
-    frame: Arc<dyn FrameKinematics>,
-) -> Link {
-    Link::new(
-        name,
-        BeamSection {
-            length,
-            elements,
-            youngs_modulus: e,
-            density: rho,
-            damping: 0.0,
-            area,
-            inertia,
-        },
-        frame,
-    )
-}
 
 /// One link clamped at node 0 (the frame origin).
 fn clamped(l: Link) -> Mechanism {

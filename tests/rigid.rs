@@ -9,44 +9,17 @@
 use std::sync::Arc;
 
 use flexclear::integrator::newton::{simulate_mechanism, NewtonRun};
-use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
+use flexclear::kinematics::{FrameKinematics, Rotation};
 use flexclear::model::mechanism::{Endpoint, Link, Mechanism, NodalLoad, Pin, RigidBody};
-use flexclear::model::section::BeamSection;
-use flexclear::model::Motion;
 use flexclear::plan::{Plan, StepperKind};
 use flexclear::record::LinkChannels;
 use flexclear::Settings;
 
-fn hub(rotation: Rotation) -> Arc<dyn FrameKinematics> {
-    Arc::new(RotatingFrame::new(Motion::Fixed { position: [0.0, 0.0] }, rotation).unwrap())
-}
-
-fn beam(
-    length: f64,
-    elements: usize,
-    e: f64,
-    rho: f64,
-    area: f64,
-    inertia: f64,
-    frame: Arc<dyn FrameKinematics>,
-) -> Link {
-    Link::new(
-        "bar",
-        BeamSection {
-            length,
-            elements,
-            youngs_modulus: e,
-            density: rho,
-            damping: 0.0,
-            area,
-            inertia,
-        },
-        frame,
-    )
-}
+mod common;
+use common::{hub, link};
 
 fn rigid(length: f64, body: RigidBody, frame: Arc<dyn FrameKinematics>) -> Link {
-    let mut l = beam(length, 1, 1.0, 1.0, 1.0, 1.0, frame);
+    let mut l = link("bar", length, 1, 1.0, 1.0, 1.0, 1.0, frame);
     l.rigid = Some(body);
     l
 }
@@ -139,7 +112,16 @@ fn flexible_bars_of_growing_stiffness_converge_to_the_rigid_bar() {
     let mut errs = Vec::new();
     for e in [2e11, 2e12, 2e13] {
         let flex = tip_load(
-            hinged(beam(L, 10, e, 7800.0, 1e-4, 1e-9, hub(Rotation::Fixed { angle: 0.0 }))),
+            hinged(link(
+                "bar",
+                L,
+                10,
+                e,
+                7800.0,
+                1e-4,
+                1e-9,
+                hub(Rotation::Fixed { angle: 0.0 }),
+            )),
             11,
         );
         let (tf, vf) = tip_v(&flex, 0.02, 1e-5);
