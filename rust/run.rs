@@ -49,7 +49,8 @@ pub struct Settings {
     /// the model ([`crate::plan::Plan::compile`]).
     pub stepper: Option<crate::plan::StepperKind>,
     /// Adaptive steps with local error control (`None` = the fixed step `dt`). `dt` is then the
-    /// output grid and the longest step; the constant stepper runs such a model where it can
+    /// output grid (steps may span several of its instants, whose states are interpolated:
+    /// [`Adaptive::h_max`]); the constant stepper runs such a model where it can
     /// ([`crate::integrator::constant`], "Adaptive steps": one lane, factorizations of recent step
     /// sizes cached), else the Newton stepper ([`crate::integrator::newton`], "Adaptive steps").
     pub adaptive: Option<Adaptive>,
@@ -69,6 +70,11 @@ pub struct Adaptive {
     /// converge at this length is accepted (counted in `RunStats::floor_steps`) or, when its
     /// iterations did not converge, fails the run.
     pub h_min: f64,
+    /// Longest step, s (at least `h_min`; finite). Steps are `h_max / 2^m`; one longer than
+    /// the output grid's `dt` spans output instants, whose states are interpolated (cubic
+    /// Hermite displacements, linear accelerations: `integrator/adaptive.rs`,
+    /// `interpolate_state`), as SciPy's `solve_ivp` does with its `max_step`.
+    pub h_max: f64,
 }
 
 /// The local error tolerance of a run asked for a relative accuracy `tol` is
@@ -79,16 +85,22 @@ pub struct Adaptive {
 /// other measures per scene).
 pub const TOL_GLOBAL: f64 = 10.0;
 
+/// The default longest adaptive step in output steps: [`Adaptive::default_max_step`] is `dt`
+/// times this or the whole run, whichever is shorter.
+pub const DEFAULT_MAX_STEP_OUTPUTS: f64 = 1e12;
+
 impl Adaptive {
     /// The adaptive settings for a relative accuracy `tol` in (0, 1) with output grid `dt` (s)
     /// on a model whose clearance joints have the radial clearances `clearances` (m):
     /// `rtol = (tol / TOL_GLOBAL)^1.5`, `atol = rtol` times the smallest positive clearance
-    /// (1 mm without one), `h_min = max(dt / 2^30, 1e-14 s)`. Fails with
-    /// [`Error::InvalidParameter`] naming `tol` outside (0, 1).
-    pub fn for_tolerance(tol: f64, clearances: impl IntoIterator<Item = f64>, dt: f64) -> Result<Adaptive> {
+    /// (1 mm without one), `h_min = max(dt / 2^30, 1e-14 s)`, longest step `h_max` (s). Fails
+    /// with [`Error::InvalidParameter`] naming `tol` outside (0, 1) or `max_step` not finite and
+    /// positive.
+    pub fn for_tolerance(tol: f64, clearances: impl IntoIterator<Item = f64>, dt: f64, h_max: f64) -> Result<Adaptive> {
         if !(tol > 0.0 && tol < 1.0) {
             return Err(Error::param("tol", tol, "a relative accuracy in (0, 1), e.g. 1e-3"));
         }
+        check_positive("max_step", h_max, "s")?;
         let local = (tol / TOL_GLOBAL).powf(1.5);
         let scale = clearances
             .into_iter()
@@ -98,8 +110,16 @@ impl Adaptive {
         Ok(Adaptive {
             rtol: local,
             atol: local * scale,
-            h_min: (dt * 2f64.powi(-30)).max(1e-14),
+            h_min: (dt * 2f64.powi(-30)).max(1e-14).min(h_max),
+            h_max,
         })
+    }
+
+    /// The longest step of a run of `t_end` (s) with output grid `dt` (s) when none is asked for
+    /// (`max_step=None`): see [`DEFAULT_MAX_STEP_OUTPUTS`].
+    pub fn default_max_step(t_end: f64, dt: f64) -> f64 {
+        let steps = (t_end / dt).round().max(1.0);
+        dt * steps.min(DEFAULT_MAX_STEP_OUTPUTS)
     }
 
     fn validate(&self, dt: f64) -> Result<()> {
@@ -108,6 +128,14 @@ impl Adaptive {
         check_positive("h_min", self.h_min, "s")?;
         if self.h_min > dt {
             return Err(Error::param("h_min", self.h_min, format!("<= dt = {dt} s")));
+        }
+        check_positive("max_step", self.h_max, "s")?;
+        if self.h_max < self.h_min {
+            return Err(Error::param(
+                "max_step",
+                self.h_max,
+                format!(">= h_min = {} s", self.h_min),
+            ));
         }
         Ok(())
     }

@@ -299,7 +299,7 @@ fn adaptive_runs_of_a_translating_model_take_the_constant_stepper_with_cached_fa
         tol: 1e-10,
         max_iter: 50,
     };
-    s.adaptive = Some(Adaptive::for_tolerance(0.01, mech.joints.iter().map(|j| j.clearance), s.dt).unwrap());
+    s.adaptive = Some(Adaptive::for_tolerance(0.01, mech.joints.iter().map(|j| j.clearance), s.dt, s.dt).unwrap());
     assert_eq!(kind(&mech, &s).0, StepperKind::Constant);
     let a = simulate_any(&mech, &s, &mut |_| true).unwrap();
     let st = &a.stats;

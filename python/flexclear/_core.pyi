@@ -208,7 +208,9 @@ class Mechanism:
         """`(M, C, K, r)` at time `t` (s) and state `y` (velocities `yd`, zero when None)."""
     @property
     def stepper(self) -> str: ...
-    def tolerance_settings(self, tol: float, dt: float) -> tuple[float, float, float]: ...
+    def tolerance_settings(
+        self, tol: float, t_end: float, dt: float, max_step: Optional[float] = ...
+    ) -> tuple[float, float, float, float]: ...
     def simulate(
         self,
         t_end: float,
@@ -241,7 +243,7 @@ class Mechanism:
         gap_damping: float = ...,
         nodes: list[tuple[int, int]] = ...,
         contact_modes: bool = ...,
-        adaptive: Optional[tuple[float, float, float]] = ...,
+        adaptive: Optional[tuple[float, float, float, float]] = ...,
         sliders: bool = ...,
         slider_reference: Optional[SliderReference] = ...,
     ) -> RunOutput:

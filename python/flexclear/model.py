@@ -1096,6 +1096,7 @@ class Model:
         method: str = "modified",
         *,
         tol: Optional[float] = None,
+        max_step: Optional[float] = None,
         iterate: Optional[bool] = None,
         iter_tol: Optional[float] = None,
         max_iter: Optional[int] = None,
@@ -1125,9 +1126,10 @@ class Model:
         t_end : float
             End time, s (> 0).
         dt : float, optional
-            Time step, s (0 < dt <= t_end). With ``tol`` it is the output grid and the longest
-            step (default ``t_end / 1000``). Given neither, the run is ``tol = 1e-2``
-            (:data:`DEFAULT_TOL`).
+            Time step, s (0 < dt <= t_end). With ``tol`` it is the output grid (default
+            ``t_end / 1000``): adaptive steps may span several of its instants, whose states are
+            interpolated (cubic Hermite displacements, linear accelerations). Given neither, the
+            run is ``tol = 1e-2`` (:data:`DEFAULT_TOL`).
         tol : float, optional
             Relative accuracy asked of the run, in (0, 1) (e.g. 1e-3), instead of a step: the
             run takes adaptive steps with implicit contact (on the constant stepper where the
@@ -1140,19 +1142,26 @@ class Model:
             estimate asks after a rejected one. On an impact oscillator with an exact solution
             the trajectory error at 2 s is about half of ``tol`` of the largest displacement
             (``tests/test_adaptive.py``). ``stats`` gains ``tol``, ``rtol``, ``atol``,
-            ``h_min``, ``adaptive_steps``, ``rejected_steps``, ``floor_steps`` (accepted at the
+            ``h_min``, ``h_max`` (s), ``adaptive_steps``, ``rejected_steps``, ``floor_steps`` (accepted at the
             shortest step although over the tolerance), ``min_step`` and ``max_step`` (s),
             and the achieved-accuracy estimates (relative; ``None`` for fixed steps):
             ``error_estimate``, of the trajectory over the largest displacement (10 x the sum of
             the accepted steps' largest local errors over the largest ``|y|``; on the impact
-            oscillator 2.2 to 3.0 times the largest error over the run at tol 1e-2 to 1e-5),
+            oscillator 2.8 to 3.1 times the largest error over the run at tol 1e-2 to 1e-5),
             and ``peak_force_error_estimate``, of the largest contact force (the joints' summed
             local errors of displacement and velocity up to the peak through the law's
-            stiffness and damping there, x 10, over the peak; the largest over the joints; an
-            upper estimate: 2.9e-5 for an actual 5.1e-6 on the slider-yoke at tol 1e-2,
-            pessimistic in a chatter; it speaks for the peak the run found). See
+            stiffness and damping there, x 40, over the peak; the largest over the joints; an
+            upper estimate at tol 1e-3 and above: 3.8e-4 for an actual 2.3e-4 on the
+            slider-yoke at tol 1e-2, pessimistic in a chatter; it speaks for the peak the run
+            found). See
             ``docs/method.md``, "The achieved accuracy of a run". The iteration tolerance stays
             ``iter_tol``.
+        max_step : float, optional
+            With ``tol``: the longest adaptive step, s (> 0; default: the whole run, the error
+            control alone bounding the step). Steps are ``max_step / 2**m``; a step whose
+            interpolated joint path passes through a clearance circle between open ends is
+            redone shorter, so no contact is stepped over. ``stats["max_step"]`` is the longest
+            step taken.
         method : {"modified", "force", "gap", "continuous"}
             How the clearance force enters the step: the paper's modified stiffness/damping
             matrix method, the force reaction method (explicit), a gap element with status
@@ -1261,7 +1270,11 @@ class Model:
         if tol is None and dt is None:
             tol = DEFAULT_TOL  # neither a step nor a tolerance: a run accurate to 1 %
         if tol is not None:
-            dt, adaptive, iterate, stepper = self._tolerance_plan(t_end, dt, tol, method, iterate, stepper)
+            dt, adaptive, iterate, stepper = self._tolerance_plan(
+                t_end, dt, tol, method, iterate, stepper, max_step
+            )
+        elif max_step is not None:
+            raise _bad("max_step", max_step, "None without tol= (it bounds adaptive steps)")
         if stepper not in (None, "constant", "constant-rate", "newton"):
             raise _bad("stepper", stepper, 'one of None, "constant", "constant-rate", "newton"')
         rec = _as_record(record)
@@ -1321,7 +1334,9 @@ class Model:
             max_iter=int(max_iter),
         )
         if adaptive is not None:
-            chosen.update(tol=float(tol), rtol=adaptive[0], atol=adaptive[1], h_min=adaptive[2])
+            chosen.update(
+                tol=float(tol), rtol=adaptive[0], atol=adaptive[1], h_min=adaptive[2], h_max=adaptive[3]
+            )
         t0 = _time.perf_counter()
         try:
             if kind == TRANSLATING:
@@ -1378,9 +1393,10 @@ class Model:
     #: Output points of a tolerance-driven run without ``dt``: ``dt = t_end / TOL_OUTPUT_POINTS``.
     TOL_OUTPUT_POINTS = 1000
 
-    def _tolerance_plan(self, t_end, dt, tol, method, iterate, stepper):
-        """The run settings a tolerance asks for: ``(dt, (rtol, atol, h_min), iterate, stepper)``;
-        the local tolerances come from the core (``Adaptive::for_tolerance``)."""
+    def _tolerance_plan(self, t_end, dt, tol, method, iterate, stepper, max_step=None):
+        """The run settings a tolerance asks for: ``(dt, (rtol, atol, h_min, h_max), iterate,
+        stepper)``; the local tolerances and the default longest step come from the core
+        (``Adaptive::for_tolerance``, ``Adaptive::default_max_step``)."""
         if not (_is_number(tol) and np.isfinite(tol) and 0 < tol < 1):
             raise _bad("tol", tol, "a relative accuracy in (0, 1), e.g. 1e-3")
         if not (_is_number(t_end) and np.isfinite(t_end) and t_end > 0):
@@ -1400,7 +1416,13 @@ class Model:
             dt = float(t_end) / self.TOL_OUTPUT_POINTS
         elif not (_is_number(dt) and np.isfinite(dt) and 0 < dt <= t_end):
             raise _bad("dt", dt, f"the output grid, 0 < dt <= t_end = {t_end} s")
-        adaptive = tuple(self._core.tolerance_settings(float(tol), float(dt)))
+        if max_step is not None and not (_is_number(max_step) and np.isfinite(max_step) and max_step > 0):
+            raise _bad("max_step", max_step, "None or the longest adaptive step, a finite time > 0, s")
+        adaptive = tuple(
+            self._core.tolerance_settings(
+                float(tol), float(t_end), float(dt), None if max_step is None else float(max_step)
+            )
+        )
         return float(dt), adaptive, True, stepper
 
     def _result(

@@ -501,7 +501,9 @@ class Study:
         Quantile levels per distribution in a grid design.
     t_end, dt : float
         Simulated time and step, s (unless varied); ``dt`` defaults to 1e-5 s, or with ``tol``
-        is the output grid and longest step (default ``t_end / 1000``).
+        is the output grid (default ``t_end / 1000``), whose instants the adaptive steps span
+        (their states interpolated; the longest step is the whole run, as
+        ``Model.simulate``'s default ``max_step``).
     tol : float, optional
         The relative accuracy of every sample, in (0, 1), instead of a step: each sample runs
         as ``Model.simulate(t_end, tol=tol)`` (adaptive steps on the constant stepper where the
@@ -1097,8 +1099,10 @@ class Study:
         key = [c for c in accuracy if c.endswith((".max_force", ".max_penetration"))]
         met = bool(key) and all(accuracy[c] <= self.tol for c in key)
         probe = self._scene_fn(**self._scene_kwargs(rows[0] if rows else {}))
-        rtol, atol, h_min = probe._core.tolerance_settings(
-            self.tol, float(rows[0].get("dt", self.dt)) if rows else self.dt
+        rtol, atol, h_min, h_max = probe._core.tolerance_settings(
+            self.tol,
+            float(rows[0].get("t_end", self.t_end)) if rows else self.t_end,
+            float(rows[0].get("dt", self.dt)) if rows else self.dt,
         )
         return {
             "tol": self.tol,
@@ -1108,7 +1112,13 @@ class Study:
             "settings": {
                 "stepper": "constant" if probe.engine == "translating" else "newton",
                 "iterate": True,
-                "adaptive": {"rtol": rtol, "atol": atol, "h_min": h_min, "output_dt": self.dt},
+                "adaptive": {
+                    "rtol": rtol,
+                    "atol": atol,
+                    "h_min": h_min,
+                    "h_max": h_max,
+                    "output_dt": self.dt,
+                },
             },
             "cpu": cpu,
         }

@@ -41,8 +41,8 @@
 //!
 //! **Adaptive steps** ([`Settings::adaptive`](crate::run::Settings::adaptive), one-lane runs
 //! only; the `tol=` runs of Python on translating models): the controller of the Newton stepper
-//! (`integrator/newton.rs`, "Adaptive steps") on this stepper. The output grid `dt` is kept and
-//! each of its intervals is crossed by steps `dt / 2^m` (the level `m`) chosen by the
+//! (`integrator/newton.rs`, "Adaptive steps") on this stepper. Steps are `h_max / 2^m` (the
+//! level `m`; `Adaptive::h_max`), independent of the output grid `dt`, chosen by the
 //! Zienkiewicz-Xie estimate `|beta - 1/6| h^2 |a_(n+1) - a_n|` against `atol + rtol |u|`; a
 //! rejected step goes up by the levels the `h^3` law asks, an easy one (below a tenth of the
 //! tolerance) lets the next go down one level; a step that changes a joint's status is cut just
@@ -52,10 +52,14 @@
 //! on the shared analysis and its Woodbury columns) of up to `FACTOR_CACHE` recent step sizes are
 //! kept besides the one in use: a level that comes back swaps its constants in and costs no
 //! refactorization; a miss refills the least recently used slot in place (an odd length in
-//! use, a cut's, is refilled in place and evicts no level). Every factorization counts in `stats.factorizations`. Accepted substeps between
-//! output instants enter the joints' extremes (largest force and penetration, impacts), and so
-//! does a smooth contact peak within a step (the cubic Hermite interpolant of the joint's
-//! relative displacement sampled at 7 points, as on Newton); histories stay on the grid.
+//! use, a cut's, is refilled in place and evicts no level). Every factorization counts in
+//! `stats.factorizations`. A step whose cubic Hermite joint path passes through a clearance
+//! circle between open ends is redone shorter, so no contact is stepped over. Accepted steps'
+//! ends enter the joints' extremes (largest force and penetration, impacts), and so does a
+//! smooth contact peak within a step (the cubic Hermite interpolant of the joint's relative
+//! displacement sampled at 7 points, as on Newton); an output instant inside a step records the
+//! interpolated state (Hermite displacements and joint paths, linear accelerations), in time
+//! order with the steps' ends.
 //! Nothing is allocated in the time loop besides the cache's first fills.
 //!
 //! **Divergence checks**: the one rule of [`super::divergence`]. Every step, each joint's
@@ -533,6 +537,9 @@ struct Shared {
     mchol: Cholesky,
     /// The output grid's step, s (`settings.dt`; `dt` above is the step in use).
     grid_dt: f64,
+    /// The longest step of adaptive steps, s (`Adaptive::h_max`; the levels are `h_max / 2^m`),
+    /// `grid_dt` without them.
+    h_max: f64,
     /// Adaptive steps: the step constants of recent step sizes besides the one in use
     /// ([`FactorCache`]); empty otherwise.
     cache: FactorCache,
@@ -553,7 +560,7 @@ struct FactorCache {
 }
 
 /// Step sizes whose factorizations adaptive steps keep besides the one in use: levels
-/// `dt / 2^m` come back as the controller moves one level at a time, and into a contact it
+/// `h_max / 2^m` come back as the controller moves one level at a time, and into a contact it
 /// spans a factor of 100 or more in step (eight levels with the one in use: a factor of 128).
 /// A cut's odd lengths are refilled in place of the one in use and evict no level.
 pub(crate) const FACTOR_CACHE: usize = 7;
@@ -676,8 +683,30 @@ struct Snapshot {
 }
 
 /// State of adaptive steps (one-lane runs): the start of the trial step, the penetrations at
-/// its start and end, the tolerance, and the level `m` of the next step `dt / 2^m`.
+/// its start and end, the tolerance, the level `m` of the next step `h_max / 2^m`, and the
+/// dense output's bookkeeping and scratch.
 struct AdaptiveSteps {
+    /// The time of the integrated state (s: the end of the last accepted step, at or past the
+    /// last output instant), the start of that step (s), and the run's end (s).
+    t: f64,
+    t_start: f64,
+    t_end: f64,
+    /// The end of the last accepted step when no output instant took it yet: `Some(true)` at
+    /// a cut (its right limit, an event for the recorder), `Some(false)` otherwise.
+    pending: Option<bool>,
+    /// Whether the output instant being recorded lies inside the last accepted step (its state
+    /// interpolated).
+    interpolated: bool,
+    /// The accelerations at the last accepted step's end before a restart at a cut, m/s^2.
+    end_a: Vec<f64>,
+    /// Scratch of an interpolated output: unknowns, and per joint the relative displacement and
+    /// velocity, penetration and force.
+    out: [Vec<f64>; 3],
+    out_q: Vec<[f64; 2]>,
+    out_qd: Vec<[f64; 2]>,
+    out_pen: Vec<f64>,
+    out_force: Vec<[f64; 2]>,
+    /// The start of the trial step (after acceptance: of the last accepted step).
     snap: Snapshot,
     p0: Vec<f64>,
     p1: Vec<f64>,
@@ -1478,6 +1507,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 sys,
                 mchol,
                 grid_dt: settings.dt,
+                h_max: settings.adaptive.map_or(settings.dt, |a| a.h_max),
                 cache: FactorCache::default(),
             },
             lanes: Vec::with_capacity(L),
@@ -1543,12 +1573,25 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         let settings = &self.lanes[0].settings;
         let adaptive = (L == 1).then_some(settings.adaptive).flatten().map(|tol| {
             let nj = self.sh.sys.joints.len();
+            let n = self.sh.n;
+            let dt = self.sh.grid_dt;
             AdaptiveSteps {
+                t: 0.0,
+                t_start: 0.0,
+                t_end: self.sh.steps as f64 * dt,
+                pending: None,
+                interpolated: false,
+                end_a: vec![0.0; n],
+                out: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+                out_q: vec![[0.0; 2]; nj],
+                out_qd: vec![[0.0; 2]; nj],
+                out_pen: vec![0.0; nj],
+                out_force: vec![[0.0; 2]; nj],
                 snap: Snapshot::default(),
                 p0: Vec::with_capacity(nj),
                 p1: Vec::with_capacity(nj),
                 tol,
-                levels: Levels::new(self.sh.grid_dt, tol.h_min),
+                levels: Levels::new(tol.h_max, tol.h_min, dt),
                 forces: adaptive::ForceErrors::new(nj),
             }
         });
@@ -1906,7 +1949,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
         }
         self.lanes[0].frozen.clear();
-        self.restart_at_event(t0 + h1, &snap.pen, &ev.pen1);
+        self.restart_at_event(t0 + h1, &snap.pen, &ev.pen1, true);
         let Ok(mut s2) = consts(&self.sh.sys, dt - h1) else {
             return;
         };
@@ -1946,14 +1989,14 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// are; a hit in the [`FactorCache`] swaps them in; a miss refills the least recently used
     /// slot (a cut's odd length first) in place, or fills a new slot while there are fewer than
     /// [`FACTOR_CACHE`] (the only allocation of adaptive steps); an odd length in use (not a
-    /// level `dt / 2^m`) is refilled in place, evicting no level.
+    /// level `h_max / 2^m`) is refilled in place, evicting no level.
     fn use_step(&mut self, h: f64) -> Result<()> {
         let sh = &mut self.sh;
         if sh.dt.to_bits() == h.to_bits() {
             return Ok(());
         }
         let is_level = |x: f64| {
-            let r = sh.grid_dt / x;
+            let r = sh.h_max / x;
             r >= 1.0 && r.fract() == 0.0 && (r as u64).is_power_of_two()
         };
         let nm = self.lanes[0].settings.newmark;
@@ -2015,40 +2058,47 @@ impl<'m, const L: usize> Lockstep<'m, L> {
         adaptive::local_error(self.lanes[0].settings.newmark.beta, h, unknowns, tol)
     }
 
-    /// Adaptive steps of the single lane from `self.t` to the output instant `t1` (s), with the
-    /// controller of the Newton stepper (`NewtonRun::adaptive_advance`): trial steps of
-    /// `dt / 2^m`; a step whose error estimate ([`Self::local_error`]) exceeds the tolerance is
-    /// redone shorter (`m` raised by what the `h^3` law asks); a step that changes a clearance
-    /// joint's status is cut at the located crossing (regula falsi, the substep keeping the
-    /// start's statuses and ending just short of the circle, as [`Self::advance_with_events`])
-    /// and the accelerations restart there with the crossing joints on their new side
-    /// ([`Self::restart_at_event`]: the right limit, recorded); after a step whose error is below
-    /// a tenth of the tolerance the next is twice as long, up to `dt`. Each step size takes its
-    /// constants from the [`FactorCache`] ([`Self::use_step`]). Accepted substeps inside the
-    /// interval enter the joints' extremes ([`Recorder::record_substep`]). A lane that fails
+    /// Adaptive steps of the single lane until its integrated state (at `ad.t`, s) reaches the
+    /// output instant `t1` (s), with the controller of the Newton stepper
+    /// (`NewtonRun::adaptive_advance`): trial steps of `h_max / 2^m`; a step whose error
+    /// estimate ([`Self::local_error`]) exceeds the tolerance is redone shorter (`m` raised by
+    /// what the `h^3` law asks); a step that changes a clearance joint's status is cut at the
+    /// located crossing (regula falsi from the crossing of the joint's cubic Hermite path, the
+    /// substep keeping the start's statuses and ending just short of the circle, as
+    /// [`Self::advance_with_events`]) and the accelerations restart there with the crossing
+    /// joints on their new side ([`Self::restart_at_event`]: the right limit, recorded); a step
+    /// whose interpolated joint path passes through a clearance circle between open ends is
+    /// redone shorter ([`adaptive::enters_within`]); after a step whose error is below a tenth
+    /// of the tolerance the next is twice as long, up to `h_max`. Each step size takes its
+    /// constants from the [`FactorCache`] ([`Self::use_step`]). Steps do not stop at output
+    /// instants: the last may end past `t1`, whose state the output interpolates
+    /// ([`Self::record_interpolated`]). Accepted steps' ends enter the joints' extremes
+    /// ([`Recorder::record_substep`]) in time order with the output instants. A lane that fails
     /// (divergence, a matrix that is not positive definite) is retired as in a fixed step.
     fn adaptive_advance(&mut self, t1: f64, ad: &mut AdaptiveSteps) {
         debug_assert!(L == 1);
-        let dt = self.sh.grid_dt;
+        let eps = 1e-9 * self.sh.grid_dt;
         let tol = ad.tol;
-        let mut t = self.t;
-        while t1 - t > 1e-9 * dt {
-            let rest = t1 - t;
-            let mut h = ad.levels.step(dt);
-            // the last step of the interval: to `t1`, at the level's length where it is that up
+        ad.interpolated = false;
+        while t1 - ad.t > eps {
+            self.record_pending(ad);
+            let t = ad.t;
+            let rest = ad.t_end - t;
+            let mut h = ad.levels.step();
+            // the last step of the run: to `t_end`, at the level's length where it is that up
             // to rounding (its constants are cached), else at the rest
             let last = h >= rest || rest - h < 1e-3 * h;
             if last {
-                // the level's length, or a shorter level's (after the level went down within
-                // the interval), where it is the rest up to rounding: its constants are cached
+                // the level's length, or a shorter level's (after the level went down), where it
+                // is the rest up to rounding: its constants are cached
                 let mut hk = h;
                 for _ in 0..5 {
-                    if (rest - hk).abs() <= 1e-9 * dt {
+                    if (rest - hk).abs() <= eps {
                         break;
                     }
                     hk *= 0.5;
                 }
-                h = if (rest - hk).abs() <= 1e-9 * dt { hk } else { rest };
+                h = if (rest - hk).abs() <= eps { hk } else { rest };
             }
             self.snapshot(&mut ad.snap);
             ad.p0.clone_from(&self.lanes[0].pen);
@@ -2065,6 +2115,11 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 ad.p1.clone_from(&self.lanes[0].pen);
                 let mut search = CutSearch::new(ad.p0[jstar], ad.p1[jstar], false);
                 let lane = &mut self.lanes[0];
+                // the first try where the joint's interpolated path crosses (half the search's
+                // tolerance short of the circle), the linear estimate where it shows no crossing
+                let (start, end) = ((ad.snap.q[jstar], ad.snap.qd[jstar]), (lane.q[jstar], lane.qd[jstar]));
+                let radius = lane.sys.joints[jstar].clearance + search.target();
+                theta = CutSearch::cuttable_estimate(adaptive::hermite_crossing(start, end, h, radius, theta));
                 lane.frozen.clear();
                 lane.frozen.extend(ad.p0.iter().map(|&p| p > 0.0));
                 for it in 0..EVENT_MAX_CUTS {
@@ -2081,6 +2136,12 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 self.lanes[0].frozen.clear();
                 err = self.local_error(taken, &ad.snap.a, &tol);
                 cut = true;
+            } else if !at_floor && self.passes_through_a_circle(h, &ad.snap) {
+                // a contact within the step, open at both ends: shorter steps locate it
+                self.restore(&ad.snap);
+                self.lanes[0].stats.rejected_steps += 1;
+                ad.levels.reject(8.0);
+                continue;
             }
             if err.ratio > 1.0 && !at_floor {
                 self.restore(&ad.snap);
@@ -2095,7 +2156,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             if cut {
                 stats.event_steps += 1;
             } else {
-                ad.levels.accept(err.ratio, h, dt);
+                ad.levels.accept(err.ratio, h);
             }
             adaptive::count_step(stats, taken, &err);
             // the joints' local displacement and velocity errors (the restart at a cut changes
@@ -2110,21 +2171,82 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 }
                 ad.forces.add_joint(jj, d, taken, (nm.beta, nm.gamma), cut);
             }
-            let reached = if last && !cut { t1 } else { t + taken };
-            if !cut {
+            let reached = if last && !cut { ad.t_end } else { t + taken };
+            // the step's own end accelerations (before a restart), for the interpolated outputs
+            get_lane(&self.a, 0, &mut ad.end_a);
+            ad.t_start = t;
+            if cut {
+                // the right limit at the cut (recorded with the step's end)
+                self.restart_at_event(reached, &ad.p0, &ad.p1, false);
+            } else {
                 self.peaks_within_step(t, taken, &ad.snap);
             }
-            if cut {
-                // the right limit at the cut (recorded there)
-                self.restart_at_event(reached, &ad.p0, &ad.p1);
-            } else if reached < t1 {
-                let lane = &mut self.lanes[0];
-                lane.rec
-                    .record_substep(reached, &lane.pen, &lane.force, &lane.q, &lane.qd);
-            }
+            ad.pending = Some(cut);
             self.track_peak_errors(&mut ad.forces);
-            t = reached;
+            ad.t = reached;
         }
+        if (ad.t - t1).abs() <= eps {
+            // the step ended at the output instant, whose record takes its end (a cut's right
+            // limit is an event: recorded first)
+            if ad.pending == Some(true) {
+                self.record_pending(ad);
+            }
+            ad.pending = None;
+        } else {
+            ad.interpolated = true;
+        }
+    }
+
+    /// Records the end of the last accepted adaptive step, past the output instants recorded
+    /// since, when it is still to be recorded: a cut's right limit as an event
+    /// ([`Recorder::record_event`]), another end as a substep ([`Recorder::record_substep`]).
+    fn record_pending(&mut self, ad: &mut AdaptiveSteps) {
+        let Some(event) = ad.pending.take() else {
+            return;
+        };
+        let lane = &mut self.lanes[0];
+        if event {
+            lane.rec.record_event(ad.t, &lane.pen, &lane.force, &lane.q, &lane.qd);
+        } else {
+            lane.rec.record_substep(ad.t, &lane.pen, &lane.force, &lane.q, &lane.qd);
+        }
+    }
+
+    /// Whether a joint open at both ends of the trial step of length `h` (s) just taken from
+    /// `snap` passes through its clearance circle in between ([`adaptive::enters_within`]).
+    fn passes_through_a_circle(&self, h: f64, snap: &Snapshot) -> bool {
+        let lane = &self.lanes[0];
+        (lane.sys.joints.iter().enumerate()).any(|(jj, j)| {
+            adaptive::enters_within((snap.q[jj], snap.qd[jj]), (lane.q[jj], lane.qd[jj]), h, j.clearance)
+        })
+    }
+
+    /// Records the output instant `t` (s), step `step`, inside the last accepted adaptive step
+    /// (from `ad.t_start` to `ad.t`): each joint's relative displacement and velocity on the
+    /// cubic Hermite path of the step's ends, the penetration and the law's force there, and
+    /// the unknowns likewise (accelerations linear) where the node histories read them.
+    fn record_interpolated(&mut self, step: u64, t: f64, ad: &mut AdaptiveSteps) {
+        let h = ad.t - ad.t_start;
+        let s = ((t - ad.t_start) / h).clamp(0.0, 1.0);
+        let (u1, v1) = (self.u.as_flattened(), self.v.as_flattened());
+        let [uo, vo, ao] = &mut ad.out;
+        let snap = &ad.snap;
+        let lane = &mut self.lanes[0];
+        if lane.reads_u {
+            adaptive::interpolate_state((&snap.u, &snap.v, &snap.a), (u1, v1, &ad.end_a), h, s, uo, vo, ao);
+        }
+        for jj in 0..lane.sys.joints.len() {
+            let (qi, vi) = adaptive::hermite_at((snap.q[jj], snap.qd[jj]), (lane.q[jj], lane.qd[jj]), h, s);
+            let terms = lane.contact_terms(jj, qi, vi);
+            ad.out_q[jj] = qi;
+            ad.out_qd[jj] = vi;
+            ad.out_pen[jj] = terms.penetration;
+            ad.out_force[jj] = evaluation::recorded_force(&terms, qi, vi);
+        }
+        let dt = lane.settings.dt;
+        let u = if lane.reads_u { &uo[..] } else { &[] };
+        lane.rec
+            .record(step, t, dt, &ad.out_pen, &ad.out_force, &ad.out_q, &ad.out_qd, u);
     }
 
     /// After an accepted adaptive step (its peaks within and its end recorded): each joint whose
@@ -2215,7 +2337,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// dashpot force jumps at entry), without which average acceleration integrates the jump
     /// over the next substep at first order.
     #[cold]
-    fn restart_at_event(&mut self, t: f64, pen0: &[f64], pen1: &[f64]) {
+    fn restart_at_event(&mut self, t: f64, pen0: &[f64], pen1: &[f64], record: bool) {
         let sh = &mut self.sh;
         let lane = &mut self.lanes[0];
         let is_gap = matches!(lane.settings.coupling, Coupling::Gap { .. });
@@ -2261,7 +2383,10 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
         }
         // the right-limit force at the cut (the dashpot spike at entry) lies between output steps
-        lane.rec.record_event(t, &lane.pen, &lane.force, &lane.q, &lane.qd);
+        // (adaptive steps record it later, in time order with the output instants)
+        if record {
+            lane.rec.record_event(t, &lane.pen, &lane.force, &lane.q, &lane.qd);
+        }
         sh.mchol.solve_in_place(&mut r);
         set_lane(&mut self.a, 0, &r);
         if sh.alpha.is_some() {
@@ -2373,8 +2498,15 @@ impl<const L: usize> Stepper for LockstepLoop<'_, '_, L> {
     }
 
     #[inline(always)]
-    fn record(&mut self, _k: u64, _t1: f64) {
-        self.ls.record();
+    fn record(&mut self, k: u64, t1: f64) {
+        match self.adaptive.as_mut() {
+            Some(ad) if ad.interpolated => {
+                if self.ls.active[0] {
+                    self.ls.record_interpolated(k, t1, ad);
+                }
+            }
+            _ => self.ls.record(),
+        }
     }
 
     #[cold]

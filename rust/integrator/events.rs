@@ -65,6 +65,17 @@ impl CutSearch {
         }
     }
 
+    /// The penetration the search aims at, m (half its tolerance off the circle).
+    pub(crate) fn target(&self) -> f64 {
+        self.target
+    }
+
+    /// A first estimate `theta` (a fraction of the step) moved inside the range a cut may take
+    /// (both substeps at least [`EVENT_MIN_FRACTION`] of the step).
+    pub(crate) fn cuttable_estimate(theta: f64) -> f64 {
+        theta.clamp(EVENT_MIN_FRACTION, 1.0 - EVENT_MIN_FRACTION)
+    }
+
     /// After a first substep of fraction `theta` ended at penetration `pen` (m): `None` to keep
     /// that cut (within tolerance, the last try, or the next estimate too close to an end), else
     /// the next fraction to try.

@@ -53,9 +53,10 @@
 //! tolerance.
 //!
 //! Adaptive steps ([`Settings::adaptive`](crate::run::Settings::adaptive), the `tol=` runs of
-//! Python): the output grid `dt` is kept and each of its intervals is crossed by steps of
-//! `dt / 2^m` chosen by the Zienkiewicz-Xie local error estimate, with every contact entry and
-//! exit located by a cut (`NewtonRun::adaptive_advance`). The cut aims just short of the circle,
+//! Python): steps of `h_max / 2^m` (`Adaptive::h_max`), independent of the output grid `dt`,
+//! chosen by the Zienkiewicz-Xie local error estimate, with every contact entry and exit located
+//! by a cut and no contact stepped over between open ends (`NewtonRun::adaptive_advance`); an
+//! output instant inside a step takes the interpolated state (`NewtonRun::interpolate_output`). The cut aims just short of the circle,
 //! so the substep to it carries no force of the new status (a substep ending inside would spread
 //! the dashpot's entry jump over its length at first order), and the step after it starts from
 //! the restarted accelerations and is sized by the estimate, which sees the jump.
@@ -2893,24 +2894,34 @@ impl<'a> NewtonRun<'a> {
         self.update_frames(t);
     }
 
-    /// Adaptive steps from `t0` to the output instant `t1` (s), step `k` of the output grid:
-    /// trial steps of `dt / 2^m`; a step whose error estimate ([`Self::local_error`]) exceeds
-    /// the tolerance, or whose iterations do not converge, is redone shorter (`m` raised by
-    /// what the estimate asks, the local error being of order `h^3`); a step that changes a
-    /// clearance joint's status is cut at the located crossing (just short of the circle, see
-    /// the module documentation; accelerations restarted there), so no contact entry or exit is
-    /// stepped across unlocated; after a step whose error is
-    /// below a tenth of the tolerance the next is twice as long, up to `dt`. Step lengths are
-    /// powers of two below `dt` (besides the cuts and the last step to `t1`), so the Jacobian's
-    /// factorization is reused where only the step changed it and it comes back. The joints
-    /// are tracked at every accepted substep.
-    fn adaptive_advance(&mut self, t0: f64, t1: f64, k: u64, ad: &mut AdaptiveScratch) -> Result<()> {
+    /// Adaptive steps until the integrated state (at `ad.t`, s) reaches the output instant `t1`
+    /// (s), step `k` of the output grid: trial steps of `h_max / 2^m`; a step whose error
+    /// estimate ([`Self::local_error`]) exceeds the tolerance, or whose iterations do not
+    /// converge, is redone shorter (`m` raised by what the estimate asks, the local error being
+    /// of order `h^3`); a step that changes a clearance joint's status is cut at the located
+    /// crossing (just short of the circle, see the module documentation; accelerations
+    /// restarted there), so no contact entry or exit is stepped across unlocated, and a step
+    /// whose interpolated joint path passes through a clearance circle between open ends is
+    /// redone shorter ([`adaptive::enters_within`]); after a step whose error is below a tenth
+    /// of the tolerance the next is twice as long, up to `h_max`. Step lengths are powers of
+    /// two below `h_max` (besides the cuts and the last step to `t_end`), so the Jacobian's
+    /// factorization is reused where only the step changed it and it comes back. Steps do not
+    /// stop at output instants: the last one may end past `t1`, whose state
+    /// [`Self::interpolate_output`] then gives. The joints are tracked at every accepted step's
+    /// end, in time order with the output instants (an end past `t1` after `t1`'s output).
+    fn adaptive_advance(&mut self, t1: f64, k: u64, ad: &mut AdaptiveScratch) -> Result<()> {
         let tol = self.settings.adaptive.expect("adaptive settings");
-        let dt = self.settings.dt;
-        let mut t = t0;
-        while t1 - t > 1e-9 * dt {
-            let rest = t1 - t;
-            let mut h = ad.levels.step(dt);
+        let eps = 1e-9 * self.settings.dt;
+        self.restore_integrated(ad);
+        while t1 - ad.t > eps {
+            if ad.pending {
+                // the end of the last step, past the output instants recorded since
+                self.track_step_end(ad.t, k)?;
+                ad.pending = false;
+            }
+            let t = ad.t;
+            let rest = ad.t_end - t;
+            let mut h = ad.levels.step();
             if h >= rest || rest - h < 1e-3 * h {
                 h = rest;
             }
@@ -2953,7 +2964,21 @@ impl<'a> NewtonRun<'a> {
                     taken = self.adaptive_cut(t, h, k, ad, theta, j)?;
                     err = self.local_error(taken, &ad.ydd, &tol);
                     cut = true;
+                } else if !at_floor && self.passes_through_a_circle(h, ad) {
+                    // a contact within the step, open at both ends: shorter steps locate it
+                    self.restore_adaptive(ad, t);
+                    self.stats.rejected_steps += 1;
+                    ad.levels.reject(8.0);
+                    continue;
                 }
+            }
+            // each joint's change of relative acceleration over the step (before a restart at
+            // a cut changes the accelerations): the velocity map at each end applied to the
+            // accelerations there, the same frames (their terms cancel in the difference)
+            for j in 0..self.mech.joints.len() {
+                let a1 = self.joint_state(j, &self.y, &self.ydd).1;
+                let a0 = self.joint_state(j, &ad.y, &ad.ydd).1;
+                ad.da[j] = [a1[0] - a0[0], a1[1] - a0[1]];
             }
             if err.ratio > 1.0 && !at_floor {
                 self.restore_adaptive(ad, t);
@@ -2964,14 +2989,10 @@ impl<'a> NewtonRun<'a> {
             if err.ratio > 1.0 {
                 self.stats.floor_steps += 1;
             }
-            // each joint's change of relative acceleration over the step (before a restart at
-            // a cut changes the accelerations): the velocity map at each end applied to the
-            // accelerations there, the same frames (their terms cancel in the difference)
-            for j in 0..self.mech.joints.len() {
-                let a1 = self.joint_state(j, &self.y, &self.ydd).1;
-                let a0 = self.joint_state(j, &ad.y, &ad.ydd).1;
-                ad.da[j] = [a1[0] - a0[0], a1[1] - a0[1]];
-            }
+            // the accepted step's start and end, for the output instants within it (before a
+            // restart at a cut changes the accelerations: the step's own left limit)
+            ad.t_start = t;
+            ad.end_ydd.copy_from_slice(&self.ydd);
             if cut {
                 // the accelerations and the recorded force at the cut are the right limit: each
                 // joint at its crossing there is taken on the new side of its circle (the
@@ -2984,28 +3005,96 @@ impl<'a> NewtonRun<'a> {
                         self.status_hint[jj] = jt.clearance + if p1 > 0.0 { eps } else { -eps };
                     }
                 }
-                // (the joints are tracked below with these terms: the right-limit force at the
-                // cut enters the extremes)
+                // (the joints are tracked at the step's end with these terms: the right-limit
+                // force at the cut enters the extremes)
                 let restarted = self.restart_accelerations(t + taken);
                 self.status_hint.fill(f64::NAN);
                 restarted?;
                 self.stats.event_steps += 1;
             } else {
                 self.peaks_within_step(h, ad);
-                ad.levels.accept(err.ratio, h, dt);
+                ad.levels.accept(err.ratio, h);
             }
-            t = if taken == rest { t1 } else { t + taken };
+            ad.t = if taken == rest { ad.t_end } else { t + taken };
+            ad.pending = true;
             adaptive::count_step(&mut self.stats, taken, &err);
-            if t < t1 {
-                self.track_joints(t, None);
-                if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
-                    let name = &self.mech.joints[j].name;
-                    return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
-                }
-            }
             self.track_peak_errors(taken, cut, &ad.da, &mut ad.forces);
         }
+        if (ad.t - t1).abs() <= eps {
+            // the step ended at the output instant: its end is the output's state
+            ad.pending = false;
+        } else {
+            self.interpolate_output(t1, ad);
+        }
         Ok(())
+    }
+
+    /// Tracks the joints at the end of an accepted adaptive step at `t` (s), output step `k`,
+    /// that no output instant took: the extremes and the shared recorder (as an event), and the
+    /// divergence limit on each joint's penetration.
+    fn track_step_end(&mut self, t: f64, k: u64) -> Result<()> {
+        self.track_joints(t, None);
+        if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
+            let name = &self.mech.joints[j].name;
+            return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
+        }
+        Ok(())
+    }
+
+    /// Whether a joint open at both ends of the trial step of length `h` (s) just taken passes
+    /// through its clearance circle in between, on the cubic Hermite path of its relative
+    /// displacement ([`adaptive::enters_within`]).
+    fn passes_through_a_circle(&self, h: f64, ad: &AdaptiveScratch) -> bool {
+        self.mech.joints.iter().enumerate().any(|(j, jt)| {
+            let end = self.joint_state(j, &self.y, &self.yd);
+            adaptive::enters_within(ad.q0[j], end, h, jt.clearance)
+        })
+    }
+
+    /// Puts the state at the output instant `t1` (s) inside the last accepted step (from
+    /// `ad.t_start` to `ad.t`) in place of the integrated one, which `ad` keeps until
+    /// [`Self::restore_integrated`]: displacements and velocities on the cubic Hermite
+    /// interpolant, accelerations linear, the frames at `t1`.
+    fn interpolate_output(&mut self, t1: f64, ad: &mut AdaptiveScratch) {
+        ad.end_y.copy_from_slice(&self.y);
+        ad.end_yd.copy_from_slice(&self.yd);
+        ad.end_ydd_restart.copy_from_slice(&self.ydd);
+        // the frames of the integrated state, put back as they are (not recomputed)
+        let f = &mut ad.end_frames;
+        f.0.clone_from(&self.frames);
+        f.1.clone_from(&self.rots);
+        f.2.clone_from(&self.node_ts);
+        f.3.clone_from(&self.link_ck);
+        f.4.clone_from(&self.slider_frames);
+        let h = ad.t - ad.t_start;
+        let s = ((t1 - ad.t_start) / h).clamp(0.0, 1.0);
+        adaptive::interpolate_state(
+            (&ad.y, &ad.yd, &ad.ydd),
+            (&ad.end_y, &ad.end_yd, &ad.end_ydd),
+            h,
+            s,
+            &mut self.y,
+            &mut self.yd,
+            &mut self.ydd,
+        );
+        self.update_frames(t1);
+        ad.interpolated = true;
+    }
+
+    /// Puts back the integrated state after an interpolated output ([`Self::interpolate_output`]).
+    fn restore_integrated(&mut self, ad: &mut AdaptiveScratch) {
+        if std::mem::take(&mut ad.interpolated) {
+            self.y.copy_from_slice(&ad.end_y);
+            self.yd.copy_from_slice(&ad.end_yd);
+            self.ydd.copy_from_slice(&ad.end_ydd_restart);
+            let f = &ad.end_frames;
+            self.frames.clone_from(&f.0);
+            self.rots.clone_from(&f.1);
+            self.node_ts.clone_from(&f.2);
+            self.link_ck.clone_from(&f.3);
+            self.slider_frames.clone_from(&f.4);
+            self.t_frames = ad.t;
+        }
     }
 
     /// The largest penetration and contact force of each joint within an accepted adaptive step
@@ -3090,6 +3179,11 @@ impl<'a> NewtonRun<'a> {
         jstar: usize,
     ) -> Result<f64> {
         let mut search = CutSearch::new(ad.p0[jstar], ad.p1[jstar], false);
+        // the first try where the joint's interpolated path crosses (half the search's
+        // tolerance short of the circle), the linear estimate where it shows no crossing
+        let end = self.joint_state(jstar, &self.y, &self.yd);
+        let radius = self.mech.joints[jstar].clearance + search.target();
+        theta = CutSearch::cuttable_estimate(adaptive::hermite_crossing(ad.q0[jstar], end, h, radius, theta));
         let mut h1 = theta * h;
         for it in 0..EVENT_MAX_CUTS {
             h1 = theta * h;
@@ -3137,16 +3231,26 @@ impl<'a> NewtonRun<'a> {
         self.track_sliders(0.0, true);
         self.record(0.0);
         let adaptive = self.settings.adaptive.map(|a| AdaptiveScratch {
+            t: 0.0,
+            t_start: 0.0,
+            t_end: (self.settings.t_end / h).round().max(1.0) * h,
+            pending: false,
+            interpolated: false,
             y: vec![0.0; self.n],
             yd: vec![0.0; self.n],
             ydd: vec![0.0; self.n],
+            end_y: vec![0.0; self.n],
+            end_yd: vec![0.0; self.n],
+            end_ydd: vec![0.0; self.n],
+            end_ydd_restart: vec![0.0; self.n],
+            end_frames: Default::default(),
             aa: vec![0.0; self.n],
             q0: Vec::with_capacity(self.mech.joints.len()),
             fric_z: vec![0.0; self.mech.joints.len()],
             p0: Vec::with_capacity(self.mech.joints.len()),
             p1: Vec::with_capacity(self.mech.joints.len()),
             pc: Vec::with_capacity(self.mech.joints.len()),
-            levels: adaptive::Levels::new(self.settings.dt, a.h_min),
+            levels: adaptive::Levels::new(a.h_max, a.h_min, h),
             forces: adaptive::ForceErrors::new(self.mech.joints.len()),
             da: vec![[0.0; 2]; self.mech.joints.len()],
         });
@@ -3213,13 +3317,42 @@ struct NewtonLoop<'r, 'a> {
     outcome: Option<std::result::Result<f64, (Error, f64)>>,
 }
 
+/// The frame caches of [`AdaptiveScratch::end_frames`].
+type EndFrames = (
+    Vec<FrameState>,
+    Vec<[[f64; 2]; 2]>,
+    Vec<NodeT>,
+    Vec<(Mat6, Mat6)>,
+    Vec<FrameState>,
+);
+
 /// The adaptive controller's state: the start of the trial step and the penetrations at its
-/// start, end and cut (allocated before the time loop), and the level `m` of the next step
-/// `dt / 2^m`.
+/// start, end and cut (allocated before the time loop), the level `m` of the next step
+/// `h_max / 2^m`, and the dense output's bookkeeping.
 struct AdaptiveScratch {
+    /// The time of the integrated state (s: the end of the last accepted step, at or past the
+    /// last output instant), the start of that step (s), and the run's end (s).
+    t: f64,
+    t_start: f64,
+    t_end: f64,
+    /// Whether the end of the last accepted step is still to be tracked (it lies past the
+    /// output instant recorded last), and whether the state in the stepper is an interpolated
+    /// output's (the integrated one in `end_*`).
+    pending: bool,
+    interpolated: bool,
+    /// The start of the trial step (after acceptance: of the last accepted step).
     y: Vec<f64>,
     yd: Vec<f64>,
     ydd: Vec<f64>,
+    /// The end of the last accepted step: accelerations before a restart at a cut (the
+    /// interpolant's) and after it (the integrated state's), displacements and velocities.
+    end_y: Vec<f64>,
+    end_yd: Vec<f64>,
+    end_ydd: Vec<f64>,
+    end_ydd_restart: Vec<f64>,
+    /// The frames, rotations, node transforms, links' element terms and guide frames of the
+    /// integrated state while an output's interpolated one is in the stepper.
+    end_frames: EndFrames,
     /// The alpha schemes' acceleration-like variable at the start.
     aa: Vec<f64>,
     /// Per joint, the relative displacement (m) and its rate (m/s) at the start.
@@ -3257,7 +3390,7 @@ impl Stepper for NewtonLoop<'_, '_> {
         let h = r.settings.dt;
         let t0 = (k - 1) as f64 * h;
         let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
-            (Some(ad), _) => r.adaptive_advance(t0, t1, k, ad),
+            (Some(ad), _) => r.adaptive_advance(t1, k, ad),
             (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
             (None, None) if r.cont.is_some() => r.continuous_step(t0, h, k),
             (None, None) => r.step(t0, h, k, 0),
@@ -3288,7 +3421,9 @@ impl Stepper for NewtonLoop<'_, '_> {
         let r = &mut *self.run;
         let every = r.settings.record.every as u64;
         if self.outcome.is_none() && (k.is_multiple_of(every) || last) {
-            r.update_frames(t1);
+            if r.t_frames != t1 {
+                r.update_frames(t1);
+            }
             r.record(t1);
         }
     }

@@ -44,6 +44,8 @@ struct Shared<'a> {
     events: bool,
     /// Relative accuracy of adaptive runs (`Study(tol=...)`), `None` for the fixed step.
     accuracy: Option<f64>,
+    /// Longest adaptive step, s (`None`: `Adaptive::default_max_step`).
+    max_step: Option<f64>,
 }
 
 /// The settings of one sample, resolved as `flexclear.Model.simulate` resolves them for the
@@ -89,7 +91,11 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
     if let Some(tol) = c.accuracy {
         // a tolerance: adaptive steps (the plan's stepper) with implicit contact (`Model.simulate(tol=)`)
         let clearances = mech.joints.iter().map(|j| j.clearance);
-        settings.adaptive = Some(crate::run::Adaptive::for_tolerance(tol, clearances, dt).map_err(|e| err(py, e))?);
+        let h_max = c
+            .max_step
+            .unwrap_or_else(|| crate::run::Adaptive::default_max_step(t_end, dt));
+        let adaptive = crate::run::Adaptive::for_tolerance(tol, clearances, dt, h_max).map_err(|e| err(py, e))?;
+        settings.adaptive = Some(adaptive);
         settings.coupling = coupling(true, 1e-10, 50)?;
         return Ok(settings);
     }
@@ -173,7 +179,7 @@ fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>) -> PyResult<Mecha
                     alpha_m=0.0, alpha_f=0.0,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
                     progress=None, events=false, joint_position=false,
-                    contact_modes=false, accuracy=None))]
+                    contact_modes=false, accuracy=None, max_step=None))]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run_batch<'py>(
     py: Python<'py>,
@@ -206,6 +212,7 @@ pub(super) fn run_batch<'py>(
     joint_position: bool,
     contact_modes: bool,
     accuracy: Option<f64>,
+    max_step: Option<f64>,
 ) -> PyResult<(Bound<'py, PyList>, Bound<'py, PyDict>, Option<PyErr>)> {
     let n = models.len();
     if t_end.len() != n || dt.len() != n {
@@ -271,6 +278,7 @@ pub(super) fn run_batch<'py>(
         // event-aware runs step alone (never a lockstep lane: `shares_factor` is false for them)
         events,
         accuracy,
+        max_step,
     };
     let mut samples = Vec::with_capacity(n);
     for (i, m) in models.iter().enumerate() {

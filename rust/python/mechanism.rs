@@ -375,12 +375,23 @@ impl PyMechanism {
     }
 
     /// Ideal pin names, in order.
-    /// The adaptive settings `(rtol, atol, h_min)` of a run of this model asked for the relative
-    /// accuracy `tol` with output grid `dt` (s) (`crate::run::Adaptive::for_tolerance`).
-    fn tolerance_settings(&self, py: Python<'_>, tol: f64, dt: f64) -> PyResult<(f64, f64, f64)> {
-        let a = crate::run::Adaptive::for_tolerance(tol, self.inner.joints.iter().map(|j| j.clearance), dt)
-            .map_err(|e| err(py, e))?;
-        Ok((a.rtol, a.atol, a.h_min))
+    /// The adaptive settings `(rtol, atol, h_min, h_max)` of a run of this model over `t_end`
+    /// (s) asked for the relative accuracy `tol` with output grid `dt` (s) and longest step
+    /// `max_step` (s; `None`: `crate::run::Adaptive::default_max_step`)
+    /// (`crate::run::Adaptive::for_tolerance`).
+    #[pyo3(signature = (tol, t_end, dt, max_step=None))]
+    fn tolerance_settings(
+        &self,
+        py: Python<'_>,
+        tol: f64,
+        t_end: f64,
+        dt: f64,
+        max_step: Option<f64>,
+    ) -> PyResult<(f64, f64, f64, f64)> {
+        let h_max = max_step.unwrap_or_else(|| crate::run::Adaptive::default_max_step(t_end, dt));
+        let clearances = self.inner.joints.iter().map(|j| j.clearance);
+        let a = crate::run::Adaptive::for_tolerance(tol, clearances, dt, h_max).map_err(|e| err(py, e))?;
+        Ok((a.rtol, a.atol, a.h_min, a.h_max))
     }
 
     #[getter]
@@ -589,7 +600,7 @@ impl PyMechanism {
         gap_damping: f64,
         nodes: Vec<(usize, usize)>,
         contact_modes: bool,
-        adaptive: Option<(f64, f64, f64)>,
+        adaptive: Option<(f64, f64, f64, f64)>,
         sliders: bool,
         slider_reference: Option<PyRef<'py, super::output::PySliderReference>>,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
@@ -656,7 +667,12 @@ impl PyMechanism {
                 slider_reference: slider_reference.map(|r| r.inner.clone()),
             },
             stepper,
-            adaptive: adaptive.map(|(rtol, atol, h_min)| crate::run::Adaptive { rtol, atol, h_min }),
+            adaptive: adaptive.map(|(rtol, atol, h_min, h_max)| crate::run::Adaptive {
+                rtol,
+                atol,
+                h_min,
+                h_max,
+            }),
             ..Settings::new(t_end, dt)
         };
         let mech = &self.inner;
