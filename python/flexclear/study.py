@@ -1367,6 +1367,18 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     batch_options = {k: v for k, v in simulate_options.items() if v is not None}
     if "iter_tol" in batch_options:
         batch_options["tol"] = batch_options.pop("iter_tol")
+    if study.tol is not None and batch and all(job[1].engine == "translating" for job in batch):
+        # tol= runs of translating models take Model.simulate's default integrator there
+        from .model import _default_integrator
+
+        keys = ("hht_alpha", "beta", "gamma")
+        integrator, rho_inf = _default_integrator(
+            batch_options.get("integrator"),
+            batch_options.get("rho_inf"),
+            True,
+            *(batch_options.get(k) for k in keys),
+        )
+        batch_options.update(integrator=integrator, rho_inf=rho_inf)
     scheme = _batch_scheme(batch_options)
     for key in ("integrator", "rho_inf", "hht_alpha"):
         batch_options.pop(key, None)

@@ -178,6 +178,19 @@ impl Newmark {
         self.alpha_m != 0.0 || self.alpha_f != 0.0
     }
 
+    /// The `gamma` of a step's first-order velocity error, `|gamma - 1/2| h |a_(n+1) - a_n|`
+    /// ([`crate::integrator::adaptive::ForceErrors`]): Newmark's own, and 1/2 for the alpha
+    /// schemes, which are of second order with `gamma > 1/2` (their first-order terms cancel
+    /// over steps).
+    #[inline]
+    pub fn error_gamma(&self) -> f64 {
+        if self.is_alpha() {
+            0.5
+        } else {
+            self.gamma
+        }
+    }
+
     /// The coefficients `(bh2, gh)` of the unknown acceleration in a step of `h` (s):
     /// `y = y~ + bh2 a`, `v = v~ + gh a`, i.e. `(beta h^2, gamma h)` times
     /// `(1 - alpha_f)/(1 - alpha_m)` for the alpha schemes.
@@ -2169,7 +2182,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     d[0] += j.coef[0][k] * da;
                     d[1] += j.coef[1][k] * da;
                 }
-                ad.forces.add_joint(jj, d, taken, (nm.beta, nm.gamma), cut);
+                ad.forces.add_joint(jj, d, taken, (nm.beta, nm.error_gamma()), cut);
             }
             let reached = if last && !cut { ad.t_end } else { t + taken };
             // the step's own end accelerations (before a restart), for the interpolated outputs

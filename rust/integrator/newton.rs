@@ -3135,7 +3135,7 @@ impl<'a> NewtonRun<'a> {
     /// when it is open there: the right limit of an entry's cut), into the stats.
     fn track_peak_errors(&mut self, h: f64, cut: bool, da: &[[f64; 2]], forces: &mut adaptive::ForceErrors) {
         let mut changed = false;
-        let nm = (self.settings.newmark.beta, self.settings.newmark.gamma);
+        let nm = (self.settings.newmark.beta, self.settings.newmark.error_gamma());
         for j in 0..self.mech.joints.len() {
             forces.add_joint(j, da[j], h, nm, cut);
             let (mut q, qd) = self.joint_state(j, &self.y, &self.yd);
