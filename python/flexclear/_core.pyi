@@ -534,10 +534,13 @@ def run_batch(
     joint_position: bool = ...,
     contact_modes: bool = ...,
     accuracy: Optional[float] = ...,
+    max_step: Optional[float] = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released, each on the
     stepper its plan picks (lockstep lanes for the constant stepper, one lane each otherwise);
-    `iterate`, `tol`, `max_iter` None = that stepper's default, as in `Model.simulate`.
+    `iterate`, `tol`, `max_iter` None = that stepper's default, as in `Model.simulate`. With
+    `accuracy` (a relative tolerance) the samples take adaptive steps, `dt[i]` being the output
+    grid and `max_step` the longest step (s; None: the whole run).
 
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes
     (one `JointExtremes` per joint), time, joints), the batch counters (analyses,
