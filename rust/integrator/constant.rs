@@ -70,7 +70,7 @@
 
 use super::adaptive::{self, Levels};
 use super::divergence;
-use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
+use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
@@ -2141,7 +2141,9 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     if !self.adaptive_step(t, taken) {
                         return;
                     }
-                    match search.next(theta, self.lanes[0].pen[jstar], it + 1 == EVENT_MAX_CUTS) {
+                    let lane = &self.lanes[0];
+                    let rate = h * penetration_rate(lane.q[jstar], lane.qd[jstar]);
+                    match search.next_with_rate(theta, lane.pen[jstar], rate, it + 1 == EVENT_MAX_CUTS) {
                         Some(next) => theta = next,
                         None => break,
                     }

@@ -80,7 +80,7 @@
 //! Nothing allocates inside the time loop.
 
 use super::adaptive;
-use super::events::{earliest_crossing, CutSearch, EVENT_MAX_CUTS};
+use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
 use crate::contact::friction::FrictionEval;
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
@@ -3190,7 +3190,9 @@ impl<'a> NewtonRun<'a> {
             self.restore_adaptive(ad, t);
             self.step(t, h1, k, 0)?;
             self.penetrations(&mut ad.pc);
-            match search.next(theta, ad.pc[jstar], it + 1 == EVENT_MAX_CUTS) {
+            let (q, qd) = self.joint_state(jstar, &self.y, &self.yd);
+            let rate = h * penetration_rate(q, qd);
+            match search.next_with_rate(theta, ad.pc[jstar], rate, it + 1 == EVENT_MAX_CUTS) {
                 Some(next) => theta = next,
                 None => break,
             }
