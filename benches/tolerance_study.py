@@ -73,7 +73,7 @@ def main() -> None:
     ap.add_argument("--tol", type=float, default=0.01)
     ap.add_argument("--dts", default="1e-5,3e-6,1e-6", help="fixed steps, s")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--grid", type=float, default=None, help="output grid of the tolerance study, s (t_end/1000)")
+    ap.add_argument("--grid", type=float, default=None, help="tolerance study output grid, s")
     a = ap.parse_args()
     n, tol = a.samples, a.tol
     dts = [float(x) for x in a.dts.split(",")]
