@@ -106,7 +106,7 @@ CRANK_METRICS = METRICS + ("midspan_peak", "midspan_rms")
 #: entries and exits located). Swept over
 #: :data:`ADAPTIVE_TOLS` instead of steps; in the tables its "dt" is the tolerance.
 ADAPTIVE = ("tol= (adaptive)", {"adaptive": True})
-ADAPTIVE_TOLS = (1e-1, 3e-2, 1e-2, 3e-3, 1e-3)
+ADAPTIVE_TOLS = (3e-1, 1e-1, 3e-2, 1e-2, 3e-3, 1e-3)
 
 
 def _is_adaptive(label: str) -> bool:
