@@ -219,6 +219,7 @@ def test_a_study_with_a_tolerance_runs_a_pilot_and_keeps_it_in_its_store(tmp_pat
     assert (res.frame["status"] == "ok").all()
     acc = res.accuracy
     assert acc["tol"] == 0.01 and acc["samples"] == 4 and acc["settings"]["stepper"] == "newton"
+    assert acc["settings"]["integrator"] == "newmark"
     # the pilot's two runs (tol and tol/10) agree on the contact peaks within the tolerance
     assert acc["met"] and acc["accuracy"]["crank_pin.max_force"] <= 0.01
     assert (tmp_path / "s" / "pilot.json").exists()
@@ -290,10 +291,13 @@ def test_a_study_of_a_translating_scene_with_a_tolerance_runs_on_the_constant_st
     res = st.run(tmp_path / "s", threads=1, progress=False)
     assert (res.frame["status"] == "ok").all()
     assert res.accuracy["settings"]["stepper"] == "constant"
+    assert res.accuracy["settings"]["integrator"] == "generalized-alpha, rho_inf = 0.8"
     # each sample is the single tolerance run of its model
     one = fc.scenes.slider_yoke(clearance=float(res.frame["clearance"].iloc[0]))
     r = one.simulate(0.01, tol=0.01, record=fc.Record(histories=False))
-    assert r.stats["stepper"] == "constant"
+    assert r.stats["stepper"] == "constant" and r.stats["integrator"] == res.accuracy["settings"]["integrator"]
+    for c in ("max_force", "max_penetration"):
+        assert res.frame[f"bearing.{c}"].iloc[0] == getattr(r.joint("bearing"), c)
     name = one.joint_names[0]
     assert res.frame[f"{name}.max_force"].iloc[0] == r.joint(name).max_force
 

@@ -1104,6 +1104,16 @@ class Study:
             float(rows[0].get("t_end", self.t_end)) if rows else self.t_end,
             float(rows[0].get("dt", self.dt)) if rows else self.dt,
         )
+        from .model import _default_integrator, _scheme
+
+        opts = self.run_options
+        integrator, rho_inf = _default_integrator(
+            opts.get("integrator"),
+            opts.get("rho_inf"),
+            probe.engine == "translating",
+            *(opts.get(k) for k in ("hht_alpha", "beta", "gamma")),
+        )
+        scheme = _scheme(integrator, rho_inf, opts.get("hht_alpha"), opts.get("beta"), opts.get("gamma"))
         return {
             "tol": self.tol,
             "samples": k,
@@ -1111,6 +1121,7 @@ class Study:
             "met": met,
             "settings": {
                 "stepper": "constant" if probe.engine == "translating" else "newton",
+                "integrator": scheme["integrator"],
                 "iterate": True,
                 "adaptive": {
                     "rtol": rtol,
