@@ -171,6 +171,50 @@ fn cantilever_tip_deflection_is_pl3_over_3ei() {
 }
 
 #[test]
+fn band_factorization_equals_faers_within_round_off() {
+    // the band's own LDL^T (Cholesky::factorize on a chain of beam elements) against faer's
+    // simplicial one on the same matrix: the same factor within round-off, so the same solves
+    let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
+    let sys = System::assemble(&model);
+    // (beta h^2 = 1e-10, 2.5e-9, 1e-7 s^2: steps of 2e-5 to 6e-4 s)
+    for ks in [1e-10, 2.5e-9, 1e-7] {
+        let a: Vec<f64> = (0..sys.pattern.nnz())
+            .map(|p| sys.mass[p] + ks * sys.stiffness[p])
+            .collect();
+        let mut band = Cholesky::analyze(&sys.pattern).unwrap();
+        let mut faer = Cholesky::analyze(&sys.pattern).unwrap();
+        band.factorize(&a, "test").unwrap();
+        faer.factorize_faer(&a, "test").unwrap();
+        let b: Vec<f64> = (0..sys.n()).map(|i| (i as f64 * 0.37).sin()).collect();
+        let (mut x1, mut x2, mut x3) = (b.clone(), b.clone(), b.clone());
+        band.solve_in_place(&mut x1);
+        faer.solve_in_place(&mut x2);
+        band.solve_in_place_faer(&mut x3); // the band's factor in faer's layout
+        let scale = x2.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for i in 0..sys.n() {
+            assert!(
+                (x1[i] - x2[i]).abs() <= 1e-11 * scale,
+                "band vs faer at {i}: {} {}",
+                x1[i],
+                x2[i]
+            );
+            assert!((x3[i] - x2[i]).abs() <= 1e-11 * scale, "layouts at {i}");
+        }
+    }
+    // an indefinite matrix: the first pivot that is not positive is named
+    let mut a: Vec<f64> = (0..sys.pattern.nnz()).map(|p| sys.mass[p]).collect();
+    let diag7 = (sys.pattern.col_ptr[7]..sys.pattern.col_ptr[8])
+        .find(|&p| sys.pattern.row_idx[p] == 7)
+        .unwrap();
+    a[diag7] = -1.0;
+    let mut band = Cholesky::analyze(&sys.pattern).unwrap();
+    match band.factorize(&a, "test") {
+        Err(flexclear::error::Error::Singular { index, .. }) => assert!(index <= 7),
+        other => panic!("expected Singular, got {other:?}"),
+    }
+}
+
+#[test]
 fn factorization_solves_to_small_residual() {
     let model = SliderYoke::default().build().unwrap().to_translating().unwrap();
     let sys = System::assemble(&model);

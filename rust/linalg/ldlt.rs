@@ -131,6 +131,8 @@ struct BandedFactor {
     /// `lcol[j][k - 1] = L[j + k, j]`, k = 1 ..= BAND.
     lcol: Vec<[f64; BAND]>,
     dinv: Vec<f64>,
+    /// The matrix's band while it is factorized: `abd[i][k] = A[i, i - k]`, k = 0 ..= BAND.
+    abd: Vec<[f64; BAND + 1]>,
     /// The CPU has fused multiply-add (x86_64): use [`BandedFactor::solve_fma`].
     fma: bool,
     /// The CPU also has AVX2: the lane substitution uses 256-bit registers.
@@ -299,6 +301,7 @@ impl Cholesky {
             lrow: vec![[0.0; BAND]; n],
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
+            abd: vec![[0.0; BAND + 1]; n],
             fma: fma_available(),
             avx2: avx2_fma_available(),
         });
@@ -320,8 +323,22 @@ impl Cholesky {
 
     /// Numeric factorization of the matrix with values `a` on the full pattern that was
     /// analyzed (only its upper triangle is read). Fails with [`Error::Singular`] naming `what`
-    /// if the matrix is not positive definite.
+    /// (and the first pivot that is not positive and finite) if the matrix is not positive
+    /// definite. A factor within half-bandwidth [`BAND`] (chains of beam elements) is computed by
+    /// the band's own LDL^T ([`Self::factorize_band`]: about a tenth of faer's simplicial
+    /// factorization's work at these sizes, n = 39 and b = 5 on the slider-yoke, where adaptive
+    /// steps refactorize for every new step length), else by faer.
     pub fn factorize(&mut self, a: &[f64], what: &str) -> Result<()> {
+        if self.band.is_some() {
+            self.factorize_band(a, what)
+        } else {
+            self.factorize_faer(a, what)
+        }
+    }
+
+    /// The numeric factorization by faer's simplicial LDL^T, whatever the band (the reference
+    /// the band's own factorization is tested against, within round-off).
+    pub fn factorize_faer(&mut self, a: &[f64], what: &str) -> Result<()> {
         let an = &*self.analysis;
         let n = an.n();
         for (u, &p) in self.upper.iter_mut().zip(&an.src) {
@@ -364,6 +381,70 @@ impl Cholesky {
                     b.lcol[j][k - 1] = self.values[p];
                     b.lrow[ri[p]][k - 1] = self.values[p];
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// The LDL^T of a banded matrix by rows within the band (Crout: row `i` of `L` from the
+    /// rows above it, `w_j = L[i, j] d_j` carried so each entry costs one multiply-add per
+    /// earlier column), into the band's layout and faer's (`values`, which
+    /// [`Self::solve_in_place_faer`] reads). No fill outside the band (the analysis found none).
+    fn factorize_band(&mut self, a: &[f64], what: &str) -> Result<()> {
+        let an = &*self.analysis;
+        let n = an.n();
+        let b = self.band.as_mut().expect("a banded factor");
+        // the band of A from the upper triangle: A[i, i - k] = A[i - k, i]
+        for r in b.abd.iter_mut() {
+            *r = [0.0; BAND + 1];
+        }
+        for c in 0..n {
+            for p in an.col_ptr[c]..an.col_ptr[c + 1] {
+                let k = c - an.row_idx[p];
+                if k <= BAND {
+                    b.abd[c][k] = a[an.src[p]];
+                }
+            }
+        }
+        self.factorizations += 1;
+        for i in 0..n {
+            let lo = i.saturating_sub(BAND);
+            // w[k - 1] = L[i, i - k] d_(i-k)
+            let mut w = [0.0f64; BAND];
+            let mut row = [0.0f64; BAND];
+            for j in lo..i {
+                let kj = i - j;
+                let mut t = b.abd[i][kj];
+                for m in lo..j {
+                    t -= w[i - m - 1] * b.lrow[j][j - m - 1];
+                }
+                w[kj - 1] = t;
+                row[kj - 1] = t * b.dinv[j];
+            }
+            let mut di = b.abd[i][0];
+            for j in lo..i {
+                di -= w[i - j - 1] * row[i - j - 1];
+            }
+            if !(di > 0.0 && di.is_finite()) {
+                return Err(Error::Singular {
+                    what: what.to_string(),
+                    index: i,
+                    dof: String::new(),
+                });
+            }
+            b.lrow[i] = row;
+            b.dinv[i] = 1.0 / di;
+            // faer's layout: D first in column i, then L below it (set from row i into the
+            // columns it belongs to)
+            self.values[an.symbolic.col_ptr()[i]] = di;
+        }
+        let (cp, ri) = (an.symbolic.col_ptr(), an.symbolic.row_idx());
+        for j in 0..n {
+            for k in 1..=BAND {
+                b.lcol[j][k - 1] = if j + k < n { b.lrow[j + k][k - 1] } else { 0.0 };
+            }
+            for p in cp[j] + 1..cp[j + 1] {
+                self.values[p] = b.lrow[ri[p]][ri[p] - j - 1];
             }
         }
         Ok(())
