@@ -65,11 +65,51 @@ impl Levels {
     }
 }
 
+/// The cubic Hermite weights at the fraction `s` (0..=1) of a step: of `y0`, `h v0`, `y1`,
+/// `h v1` in `y(s)`, and their derivatives in `s` (`h` times the weights of `y0`, `v0`, `y1`,
+/// `v1` in `ydot(s)` for the first and third, the weights themselves for the second and fourth).
+fn hermite_weights(s: f64) -> ([f64; 4], [f64; 4]) {
+    let (s2, s3) = (s * s, s * s * s);
+    (
+        [
+            2.0 * s3 - 3.0 * s2 + 1.0,
+            s3 - 2.0 * s2 + s,
+            -2.0 * s3 + 3.0 * s2,
+            s3 - s2,
+        ],
+        [
+            6.0 * s2 - 6.0 * s,
+            3.0 * s2 - 4.0 * s + 1.0,
+            -6.0 * s2 + 6.0 * s,
+            3.0 * s2 - 2.0 * s,
+        ],
+    )
+}
+
+/// The displacements at the fraction `s` (0..=1) of a step of length `h` (s) from `(y0, v0)`
+/// to `(y1, v1)` on the cubic Hermite interpolant of the ends' values and rates (`O(h^4)`),
+/// into `y`. The dense output of adaptive steps that span output instants where only the
+/// displacements are recorded (the constant stepper's node histories).
+pub(crate) fn interpolate_displacements(
+    (y0, v0): (&[f64], &[f64]),
+    (y1, v1): (&[f64], &[f64]),
+    h: f64,
+    s: f64,
+    y: &mut [f64],
+) {
+    let (w, _) = hermite_weights(s);
+    let (h00, h10, h01, h11) = (w[0], w[1] * h, w[2], w[3] * h);
+    let n = y.len();
+    assert!([y0, v0, y1, v1].iter().all(|x| x.len() == n));
+    for i in 0..n {
+        y[i] = h00 * y0[i] + h10 * v0[i] + h01 * y1[i] + h11 * v1[i];
+    }
+}
+
 /// The state at the fraction `s` (0..=1) of a step of length `h` (s) from `(y0, v0, a0)` to
-/// `(y1, v1, a1)`, into `(y, v, a)`: displacements on the cubic Hermite interpolant of the
-/// ends' values and rates (`O(h^4)`), velocities its derivative, accelerations linear between
-/// the ends (Newmark's own assumption within a step). The dense output of adaptive steps that
-/// span output instants.
+/// `(y1, v1, a1)`, into `(y, v, a)`: displacements as [`interpolate_displacements`],
+/// velocities the interpolant's derivative, accelerations linear between the ends (Newmark's
+/// own assumption within a step). The dense output of the Newton stepper's adaptive steps.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn interpolate_state(
     (y0, v0, a0): (&[f64], &[f64], &[f64]),
@@ -80,25 +120,13 @@ pub(crate) fn interpolate_state(
     v: &mut [f64],
     a: &mut [f64],
 ) {
-    let (s2, s3) = (s * s, s * s * s);
-    // the coefficients of y0, h v0, y1, h v1 in y(s) and of y0, v0, y1, v1 in v(s)
-    let (h00, h10, h01, h11) = (
-        2.0 * s3 - 3.0 * s2 + 1.0,
-        (s3 - 2.0 * s2 + s) * h,
-        -2.0 * s3 + 3.0 * s2,
-        (s3 - s2) * h,
-    );
+    interpolate_displacements((y0, v0), (y1, v1), h, s, y);
+    let (_, d) = hermite_weights(s);
     let hr = 1.0 / h;
-    let (d00, d10, d01, d11) = (
-        (6.0 * s2 - 6.0 * s) * hr,
-        3.0 * s2 - 4.0 * s + 1.0,
-        (-6.0 * s2 + 6.0 * s) * hr,
-        3.0 * s2 - 2.0 * s,
-    );
+    let (d00, d10, d01, d11) = (d[0] * hr, d[1], d[2] * hr, d[3]);
     let n = y.len();
-    assert!(v.len() == n && a.len() == n && [y0, v0, a0, y1, v1, a1].iter().all(|x| x.len() == n));
+    assert!(v.len() == n && a.len() == n && a0.len() == n && a1.len() == n);
     for i in 0..n {
-        y[i] = h00 * y0[i] + h10 * v0[i] + h01 * y1[i] + h11 * v1[i];
         v[i] = d00 * y0[i] + d01 * y1[i] + d10 * v0[i] + d11 * v1[i];
         a[i] = (1.0 - s) * a0[i] + s * a1[i];
     }
@@ -327,19 +355,7 @@ pub(crate) fn hermite_at(
     h: f64,
     s: f64,
 ) -> ([f64; 2], [f64; 2]) {
-    let (s2, s3) = (s * s, s * s * s);
-    let (h00, h10, h01, h11) = (
-        2.0 * s3 - 3.0 * s2 + 1.0,
-        s3 - 2.0 * s2 + s,
-        -2.0 * s3 + 3.0 * s2,
-        s3 - s2,
-    );
-    let (d00, d10, d01, d11) = (
-        6.0 * s2 - 6.0 * s,
-        3.0 * s2 - 4.0 * s + 1.0,
-        -6.0 * s2 + 6.0 * s,
-        3.0 * s2 - 2.0 * s,
-    );
+    let ([h00, h10, h01, h11], [d00, d10, d01, d11]) = hermite_weights(s);
     let mut q = [0.0; 2];
     let mut qd = [0.0; 2];
     for i in 0..2 {

@@ -710,11 +710,9 @@ struct AdaptiveSteps {
     /// Whether the output instant being recorded lies inside the last accepted step (its state
     /// interpolated).
     interpolated: bool,
-    /// The accelerations at the last accepted step's end before a restart at a cut, m/s^2.
-    end_a: Vec<f64>,
-    /// Scratch of an interpolated output: unknowns, and per joint the relative displacement and
-    /// velocity, penetration and force.
-    out: [Vec<f64>; 3],
+    /// Scratch of an interpolated output: displacements, and per joint the relative
+    /// displacement and velocity, penetration and force.
+    out_u: Vec<f64>,
     out_q: Vec<[f64; 2]>,
     out_qd: Vec<[f64; 2]>,
     out_pen: Vec<f64>,
@@ -1594,8 +1592,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 t_end: self.sh.steps as f64 * dt,
                 pending: None,
                 interpolated: false,
-                end_a: vec![0.0; n],
-                out: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+                out_u: vec![0.0; n],
                 out_q: vec![[0.0; 2]; nj],
                 out_qd: vec![[0.0; 2]; nj],
                 out_pen: vec![0.0; nj],
@@ -2187,8 +2184,6 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 ad.forces.add_joint(jj, d, taken, (nm.beta, nm.error_gamma()), cut);
             }
             let reached = if last && !cut { ad.t_end } else { t + taken };
-            // the step's own end accelerations (before a restart), for the interpolated outputs
-            get_lane(&self.a, 0, &mut ad.end_a);
             ad.t_start = t;
             if cut {
                 // the right limit at the cut (recorded with the step's end)
@@ -2239,16 +2234,16 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// Records the output instant `t` (s), step `step`, inside the last accepted adaptive step
     /// (from `ad.t_start` to `ad.t`): each joint's relative displacement and velocity on the
     /// cubic Hermite path of the step's ends, the penetration and the law's force there, and
-    /// the unknowns likewise (accelerations linear) where the node histories read them.
+    /// the displacements likewise where the node histories read them.
     fn record_interpolated(&mut self, step: u64, t: f64, ad: &mut AdaptiveSteps) {
         let h = ad.t - ad.t_start;
         let s = ((t - ad.t_start) / h).clamp(0.0, 1.0);
         let (u1, v1) = (self.u.as_flattened(), self.v.as_flattened());
-        let [uo, vo, ao] = &mut ad.out;
+        let uo = &mut ad.out_u;
         let snap = &ad.snap;
         let lane = &mut self.lanes[0];
         if lane.reads_u {
-            adaptive::interpolate_state((&snap.u, &snap.v, &snap.a), (u1, v1, &ad.end_a), h, s, uo, vo, ao);
+            adaptive::interpolate_displacements((&snap.u, &snap.v), (u1, v1), h, s, uo);
         }
         for jj in 0..lane.sys.joints.len() {
             let (qi, vi) = adaptive::hermite_at((snap.q[jj], snap.qd[jj]), (lane.q[jj], lane.qd[jj]), h, s);

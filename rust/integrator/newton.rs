@@ -3232,10 +3232,11 @@ impl<'a> NewtonRun<'a> {
             .collect();
         self.track_sliders(0.0, true);
         self.record(0.0);
+        let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let adaptive = self.settings.adaptive.map(|a| AdaptiveScratch {
             t: 0.0,
             t_start: 0.0,
-            t_end: (self.settings.t_end / h).round().max(1.0) * h,
+            t_end: steps as f64 * h,
             pending: false,
             interpolated: false,
             y: vec![0.0; self.n],
@@ -3258,7 +3259,6 @@ impl<'a> NewtonRun<'a> {
         });
         let events =
             (self.settings.events && !self.mech.joints.is_empty() && adaptive.is_none()).then(EventScratch::default);
-        let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let mut lp = NewtonLoop {
             run: &mut self,
             steps,
