@@ -144,7 +144,9 @@ impl Adaptive {
 /// Iterations of a step of the moving-frame (Newton) stepper.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewtonSettings {
-    /// Relative tolerance: displacement correction over the displacement scale (> 0).
+    /// Relative tolerance: displacement correction over the displacement scale (> 0). A step
+    /// has converged when its last correction is within it, or when the error its corrections'
+    /// contraction leaves is (`integrator::newton::CONTRACTION_STOP`).
     pub tol: f64,
     /// Iteration cap per step (>= 1).
     pub max_iter: usize,

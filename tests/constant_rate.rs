@@ -140,12 +140,15 @@ fn constant_rate_with_events_matches_newton() {
 /// contact-free factor of the step too, and refactorizes only when the contact-free Jacobian
 /// changes (here every step: the rod's frame rate and its axial forces move). Simeon's
 /// slider-crank with a clearance at the crank pin, implicit contact, 1000 steps of 1e-5 s: one
-/// factorization per step (plus the mass matrix) against 2.4 per step refactorizing for the
-/// contact; the geometric part of the Jacobian is the step start's in both (a modified Newton),
+/// factorization per step (plus the mass matrix) against 1.9 per step refactorizing for the
+/// contact (2.4 before the iterations stopped on their contraction); the geometric part of the Jacobian is the step start's in both (a modified Newton),
 /// but the refactorizing path also refreshes it when a contact change forces a refactorization,
-/// so the iterates differ within the iteration tolerance (1e-10), not only by rounding: the
-/// histories agree to 1e-7 of their scale (measured: 5.1e-12 for the displacements, 2.0e-8 for
-/// the contact force, 2687 iterations against 2677), same impacts.
+/// so the iterates differ within the iteration tolerance (1e-10), not only by rounding, and the
+/// differences carry over from step to step through the rattling: the displacement histories
+/// agree to 1e-7 of their scale, the contact force's (stiff: a fraction of a um of penetration
+/// is its whole range) to 2e-6 (measured: 1.4e-8 and 5.6e-7 with the iterations stopped on
+/// their contraction; 5.1e-12 and 2.0e-8 when each took one more, confirming, iteration), same
+/// impacts.
 #[test]
 fn newton_puts_contact_changes_on_the_step_factor() {
     let mech = flexclear::scenes::FlexibleSliderCrank {
@@ -167,10 +170,14 @@ fn newton_puts_contact_changes_on_the_step_factor() {
     assert_eq!((a.stats.stepper, b.stats.stepper), ("newton", "newton"));
     assert_eq!(a.stats.factorizations, a.stats.steps + 1);
     assert!(a.stats.woodbury_steps > 500, "{}", a.stats.woodbury_steps);
-    assert!(b.stats.factorizations > 2 * b.stats.steps, "{}", b.stats.factorizations);
+    assert!(
+        b.stats.factorizations > 3 * b.stats.steps / 2,
+        "{}",
+        b.stats.factorizations
+    );
     assert_eq!(a.record.extremes[0].impacts, b.record.extremes[0].impacts);
     let (du, df) = difference(&a, &b);
-    assert!(du < 1e-7 && df < 1e-7, "displacements {du:e}, force {df:e}");
+    assert!(du < 1e-7 && df < 2e-6, "displacements {du:e}, force {df:e}");
     // the default keeps a factor for up to 8 steps: fewer factorizations, a few more iterations,
     // the same answer within the iteration tolerance
     s.newton.jacobian_age = 8;
@@ -185,7 +192,7 @@ fn newton_puts_contact_changes_on_the_step_factor() {
     assert_eq!(c.record.extremes[0].impacts, b.record.extremes[0].impacts);
     let (du, df) = difference(&c, &b);
     assert!(
-        du < 1e-7 && df < 1e-7,
+        du < 1e-7 && df < 2e-6,
         "reused factors: displacements {du:e}, force {df:e}"
     );
     eprintln!(

@@ -47,8 +47,10 @@ MOVING = "moving-frame"
 #: Defaults of the within-step iterations, per engine (``iter_tol=None``, ``max_iter=None``):
 #: the contact iteration of the translating engine converges kappa to 1e-10 relative in at most
 #: 50 iterations; Newton on the moving-frame equations stops at a displacement correction of
-#: 1e-8 of the displacement scale, at most 25 iterations (quadratic convergence: the next
-#: iterate would be at round-off). These are the settings every validated number was made with.
+#: 1e-8 of the displacement scale, or from its third iteration on where the contraction of its
+#: last two corrections bounds the error left by that (``rho / (1 - rho)`` times the last,
+#: ``rho`` below 0.5), at most 25 iterations. These are the settings every validated number was
+#: made with.
 ITER_DEFAULTS = {TRANSLATING: (1e-10, 50), MOVING: (1e-8, 25)}
 
 _STAT_KEYS = (
@@ -1211,7 +1213,8 @@ class Model:
             Tolerance and cap of the within-step iterations. Default (None): the contact
             iteration converges kappa to 1e-10 relative within 50 iterations while every link
             translates; Newton on the moving-frame equations stops at a correction of 1e-8 of the
-            displacement scale within 25 iterations (see :data:`ITER_DEFAULTS`).
+            displacement scale, or (from the third iteration) where its corrections' contraction
+            bounds the error left by that, within 25 iterations (see :data:`ITER_DEFAULTS`).
         events : bool
             Event-aware stepping: a step that opens or closes a clearance joint is redone as two
             substeps cut at the crossing; output stays on the ``dt`` grid. Counted in
