@@ -11,18 +11,31 @@ False)``): the extremes only, as the accuracy report times its runs.
     python benches/tolerance_runs.py yoke "dt=1e-4,iterate=True,events=True" "tol=0.3" "tol=0.1"
     python benches/tolerance_runs.py crank "dt=1e-6" "tol=3e-2" --repeats 7
 
+Short runs are timed in batches (``--inner``; by default enough runs for 20 ms of the first
+configuration), and numpy's BLAS runs on one thread (its idle threads spin after a call, and
+``process_time`` charges that spin to the next run timed).
+
 Each configuration is ``key=value`` pairs for ``Model.simulate`` separated by commas (``dt`` is
 the step or, with ``tol``, the output grid).
 """
 
 from __future__ import annotations
 
-import argparse
-import ast
-import statistics
-import time
+import os
 
-import numpy as np
+# numpy's OpenBLAS threads spin for a while after a BLAS call, and process_time() counts them:
+# whichever configuration runs next was charged up to half a millisecond (the slider-yoke's
+# runs take 0.5 ms). One thread each, set before numpy loads.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    if not os.environ.get(_var):
+        os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import ast  # noqa: E402
+import statistics  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 #: scene: (builder, window s, reference peak force N, joint or None for the first, divergence limit)
 SCENES = {
@@ -57,6 +70,12 @@ def main() -> None:
     ap.add_argument("scene", choices=sorted(SCENES))
     ap.add_argument("configs", nargs="+", help='e.g. "tol=0.3" "dt=1e-4,iterate=True,events=True"')
     ap.add_argument("--repeats", type=int, default=9)
+    ap.add_argument(
+        "--inner",
+        type=int,
+        default=0,
+        help="runs per timed sample (default: enough for 20 ms of the first configuration)",
+    )
     a = ap.parse_args()
     build, t_end, ref, joint, limit = SCENES[a.scene]
     model = build(fc)
@@ -64,17 +83,32 @@ def main() -> None:
     configs = [parse(c) for c in a.configs]
     times: list[list[float]] = [[] for _ in configs]
     last = [None] * len(configs)
+
+    def run(i: int):
+        kw = dict(configs[i])
+        dt = kw.pop("dt", None)
+        return model.simulate(t_end, dt, record=fc.Record(histories=False), divergence_limit=limit, **kw)
+
+    inner = a.inner
+    if inner <= 0:
+        # short runs are timed in batches, so that the clock's resolution and one-off stalls
+        # weigh less
+        t0 = time.process_time()
+        run(0)
+        inner = max(1, min(100, int(0.02 / max(time.process_time() - t0, 1e-6))))
     for r in range(a.repeats):
         order = range(len(configs)) if r % 2 == 0 else reversed(range(len(configs)))
         for i in order:
-            kw = dict(configs[i])
-            dt = kw.pop("dt", None)
             t0 = time.process_time()
-            res = model.simulate(t_end, dt, record=fc.Record(histories=False), divergence_limit=limit, **kw)
-            times[i].append(time.process_time() - t0)
+            for _ in range(inner):
+                res = run(i)
+            times[i].append((time.process_time() - t0) / inner)
             last[i] = res
     base = statistics.median(times[0])
-    print(f"{a.scene}: {t_end:g} s, {a.repeats} alternating repeats, CPU medians; ratio against the first")
+    print(
+        f"{a.scene}: {t_end:g} s, {a.repeats} alternating repeats of {inner} run(s), CPU medians; "
+        "ratio against the first"
+    )
     for cfg, ts, res in zip(a.configs, times, last):
         med = statistics.median(ts)
         steps = res.stats.get("adaptive_steps") or res.stats["steps"]
