@@ -32,6 +32,9 @@ pub struct Cholesky {
     band: Option<BandedFactor>,
     /// One lane's right-hand side, for [`Self::solve_lanes`] without a band.
     lane_tmp: Vec<f64>,
+    /// The band's factorization has not been copied into faer's layout (`values`) yet: done
+    /// when [`Self::solve_in_place_faer`] needs it.
+    faer_stale: bool,
     /// Number of numeric factorizations done.
     pub factorizations: u64,
 }
@@ -51,6 +54,9 @@ pub struct Analysis {
     full_col_ptr: Vec<usize>,
     full_row_idx: Vec<usize>,
     banded: bool,
+    /// For a banded factor: each upper entry's place in the band, `(i * (BAND + 1) + k, p)` for
+    /// `A[i, i - k] = a[p]` (the values' position `p` in the full pattern).
+    band_map: Vec<(usize, usize)>,
 }
 
 impl std::fmt::Debug for Analysis {
@@ -96,6 +102,15 @@ impl Analysis {
         })?;
         let (lcp, lri) = (symbolic.col_ptr(), symbolic.row_idx());
         let banded = (0..n).all(|j| lri[lcp[j]..lcp[j + 1]].iter().all(|&i| i >= j && i - j <= BAND));
+        // A's pattern lies within L's: within the band where L is
+        let band_map = if banded {
+            (0..n)
+                .flat_map(|c| (col_ptr[c]..col_ptr[c + 1]).map(move |p| (c, p)))
+                .map(|(c, p)| (c * (BAND + 1) + (c - row_idx[p]), src[p]))
+                .collect()
+        } else {
+            Vec::new()
+        };
         Ok(Arc::new(Analysis {
             symbolic,
             col_ptr,
@@ -104,6 +119,7 @@ impl Analysis {
             full_col_ptr: pattern.col_ptr.clone(),
             full_row_idx: pattern.row_idx.clone(),
             banded,
+            band_map,
         }))
     }
 
@@ -131,6 +147,8 @@ struct BandedFactor {
     /// `lcol[j][k - 1] = L[j + k, j]`, k = 1 ..= BAND.
     lcol: Vec<[f64; BAND]>,
     dinv: Vec<f64>,
+    /// The pivots `D[i]` themselves (for faer's layout, [`Cholesky::band_to_faer`]).
+    d: Vec<f64>,
     /// The matrix's band while it is factorized: `abd[i][k] = A[i, i - k]`, k = 0 ..= BAND.
     abd: Vec<[f64; BAND + 1]>,
     /// The CPU has fused multiply-add (x86_64): use [`BandedFactor::solve_fma`].
@@ -301,6 +319,7 @@ impl Cholesky {
             lrow: vec![[0.0; BAND]; n],
             lcol: vec![[0.0; BAND]; n],
             dinv: vec![0.0; n],
+            d: vec![0.0; n],
             abd: vec![[0.0; BAND + 1]; n],
             fma: fma_available(),
             avx2: avx2_fma_available(),
@@ -312,6 +331,7 @@ impl Cholesky {
             mem,
             band,
             lane_tmp: Vec::new(),
+            faer_stale: false,
             factorizations: 0,
         }
     }
@@ -372,9 +392,11 @@ impl Cholesky {
                 });
             }
         }
+        self.faer_stale = false;
         if let Some(b) = self.band.as_mut() {
             let ri = an.symbolic.row_idx();
             for j in 0..n {
+                b.d[j] = self.values[cp[j]];
                 b.dinv[j] = 1.0 / self.values[cp[j]];
                 for p in cp[j] + 1..cp[j + 1] {
                     let k = ri[p] - j;
@@ -388,42 +410,56 @@ impl Cholesky {
 
     /// The LDL^T of a banded matrix by rows within the band (Crout: row `i` of `L` from the
     /// rows above it, `w_j = L[i, j] d_j` carried so each entry costs one multiply-add per
-    /// earlier column), into the band's layout and faer's (`values`, which
-    /// [`Self::solve_in_place_faer`] reads). No fill outside the band (the analysis found none).
+    /// earlier column), into the band's layout; faer's (`values`) is filled from it only when
+    /// [`Self::solve_in_place_faer`] reads it. No fill outside the band (the analysis found none).
+    /// Rows from `BAND` on have every earlier column of the band: their loops have constant trip
+    /// counts (unrolled, no bounds checks); the arithmetic and its order are the same in both.
     fn factorize_band(&mut self, a: &[f64], what: &str) -> Result<()> {
         let an = &*self.analysis;
         let n = an.n();
         let b = self.band.as_mut().expect("a banded factor");
-        // the band of A from the upper triangle: A[i, i - k] = A[i - k, i]
-        for r in b.abd.iter_mut() {
-            *r = [0.0; BAND + 1];
-        }
-        for c in 0..n {
-            for p in an.col_ptr[c]..an.col_ptr[c + 1] {
-                let k = c - an.row_idx[p];
-                if k <= BAND {
-                    b.abd[c][k] = a[an.src[p]];
-                }
-            }
+        // the band of A from the upper triangle: A[i, i - k] = A[i - k, i]; the band's other
+        // entries are zero from the start and never written
+        let abd = b.abd.as_flattened_mut();
+        for &(dst, src) in &an.band_map {
+            abd[dst] = a[src];
         }
         self.factorizations += 1;
         for i in 0..n {
-            let lo = i.saturating_sub(BAND);
             // w[k - 1] = L[i, i - k] d_(i-k)
             let mut w = [0.0f64; BAND];
             let mut row = [0.0f64; BAND];
-            for j in lo..i {
-                let kj = i - j;
-                let mut t = b.abd[i][kj];
-                for m in lo..j {
-                    t -= w[i - m - 1] * b.lrow[j][j - m - 1];
+            let ai = b.abd[i];
+            let mut di = ai[0];
+            if i >= BAND {
+                // (exclusive ranges: an inclusive one's end flag keeps these from unrolling)
+                let lrows: &[[f64; BAND]; BAND] = b.lrow[i - BAND..i].try_into().expect("BAND rows");
+                let dinvs: &[f64; BAND] = b.dinv[i - BAND..i].try_into().expect("BAND pivots");
+                for kj in (1..BAND + 1).rev() {
+                    let lj = &lrows[BAND - kj];
+                    let mut t = ai[kj];
+                    for km in (kj + 1..BAND + 1).rev() {
+                        t -= w[km - 1] * lj[km - kj - 1];
+                    }
+                    w[kj - 1] = t;
+                    row[kj - 1] = t * dinvs[BAND - kj];
                 }
-                w[kj - 1] = t;
-                row[kj - 1] = t * b.dinv[j];
-            }
-            let mut di = b.abd[i][0];
-            for j in lo..i {
-                di -= w[i - j - 1] * row[i - j - 1];
+                for kj in (1..BAND + 1).rev() {
+                    di -= w[kj - 1] * row[kj - 1];
+                }
+            } else {
+                for j in 0..i {
+                    let kj = i - j;
+                    let mut t = ai[kj];
+                    for m in 0..j {
+                        t -= w[i - m - 1] * b.lrow[j][j - m - 1];
+                    }
+                    w[kj - 1] = t;
+                    row[kj - 1] = t * b.dinv[j];
+                }
+                for j in 0..i {
+                    di -= w[i - j - 1] * row[i - j - 1];
+                }
             }
             if !(di > 0.0 && di.is_finite()) {
                 return Err(Error::Singular {
@@ -433,21 +469,31 @@ impl Cholesky {
                 });
             }
             b.lrow[i] = row;
+            b.d[i] = di;
             b.dinv[i] = 1.0 / di;
-            // faer's layout: D first in column i, then L below it (set from row i into the
-            // columns it belongs to)
-            self.values[an.symbolic.col_ptr()[i]] = di;
         }
-        let (cp, ri) = (an.symbolic.col_ptr(), an.symbolic.row_idx());
         for j in 0..n {
-            for k in 1..=BAND {
+            for k in 1..BAND + 1 {
                 b.lcol[j][k - 1] = if j + k < n { b.lrow[j + k][k - 1] } else { 0.0 };
             }
+        }
+        self.faer_stale = true;
+        Ok(())
+    }
+
+    /// Copies the band's factorization into faer's layout (`values`: D first in column `i`,
+    /// then L below it).
+    fn band_to_faer(&mut self) {
+        let an = &*self.analysis;
+        let b = self.band.as_ref().expect("a banded factor");
+        let (cp, ri) = (an.symbolic.col_ptr(), an.symbolic.row_idx());
+        for j in 0..an.n() {
+            self.values[cp[j]] = b.d[j];
             for p in cp[j] + 1..cp[j + 1] {
                 self.values[p] = b.lrow[ri[p]][ri[p] - j - 1];
             }
         }
-        Ok(())
+        self.faer_stale = false;
     }
 
     /// Solves `A x = b` in place (`x` holds `b` on entry); does not allocate. For a factor within
@@ -465,6 +511,9 @@ impl Cholesky {
 
     /// The solve through faer's `SimplicialLdltRef::solve_in_place_with_conj`.
     pub fn solve_in_place_faer(&mut self, x: &mut [f64]) {
+        if self.faer_stale {
+            self.band_to_faer();
+        }
         let n = x.len();
         let ldlt = SimplicialLdltRef::new(&self.analysis.symbolic, &self.values);
         let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
