@@ -70,7 +70,7 @@
 
 use super::adaptive::{self, Levels};
 use super::divergence;
-use super::events::{earliest_crossing, penetration_rate, CutSearch, CUT_ATOL, EVENT_MAX_CUTS};
+use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
 use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
@@ -2123,7 +2123,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 // a step that changes a joint's status is cut at the crossing first: the error
                 // of the substep to it is the one to judge
                 ad.p1.clone_from(&self.lanes[0].pen);
-                let mut search = CutSearch::with_floor(ad.p0[jstar], ad.p1[jstar], false, CUT_ATOL * tol.atol);
+                let mut search = CutSearch::new(ad.p0[jstar], ad.p1[jstar], false);
                 let lane = &mut self.lanes[0];
                 // the first try where the joint's interpolated path crosses (half the search's
                 // tolerance short of the circle), the linear estimate where it shows no crossing

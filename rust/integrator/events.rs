@@ -10,20 +10,6 @@ pub(crate) const EVENT_MIN_FRACTION: f64 = 1e-3;
 pub(crate) const EVENT_PEN_TOL: f64 = 1e-3;
 /// At most this many first substeps per event.
 pub(crate) const EVENT_MAX_CUTS: usize = 6;
-/// Adaptive steps of the constant stepper accept a cut whose first substep ends within this
-/// fraction of their absolute local error tolerance (`Adaptive::atol`, m) of the circle, when
-/// that is looser than [`EVENT_PEN_TOL`] of the step's change of penetration (the restart at the
-/// cut puts the joint on the circle). Not on the Newton stepper: there a cut short of the circle
-/// by that much was crossed again by the next step, more events and factorizations on the
-/// slider-crank at tol 0.3 and 1e-3 (69 against 13 events, 654 against 456 at 0.3).
-pub(crate) const CUT_ATOL: f64 = 0.1;
-
-/// The tolerance of a cut on a step whose joint's penetration goes from `p0` to `p1` (m):
-/// [`EVENT_PEN_TOL`] of the change, at least `floor` (m; 0 but for the constant stepper's
-/// adaptive steps, [`CUT_ATOL`] of their absolute local error tolerance).
-fn cut_tolerance(p0: f64, p1: f64, floor: f64) -> f64 {
-    (EVENT_PEN_TOL * (p1 - p0).abs()).max(floor)
-}
 
 /// True when a cut at fraction `theta` of the step leaves both substeps at least
 /// [`EVENT_MIN_FRACTION`] of it.
@@ -77,14 +63,7 @@ pub(crate) struct CutSearch {
 impl CutSearch {
     /// The search for a joint whose penetration goes from `p0` to `p1` (m) over the trial step.
     pub(crate) fn new(p0: f64, p1: f64, past: bool) -> Self {
-        Self::with_floor(p0, p1, past, 0.0)
-    }
-
-    /// As [`Self::new`], with a tolerance of at least `floor` (m): the constant stepper's
-    /// adaptive steps accept a cut whose end is off the circle by a fraction of their absolute
-    /// local error tolerance, the error their steps are allowed anyway ([`CUT_ATOL`]).
-    pub(crate) fn with_floor(p0: f64, p1: f64, past: bool, floor: f64) -> Self {
-        let tol = cut_tolerance(p0, p1, floor);
+        let tol = EVENT_PEN_TOL * (p1 - p0).abs();
         let old_side = if p0 > 0.0 { 0.5 * tol } else { -0.5 * tol };
         let target = if past { -old_side } else { old_side };
         CutSearch {
