@@ -293,6 +293,11 @@ def _mem_available() -> Optional[int]:
     return None
 
 
+def _memory_limit_env() -> str:
+    """The text of :data:`MEMORY_LIMIT_ENV` ("" when unset or blank)."""
+    return os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+
+
 def _memory_limit(value: Any = None) -> tuple[float, str]:
     """The memory limit of a run's histories, bytes, and where it comes from: ``value`` (the
     ``memory_limit=`` argument of :meth:`Model.simulate`), else :data:`MEMORY_LIMIT_ENV`, else
@@ -301,7 +306,7 @@ def _memory_limit(value: Any = None) -> tuple[float, str]:
         if not (_is_number(value) and value > 0) or math.isnan(value):
             raise _bad("memory_limit", value, "a number of bytes > 0 (inf: no limit), or None")
         return float(value), f"memory_limit={value:g}"
-    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    text = _memory_limit_env()
     if text:
         t = text.lower().removesuffix("b").removesuffix("i")
         try:
@@ -1041,7 +1046,7 @@ class Model:
 
     def _check_memory(self, t_end: float, dt: float, rec: Record, limit_arg: Any, kind: str) -> None:
         estimate, records, channels, ch = self._history_plan(t_end, dt, rec, kind)
-        if estimate == 0 and limit_arg is None and not os.environ.get(MEMORY_LIMIT_ENV, "").strip():
+        if estimate == 0 and limit_arg is None and not _memory_limit_env():
             # nothing kept per step, no limit given to check: reading /proc/meminfo was a fifth of
             # a short run's Python-side time
             return

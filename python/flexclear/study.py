@@ -448,6 +448,21 @@ def _check_run_options(options: Mapping[str, Any]) -> None:
     _batch_scheme(options, "run_options.")
 
 
+def _tol_integrator(options: Mapping[str, Any], translating: bool) -> tuple[Any, Any]:
+    """The ``(integrator, rho_inf)`` of a study's ``tol=`` runs given the integrator keys of
+    ``options``: :meth:`flexclear.model.Model.simulate`'s default
+    (:func:`flexclear.model._default_integrator`) on models that only translate, the options'
+    own otherwise."""
+    from .model import _default_integrator
+
+    return _default_integrator(
+        options.get("integrator"),
+        options.get("rho_inf"),
+        translating,
+        *(options.get(k) for k in ("hht_alpha", "beta", "gamma")),
+    )
+
+
 def _batch_scheme(options: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     """The integrator keys of ``options`` (``integrator``, ``rho_inf``, ``hht_alpha``, ``beta``,
     ``gamma``) as the core's ``beta``, ``gamma``, ``alpha_m``, ``alpha_f``
@@ -1104,15 +1119,10 @@ class Study:
             float(rows[0].get("t_end", self.t_end)) if rows else self.t_end,
             float(rows[0].get("dt", self.dt)) if rows else self.dt,
         )
-        from .model import _default_integrator, _scheme
+        from .model import _scheme
 
         opts = self.run_options
-        integrator, rho_inf = _default_integrator(
-            opts.get("integrator"),
-            opts.get("rho_inf"),
-            probe.engine == "translating",
-            *(opts.get(k) for k in ("hht_alpha", "beta", "gamma")),
-        )
+        integrator, rho_inf = _tol_integrator(opts, probe.engine == "translating")
         scheme = _scheme(integrator, rho_inf, opts.get("hht_alpha"), opts.get("beta"), opts.get("gamma"))
         return {
             "tol": self.tol,
@@ -1380,15 +1390,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
         batch_options["tol"] = batch_options.pop("iter_tol")
     if study.tol is not None and batch and all(job[1].engine == "translating" for job in batch):
         # tol= runs of translating models take Model.simulate's default integrator there
-        from .model import _default_integrator
-
-        keys = ("hht_alpha", "beta", "gamma")
-        integrator, rho_inf = _default_integrator(
-            batch_options.get("integrator"),
-            batch_options.get("rho_inf"),
-            True,
-            *(batch_options.get(k) for k in keys),
-        )
+        integrator, rho_inf = _tol_integrator(batch_options, True)
         batch_options.update(integrator=integrator, rho_inf=rho_inf)
     scheme = _batch_scheme(batch_options)
     for key in ("integrator", "rho_inf", "hht_alpha"):
