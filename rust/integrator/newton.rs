@@ -3600,3 +3600,78 @@ pub fn simulate_constant_rate(
     run.use_constant_rate().map_err(RunFailure::before_start)?;
     run.run(control)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Extrapolation, EXTRAPOLATION_MAX_RATIO};
+
+    fn record(n: usize) -> Extrapolation {
+        Extrapolation {
+            a0: vec![0.0; n],
+            a1: vec![0.0; n],
+            t1: f64::NAN,
+            h: 0.0,
+            better: true,
+            pending: None,
+        }
+    }
+
+    /// Steps of `h` from 0 whose accelerations are `a(t)`: the first iterate each step
+    /// starts from (`a_n + w (a_n - a_(n-1))`) and the verdicts, as `NewtonRun::step` uses them.
+    fn run(a: impl Fn(f64) -> f64, h: f64, steps: usize) -> (Vec<f64>, Vec<bool>) {
+        let mut ex = record(1);
+        let (mut firsts, mut verdicts) = (Vec::new(), Vec::new());
+        for k in 0..steps {
+            let t = k as f64 * h;
+            let (a0, a1) = ([a(t)], [a(t + h)]);
+            let w = ex.start(t, h, &a0);
+            firsts.push(if w > 0.0 { a0[0] + w * (a0[0] - ex.a0[0]) } else { a0[0] });
+            ex.converged(t, h, &a0, &a1);
+            verdicts.push(ex.better);
+        }
+        (firsts, verdicts)
+    }
+
+    #[test]
+    fn a_smooth_acceleration_is_extrapolated() {
+        // a(t) = t: from the third step on the extrapolation is exact, a_n alone is off by h
+        let h = 1e-3;
+        let (firsts, verdicts) = run(|t| t, h, 6);
+        for (k, &f) in firsts.iter().enumerate().skip(2) {
+            let exact = (k + 1) as f64 * h;
+            assert!((f - exact).abs() < 1e-15, "step {k}: {f} for {exact}");
+        }
+        assert!(verdicts[1..].iter().all(|&b| b));
+    }
+
+    #[test]
+    fn an_alternating_acceleration_starts_from_a_n() {
+        // a(t) flips sign every step (a mode at the step's Nyquist frequency): extrapolating
+        // would triple the error, so after the first verdict every step starts from a_n
+        let h = 1e-3;
+        let (firsts, verdicts) = run(|t| if ((t / h).round() as i64) % 2 == 0 { 1.0 } else { -1.0 }, h, 8);
+        assert!(!verdicts[1]);
+        for (k, &f) in firsts.iter().enumerate().skip(2) {
+            let a_n = if k % 2 == 0 { 1.0 } else { -1.0 };
+            assert_eq!(f, a_n, "step {k}");
+        }
+    }
+
+    #[test]
+    fn changed_accelerations_or_a_long_step_start_from_a_n() {
+        let h = 1e-3;
+        let mut ex = record(2);
+        ex.start(0.0, h, &[0.0, 0.0]);
+        ex.converged(0.0, h, &[0.0, 0.0], &[1.0, 2.0]);
+        // a restart at the step's end changed one acceleration: not the step that ended here
+        assert_eq!(ex.start(h, h, &[1.0, 2.5]), 0.0);
+        // another start time
+        assert_eq!(ex.start(2.0 * h, h, &[1.0, 2.0]), 0.0);
+        // more than EXTRAPOLATION_MAX_RATIO times longer
+        assert_eq!(ex.start(h, 2.5 * h, &[1.0, 2.0]), 0.0);
+        // the step that ended here, twice as long (an adaptive level up): w = 2
+        assert_eq!(ex.start(h, EXTRAPOLATION_MAX_RATIO * h, &[1.0, 2.0]), 2.0);
+        // a grid time k dt that differs from t + h by rounding still counts as the end
+        assert_eq!(ex.start(h * (1.0 + 1e-14), h, &[1.0, 2.0]), 1.0);
+    }
+}
