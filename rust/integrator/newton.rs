@@ -164,6 +164,18 @@ struct Extrapolation {
 }
 
 impl Extrapolation {
+    /// No step recorded yet, for `n` unknowns.
+    fn new(n: usize) -> Self {
+        Extrapolation {
+            a0: vec![0.0; n],
+            a1: vec![0.0; n],
+            t1: f64::NAN,
+            h: 0.0,
+            better: true,
+            pending: None,
+        }
+    }
+
     /// The weight of `a_n - a_(n-1)` in an extrapolated first iterate of a step of `h` (s)
     /// from `t` (s) where the accelerations are `a`, `h / h_(n-1)`, when the last converged
     /// step ended at `t` (within 1e-9 of the step, as a grid's `k dt` may differ from `t + h`
@@ -861,14 +873,7 @@ impl<'a> NewtonRun<'a> {
             ydd0: vec![0.0; n],
             aa: vec![0.0; n],
             aa0: vec![0.0; n],
-            extrapolation: Extrapolation {
-                a0: vec![0.0; n],
-                a1: vec![0.0; n],
-                t1: f64::NAN,
-                h: 0.0,
-                better: true,
-                pending: None,
-            },
+            extrapolation: Extrapolation::new(n),
             a: vec![0.0; n],
             r: vec![0.0; n],
             contact: vec![ContactTerms::default(); mech.joints.len()],
@@ -3605,21 +3610,10 @@ pub fn simulate_constant_rate(
 mod tests {
     use super::{Extrapolation, EXTRAPOLATION_MAX_RATIO};
 
-    fn record(n: usize) -> Extrapolation {
-        Extrapolation {
-            a0: vec![0.0; n],
-            a1: vec![0.0; n],
-            t1: f64::NAN,
-            h: 0.0,
-            better: true,
-            pending: None,
-        }
-    }
-
     /// Steps of `h` from 0 whose accelerations are `a(t)`: the first iterate each step
     /// starts from (`a_n + w (a_n - a_(n-1))`) and the verdicts, as `NewtonRun::step` uses them.
     fn run(a: impl Fn(f64) -> f64, h: f64, steps: usize) -> (Vec<f64>, Vec<bool>) {
-        let mut ex = record(1);
+        let mut ex = Extrapolation::new(1);
         let (mut firsts, mut verdicts) = (Vec::new(), Vec::new());
         for k in 0..steps {
             let t = k as f64 * h;
@@ -3660,7 +3654,7 @@ mod tests {
     #[test]
     fn changed_accelerations_or_a_long_step_start_from_a_n() {
         let h = 1e-3;
-        let mut ex = record(2);
+        let mut ex = Extrapolation::new(2);
         ex.start(0.0, h, &[0.0, 0.0]);
         ex.converged(0.0, h, &[0.0, 0.0], &[1.0, 2.0]);
         // a restart at the step's end changed one acceleration: not the step that ended here
