@@ -42,12 +42,12 @@ How (and why this way):
   both large and consistent. A large median with one round at parity or better is reported as
   "noisy" and passes; rerun without --quick (more, longer rounds) to settle it.
 - A bench that FAILs on the configured rounds is measured for up to --confirm more rounds (6 by
-  default) and judged on all of them; it stops early once a round finds the candidate at parity
-  or faster (the verdict can then no longer be FAIL). On these shared machines the speed moves by
-  up to 2x between processes within minutes: 3 rounds all above 1 with a median over 1.05 came
-  up on identical code (CI of 1cd82ef: 1.013..1.900, median 1.205, on a commit that does not
-  touch that loop), about once in 8 runs per bench by chance; a real regression stays above 1
-  in the added rounds too.
+  default) and judged on all of them; it stops early as soon as the rounds so far no longer fail
+  (a round found the candidate at parity or faster, or the median fell within the threshold).
+  On these shared machines the speed moves by up to 2x between processes within minutes: 3
+  rounds all above 1 with a median over 1.05 came up on an unchanged loop (CI of 1cd82ef:
+  1.013..1.900, median 1.205, on a commit that does not touch that loop), about once in 8 runs
+  per bench by chance; a real regression stays above 1 in the added rounds too.
 
 --quick (CI): 3 rounds of 0.5 s warm-up + 1 s measurement, about 1 min of runs; the default is
 5 rounds of 1 s + 3 s, about 4 min. The table is also written to <target>/gate/last.json.
@@ -348,36 +348,33 @@ def main() -> int:
     scratch = Path(tempfile.mkdtemp(prefix="flexclear-gate-"))
     runs = {g[0]: {"baseline": [], "candidate": []} for g in gated}
     t0 = time.monotonic()
+
+    def measure_round(r: int, bench: tuple, tag: str) -> None:
+        """Round `r` (0-based) of one bench: both sides back to back, the first side alternating."""
+        name, label, div, unit = bench
+        order = [("baseline", base), ("candidate", cand)]
+        if r % 2:
+            order.reverse()
+        for side, exe in order:
+            ns = measure(exe, name, cfg, scratch)
+            runs[name][side].append(ns)
+            log(f"  {tag}  {label:<38} {side:<9} {fmt(ns, div, unit)}")
+
     try:
         for r in range(cfg["rounds"]):
-            order = [("baseline", base), ("candidate", cand)]
-            if r % 2:
-                order.reverse()
-            for name, label, div, unit in gated:
-                for side, exe in order:
-                    ns = measure(exe, name, cfg, scratch)
-                    runs[name][side].append(ns)
-                    log(f"  round {r + 1}/{cfg['rounds']}  {label:<38} {side:<9} {fmt(ns, div, unit)}")
-        # Confirmation: a bench that fails on the configured rounds gets `confirm` more rounds of
-        # its own (ABBA continued) and is judged on all of them. The shared machines' speed moves
-        # by up to 2x between processes within minutes, so 3 rounds all above 1 happen by chance
-        # (1 in 8 per bench with no change at all); a real regression stays above 1 in every
-        # added round as well, noise does not.
-        for name, label, div, unit in gated:
+            for bench in gated:
+                measure_round(r, bench, f"round {r + 1}/{cfg['rounds']}")
+        # Confirmation (see the module documentation): a failing bench gets rounds of its own,
+        # ABBA continued, until the rounds so far no longer fail or `confirm` are done.
+        for bench in gated:
+            name, label = bench[0], bench[1]
             if a.confirm <= 0 or verdict(ratios_of(runs[name]), a.threshold) != "FAIL":
                 continue
-            log(f"  {label}: FAIL on {cfg['rounds']} rounds; {a.confirm} confirmation rounds")
+            log(f"  {label}: FAIL on {cfg['rounds']} rounds; up to {a.confirm} confirmation rounds")
             for k in range(a.confirm):
-                r = cfg["rounds"] + k
-                order = [("baseline", base), ("candidate", cand)]
-                if r % 2:
-                    order.reverse()
-                for side, exe in order:
-                    ns = measure(exe, name, cfg, scratch)
-                    runs[name][side].append(ns)
-                    log(f"  confirm {k + 1}/{a.confirm}  {label:<38} {side:<9} {fmt(ns, div, unit)}")
+                measure_round(cfg["rounds"] + k, bench, f"confirm {k + 1}/{a.confirm}")
                 if verdict(ratios_of(runs[name]), a.threshold) != "FAIL":
-                    break  # a round at parity or better: the verdict can no longer be FAIL
+                    break
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     t_runs = time.monotonic() - t0
