@@ -220,6 +220,7 @@ def test_a_study_with_a_tolerance_runs_a_pilot_and_keeps_it_in_its_store(tmp_pat
     acc = res.accuracy
     assert acc["tol"] == 0.01 and acc["samples"] == 4 and acc["settings"]["stepper"] == "newton"
     assert acc["settings"]["integrator"] == "newmark"
+    assert acc["settings"]["iter_tol"] == pytest.approx(0.1 * 1e-3**1.5)  # Adaptive::newton_tol
     # the pilot's two runs (tol and tol/10) agree on the contact peaks within the tolerance
     assert acc["met"] and acc["accuracy"]["crank_pin.max_force"] <= 0.01
     assert (tmp_path / "s" / "pilot.json").exists()
@@ -229,6 +230,25 @@ def test_a_study_with_a_tolerance_runs_a_pilot_and_keeps_it_in_its_store(tmp_pat
     one = fc.scenes.slider_crank(clearance_at="crank_pin", clearance=float(res.frame["clearance"].iloc[0]))
     r = one.simulate(0.004, tol=0.01, record=fc.Record(histories=False))
     assert res.frame["crank_pin.max_force"].iloc[0] == r.joint("crank_pin").max_force
+
+
+def test_a_newton_tolerance_run_iterates_to_a_tenth_of_its_local_tolerance():
+    # Adaptive::newton_tol: a tol= run on the Newton stepper stops its iterations at 0.1 rtol,
+    # rtol = (tol / 10)**1.5, never tighter than the fixed-step 1e-8; the contact peaks are the
+    # same as those of iterations to 1e-10 well within the tolerance (the iterations converge
+    # past their stopping test), in fewer iterations; an iter_tol given wins
+    m = fc.scenes.slider_crank(clearance_at="crank_pin")
+    t_end = 0.012  # the first impacts
+    r = m.simulate(t_end, tol=3e-2, record=fc.Record(histories=False))
+    assert r.stats["iter_tol"] == pytest.approx(0.1 * (3e-3) ** 1.5)
+    tight = m.simulate(t_end, tol=3e-2, iter_tol=1e-10, record=fc.Record(histories=False))
+    assert tight.stats["iter_tol"] == 1e-10
+    a, b = r.joint("crank_pin"), tight.joint("crank_pin")
+    assert a.max_force == pytest.approx(b.max_force, rel=1e-6)
+    assert a.max_penetration == pytest.approx(b.max_penetration, rel=1e-6)
+    assert r.stats["iterations"] < tight.stats["iterations"]
+    fine = m.simulate(t_end, tol=1e-5, record=fc.Record(histories=False, joints=[]))
+    assert fine.stats["iter_tol"] == 1e-8  # 0.1 (1e-6)**1.5 = 1e-10: the default holds
 
 
 def test_study_tolerance_errors():

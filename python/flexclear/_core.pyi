@@ -210,7 +210,10 @@ class Mechanism:
     def stepper(self) -> str: ...
     def tolerance_settings(
         self, tol: float, t_end: float, dt: float, max_step: Optional[float] = ...
-    ) -> tuple[float, float, float, float]: ...
+    ) -> tuple[float, float, float, float, float]:
+        """`(rtol, atol, h_min, h_max, newton_tol)` of a run asked for the relative accuracy
+        `tol` (h_min, h_max in s; atol in m; newton_tol: the Newton stepper's iteration
+        tolerance when `iter_tol` is not given)."""
     def simulate(
         self,
         t_end: float,

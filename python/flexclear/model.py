@@ -1191,8 +1191,8 @@ class Model:
             upper estimate at tol 1e-3 and above: 3.8e-4 for an actual 2.3e-4 on the
             slider-yoke at tol 1e-2, pessimistic in a chatter; it speaks for the peak the run
             found). See
-            ``docs/method.md``, "The achieved accuracy of a run". The iteration tolerance stays
-            ``iter_tol``.
+            ``docs/method.md``, "The achieved accuracy of a run". The iteration tolerance is
+            ``iter_tol`` (by default tied to ``tol``, see there).
         max_step : float, optional
             With ``tol``: the longest adaptive step, s (> 0; default: the whole run, the error
             control alone bounding the step). Steps are ``max_step / 2**m``; a step whose
@@ -1223,7 +1223,10 @@ class Model:
             iteration converges kappa to 1e-10 relative within 50 iterations while every link
             translates; Newton on the moving-frame equations stops at a correction of 1e-8 of the
             displacement scale, or (from the third iteration) where its corrections' contraction
-            bounds the error left by that, within 25 iterations (see :data:`ITER_DEFAULTS`).
+            bounds the error left by that, within 25 iterations (see :data:`ITER_DEFAULTS`);
+            with ``tol`` Newton stops at a tenth of the step's relative local tolerance
+            (``0.1 (tol/10)**1.5``, 1.6e-5 at ``tol=3e-2``), never below 1e-8
+            (``stats["iter_tol"]`` says what ran).
         events : bool
             Event-aware stepping: a step that opens or closes a clearance joint is redone as two
             substeps cut at the crossing; output stays on the ``dt`` grid. Counted in
@@ -1314,6 +1317,7 @@ class Model:
             dt, adaptive, iterate, stepper = self._tolerance_plan(
                 t_end, dt, tol, method, iterate, stepper, max_step
             )
+            adaptive, newton_tol = adaptive[:4], adaptive[4]
         elif max_step is not None:
             raise _bad("max_step", max_step, "None without tol= (it bounds adaptive steps)")
         if stepper not in (None, "constant", "constant-rate", "newton"):
@@ -1349,7 +1353,9 @@ class Model:
             iterate = self._iterate_default(method, kind)
         tol_default, iter_default = ITER_DEFAULTS[kind]
         if iter_tol is None:
-            iter_tol = tol_default
+            # a tolerance-driven Newton run iterates to a tenth of its step's error test
+            # (Adaptive::newton_tol); fixed steps to the validated default
+            iter_tol = newton_tol if adaptive is not None and kind == MOVING else tol_default
         elif not (isinstance(iter_tol, (int, float, np.floating)) and np.isfinite(iter_tol) and iter_tol > 0):
             raise _bad("iter_tol", iter_tol, "a finite relative tolerance > 0")
         max_iter = iter_default if max_iter is None else max_iter
@@ -1439,9 +1445,10 @@ class Model:
     TOL_OUTPUT_POINTS = 1000
 
     def _tolerance_plan(self, t_end, dt, tol, method, iterate, stepper, max_step=None):
-        """The run settings a tolerance asks for: ``(dt, (rtol, atol, h_min, h_max), iterate,
-        stepper)``; the local tolerances and the default longest step come from the core
-        (``Adaptive::for_tolerance``, ``Adaptive::default_max_step``)."""
+        """The run settings a tolerance asks for: ``(dt, (rtol, atol, h_min, h_max, newton_tol),
+        iterate, stepper)``; the local tolerances, the default longest step and the Newton
+        tolerance come from the core (``Adaptive::for_tolerance``, ``Adaptive::default_max_step``,
+        ``Adaptive::newton_tol``)."""
         if not (_is_number(tol) and np.isfinite(tol) and 0 < tol < 1):
             raise _bad("tol", tol, "a relative accuracy in (0, 1), e.g. 1e-3")
         if not (_is_number(t_end) and np.isfinite(t_end) and t_end > 0):

@@ -1114,7 +1114,7 @@ class Study:
         key = [c for c in accuracy if c.endswith((".max_force", ".max_penetration"))]
         met = bool(key) and all(accuracy[c] <= self.tol for c in key)
         probe = self._scene_fn(**self._scene_kwargs(rows[0] if rows else {}))
-        rtol, atol, h_min, h_max = probe._core.tolerance_settings(
+        rtol, atol, h_min, h_max, newton_tol = probe._core.tolerance_settings(
             self.tol,
             float(rows[0].get("t_end", self.t_end)) if rows else self.t_end,
             float(rows[0].get("dt", self.dt)) if rows else self.dt,
@@ -1133,6 +1133,7 @@ class Study:
                 "stepper": "constant" if probe.engine == "translating" else "newton",
                 "integrator": scheme["integrator"],
                 "iterate": True,
+                "iter_tol": opts.get("iter_tol") or (newton_tol if probe.engine != "translating" else None),
                 "adaptive": {
                     "rtol": rtol,
                     "atol": atol,

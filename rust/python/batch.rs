@@ -95,6 +95,10 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
             .max_step
             .unwrap_or_else(|| crate::run::Adaptive::default_max_step(t_end, dt));
         let adaptive = crate::run::Adaptive::for_tolerance(tol, clearances, dt, h_max).map_err(|e| err(py, e))?;
+        if c.tol.is_none() {
+            // Newton iterates to a tenth of the step's error test (`Model.simulate(tol=)` alike)
+            settings.newton.tol = adaptive.newton_tol(settings.newton.tol);
+        }
         settings.adaptive = Some(adaptive);
         settings.coupling = coupling(true, 1e-10, 50)?;
         return Ok(settings);

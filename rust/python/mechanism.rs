@@ -375,10 +375,11 @@ impl PyMechanism {
     }
 
     /// Ideal pin names, in order.
-    /// The adaptive settings `(rtol, atol, h_min, h_max)` of a run of this model over `t_end`
-    /// (s) asked for the relative accuracy `tol` with output grid `dt` (s) and longest step
-    /// `max_step` (s; `None`: `crate::run::Adaptive::default_max_step`)
-    /// (`crate::run::Adaptive::for_tolerance`).
+    /// The adaptive settings `(rtol, atol, h_min, h_max, newton_tol)` of a run of this model
+    /// over `t_end` (s) asked for the relative accuracy `tol` with output grid `dt` (s) and
+    /// longest step `max_step` (s; `None`: `crate::run::Adaptive::default_max_step`)
+    /// (`crate::run::Adaptive::for_tolerance`); `newton_tol` is the Newton stepper's iteration
+    /// tolerance when none is given (`crate::run::Adaptive::newton_tol`).
     #[pyo3(signature = (tol, t_end, dt, max_step=None))]
     fn tolerance_settings(
         &self,
@@ -387,11 +388,12 @@ impl PyMechanism {
         t_end: f64,
         dt: f64,
         max_step: Option<f64>,
-    ) -> PyResult<(f64, f64, f64, f64)> {
+    ) -> PyResult<(f64, f64, f64, f64, f64)> {
         let h_max = max_step.unwrap_or_else(|| crate::run::Adaptive::default_max_step(t_end, dt));
         let clearances = self.inner.joints.iter().map(|j| j.clearance);
         let a = crate::run::Adaptive::for_tolerance(tol, clearances, dt, h_max).map_err(|e| err(py, e))?;
-        Ok((a.rtol, a.atol, a.h_min, a.h_max))
+        let newton = a.newton_tol(crate::run::NewtonSettings::default().tol);
+        Ok((a.rtol, a.atol, a.h_min, a.h_max, newton))
     }
 
     #[getter]
