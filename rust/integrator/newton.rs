@@ -342,14 +342,15 @@ enum Sparsity {
 impl Sparsity {
     /// The smallest pattern that holds every nonzero entry of `a`.
     fn of(a: &Mat6) -> Sparsity {
-        let nonzero =
+        // whether every entry outside `keep` is exactly zero
+        let holds =
             |keep: &dyn Fn(usize, usize) -> bool| (0..6).all(|i| (0..6).all(|j| keep(i, j) || a[(i, j)] == 0.0));
         let axial = |i: usize| i == 0 || i == 3;
-        if nonzero(&|_, _| false) {
+        if holds(&|_, _| false) {
             Sparsity::Zero
-        } else if nonzero(&|i, j| axial(i) == axial(j)) {
+        } else if holds(&|i, j| axial(i) == axial(j)) {
             Sparsity::Split
-        } else if nonzero(&|i, j| i < 3 && j < 3) {
+        } else if holds(&|i, j| i < 3 && j < 3) {
             Sparsity::Node0
         } else {
             Sparsity::Full
@@ -357,10 +358,11 @@ impl Sparsity {
     }
 }
 
-/// `a v` for a matrix of pattern `s` ([`Sparsity::of`]): the sums of nalgebra's product (row `i`:
-/// `a_i0 v_0`, then the sum so far `+ a_ij v_j`, column by column; a floating-point sum of two
-/// terms does not depend on their order) without the terms that are exactly zero, so the same result up to the sign of a zero, in 20 (split), 9 (node 0's
-/// block) or no multiplications instead of 36.
+/// `a v` for a matrix of pattern `s` ([`Sparsity::of`]): the sums of nalgebra's product (row
+/// `i`: `a_i0 v_0`, then the sum so far `+ a_ij v_j`, column by column; a floating-point sum of
+/// two terms does not depend on their order) without the terms that are exactly zero, so the
+/// same result up to the sign of a zero, in 20 (split), 9 (node 0's block) or no
+/// multiplications instead of 36.
 #[inline(always)]
 fn mul6(a: &Mat6, s: Sparsity, v: &Vec6) -> Vec6 {
     match s {
