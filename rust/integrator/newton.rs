@@ -306,8 +306,11 @@ struct LinkData {
     k2u: Mat6,
     k3u: Mat6,
     eta_e: f64,
+    /// `k2u + k3u` and `k2u eta_e` (the geometric terms per unit axial force, N/m and N s/m per N).
+    k23: Mat6,
+    d2: Mat6,
     ea_l: f64,
-    /// The patterns of `m`, of `k2u + k3u` and of `k2u eta_e` (the residual's products, [`mul6`]).
+    /// The patterns of `m`, `k23` and `d2` (the residual's products, [`mul6`]).
     m_sparsity: Sparsity,
     k23_sparsity: Sparsity,
     d2_sparsity: Sparsity,
@@ -688,9 +691,9 @@ pub struct NewtonRun<'a> {
     /// The step being taken refactorizes the whole Jacobian (a Newton step redone after it did
     /// not converge on the contact-free factor).
     direct: bool,
-    /// Steps solved with the current Jacobian factor (the contact-free one of the Woodbury
-    /// solver, else the whole Jacobian), counting the step being taken.
-    factor_age: u32,
+    /// [`Self::steps_begun`] when the current Jacobian factor (the contact-free one of the
+    /// Woodbury solver, else the whole Jacobian) was made: its age is the steps since.
+    factor_made: u64,
     /// The step being taken solves with a factor from an earlier step
     /// ([`NewtonSettings::jacobian_age`](crate::run::NewtonSettings::jacobian_age)).
     reusing: bool,
@@ -826,9 +829,11 @@ impl<'a> NewtonRun<'a> {
             if let Some(body) = l.rigid {
                 let rm = body.matrices();
                 let zero = Mat6::zeros();
+                let m = node0_block(&rm.mass);
                 links.push(LinkData {
                     nodes,
-                    m: node0_block(&rm.mass),
+                    m_sparsity: Sparsity::of(&m),
+                    m,
                     k1: zero,
                     d1: zero,
                     g: node0_block(&rm.skew),
@@ -836,10 +841,11 @@ impl<'a> NewtonRun<'a> {
                     k2u: zero,
                     k3u: zero,
                     eta_e: 0.0,
+                    k23: zero,
+                    d2: zero,
                     ea_l: 0.0,
-                    m_sparsity: Sparsity::Full,
-                    k23_sparsity: Sparsity::Full,
-                    d2_sparsity: Sparsity::Full,
+                    k23_sparsity: Sparsity::Zero,
+                    d2_sparsity: Sparsity::Zero,
                     loads: if active.load {
                         vec![rm.loads.each_ref().map(node0_vec)]
                     } else {
@@ -852,20 +858,25 @@ impl<'a> NewtonRun<'a> {
                 });
                 continue;
             }
+            let (m, k2u, k3u) = (e.mass(), e.geometric_stiffness(1.0), e.axial_force_stiffness(1.0));
+            let eta_e = e.damping / e.youngs_modulus;
+            let (k23, d2) = (k2u + k3u, k2u * eta_e);
             links.push(LinkData {
                 nodes,
-                m: e.mass(),
+                m_sparsity: Sparsity::of(&m),
+                k23_sparsity: Sparsity::of(&k23),
+                d2_sparsity: Sparsity::of(&d2),
+                m,
                 k1: e.stiffness(),
                 d1: e.damping_matrix(),
                 g: e.skew_mass(),
                 mt: e.translational_mass(),
-                k2u: e.geometric_stiffness(1.0),
-                k3u: e.axial_force_stiffness(1.0),
-                eta_e: e.damping / e.youngs_modulus,
+                k2u,
+                k3u,
+                eta_e,
+                k23,
+                d2,
                 ea_l: e.youngs_modulus * e.area / le,
-                m_sparsity: Sparsity::Full,
-                k23_sparsity: Sparsity::Full,
-                d2_sparsity: Sparsity::Full,
                 loads: if active.load {
                     (0..l.section.elements)
                         .map(|k| e.inertia_load_vectors(k as f64 * le))
@@ -878,11 +889,6 @@ impl<'a> NewtonRun<'a> {
                 nodal_load,
                 rigid_moment: None,
             });
-        }
-        for l in &mut links {
-            l.m_sparsity = Sparsity::of(&l.m);
-            l.k23_sparsity = Sparsity::of(&(l.k2u + l.k3u));
-            l.d2_sparsity = Sparsity::of(&(l.k2u * l.eta_e));
         }
         let nonlinear_geometric = links.iter().any(|l| l.active.geometric);
         let limit = settings
@@ -1016,7 +1022,7 @@ impl<'a> NewtonRun<'a> {
             rate_kept: Vec::new(),
             steps_begun: 0,
             direct: false,
-            factor_age: 0,
+            factor_made: 0,
             reusing: false,
             reuse_ok: false,
             frame_sig_len: 0,
@@ -1295,7 +1301,7 @@ impl<'a> NewtonRun<'a> {
                 });
             std::mem::swap(&mut *rs, &mut self.rate_kept[k]);
             if rs.ready {
-                self.factor_age = u32::try_from(self.steps_begun.saturating_sub(rs.made)).unwrap_or(u32::MAX);
+                self.factor_made = rs.made;
             }
         }
         let mut sig = std::mem::take(&mut rs.sig_new);
@@ -1307,7 +1313,7 @@ impl<'a> NewtonRun<'a> {
         self.reusing = reuse;
         let refactor = !rs.ready || force || (moved && !reuse);
         if refactor {
-            self.factor_age = 0;
+            self.factor_made = self.steps_begun;
             rs.made = self.steps_begun;
         }
         let mut res = Ok(());
@@ -1652,12 +1658,10 @@ impl<'a> NewtonRun<'a> {
             let mut prev = self.nt(li, 0);
             let mut wprev = Self::local(prev, &self.y, &self.yd, &self.ydd);
             let (c0, k0) = self.link_ck[li];
-            let k23 = ld.k2u + ld.k3u;
             // the nominal acceleration of the frame origin and the frame's rates: the same for
             // every element of the link (one rotation per link, not per element)
             let fr = self.frames[li];
             let fs = if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] };
-            let d2 = ld.k2u * ld.eta_e;
             for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
                 let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
@@ -1669,9 +1673,9 @@ impl<'a> NewtonRun<'a> {
                 let mut f = mul6(&ld.m, ld.m_sparsity, &qdd) + c0 * qd + k0 * q;
                 if ld.active.geometric {
                     let fax = ld.ea_l * (q[3] - q[0]);
-                    let mut g = mul6(&k23, ld.k23_sparsity, &q);
+                    let mut g = mul6(&ld.k23, ld.k23_sparsity, &q);
                     if ld.d2_sparsity != Sparsity::Zero {
-                        g += mul6(&d2, ld.d2_sparsity, &qd);
+                        g += mul6(&ld.d2, ld.d2_sparsity, &qd);
                     }
                     f += g * fax;
                 }
@@ -2062,7 +2066,10 @@ impl<'a> NewtonRun<'a> {
     /// step size (`same_step`), younger than the age limit, the last step converged within
     /// [`JACOBIAN_REUSE_ITERATIONS`] iterations, and not a step redone on the whole Jacobian.
     fn may_reuse(&self, same_step: bool) -> bool {
-        same_step && !self.direct && self.reuse_ok && self.factor_age < self.settings.newton.jacobian_age
+        same_step
+            && !self.direct
+            && self.reuse_ok
+            && self.steps_begun - self.factor_made < u64::from(self.settings.newton.jacobian_age)
     }
 
     /// The part of the Jacobian's signature that does not depend on the contact (the step `h`,
@@ -2100,7 +2107,7 @@ impl<'a> NewtonRun<'a> {
     /// Assembles and factorizes the Jacobian `d r / d a` at the current iterate.
     fn factorize(&mut self, h: f64) -> Result<()> {
         std::mem::swap(&mut self.signature, &mut self.sig_new);
-        self.factor_age = 0;
+        self.factor_made = self.steps_begun;
         self.reusing = false;
         let (bh2, gh) = self.settings.newmark.coefficients(h);
         let mut lu = std::mem::replace(&mut self.lu, BandLu::new(0, 0));
@@ -2137,7 +2144,7 @@ impl<'a> NewtonRun<'a> {
             base += ld.g * g_coef;
         }
         let geo = if ld.active.geometric {
-            (ld.k2u + ld.k3u) * bh2 + ld.k2u * (ld.eta_e * gh)
+            ld.k23 * bh2 + ld.k2u * (ld.eta_e * gh)
         } else {
             Mat6::zeros()
         };
@@ -2186,7 +2193,7 @@ impl<'a> NewtonRun<'a> {
                             // d/dQ of F(Q) (K23 Q + D2 Qd), F = EA/l (u2 - u1): bh2 g dF/dQ^T,
                             // non-zero in the columns of u1 and u2 only
                             let (q, qd) = (element_vec(&w0, &w1, 0), element_vec(&w0, &w1, 1));
-                            let g = (ld.k2u + ld.k3u) * q + ld.k2u * (qd * ld.eta_e);
+                            let g = ld.k23 * q + ld.k2u * (qd * ld.eta_e);
                             let s = ld.ea_l * bh2;
                             for r in 0..6 {
                                 je[(r, 0)] -= s * g[r];
@@ -2210,7 +2217,7 @@ impl<'a> NewtonRun<'a> {
                     if tangent {
                         // d/dQ of F(Q) (K23 Q + D2 Qd), F = EA/l (u2 - u1): a rank-1 term.
                         let (q, qd) = (element_vec(&w0, &w1, 0), element_vec(&w0, &w1, 1));
-                        let g = (ld.k2u + ld.k3u) * q + ld.k2u * (qd * ld.eta_e);
+                        let g = ld.k23 * q + ld.k2u * (qd * ld.eta_e);
                         let mut dfax = Vec6::zeros();
                         dfax[0] = -ld.ea_l;
                         dfax[3] = ld.ea_l;
@@ -2622,7 +2629,6 @@ impl<'a> NewtonRun<'a> {
         };
         self.stats.iterations += iters as u64;
         self.stats.max_iterations = self.stats.max_iterations.max(iters as u64);
-        self.factor_age = self.factor_age.saturating_add(1);
         self.steps_begun += 1;
         self.reuse_ok = converged && iters <= JACOBIAN_REUSE_ITERATIONS;
         self.reusing = false;
