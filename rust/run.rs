@@ -91,7 +91,10 @@ pub const TOL_GLOBAL: f64 = 10.0;
 /// integrators), instead of the fixed-step default 1e-8 of the displacement scale. Measured
 /// over one crank turn of the slider-crank with a crank-pin clearance at `tol` 3e-2 and 1e-2,
 /// and on the Flores slider-crank: the peak contact force and penetration moved by at most 8e-8
-/// (relative) against iterations to 1e-9, while the iterations fell by 17 to 30 %.
+/// (relative) against iterations to 1e-9, while the iterations fell by 17 to 30 % (before the
+/// carried contraction rate, `integrator::newton::RATE_CARRY_DOWN`, which stops most steps after
+/// one correction: since, the peaks of such runs differ from those of iterations to 1e-10 by
+/// what their different steps sample, up to a tenth of `tol` in the force's spike).
 pub const NEWTON_TOL_OF_LOCAL: f64 = 0.1;
 
 /// The default longest adaptive step in output steps: [`Adaptive::default_max_step`] is `dt`

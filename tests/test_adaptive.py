@@ -234,9 +234,9 @@ def test_a_study_with_a_tolerance_runs_a_pilot_and_keeps_it_in_its_store(tmp_pat
 
 def test_a_newton_tolerance_run_iterates_to_a_tenth_of_its_local_tolerance():
     # Adaptive::newton_tol: a tol= run on the Newton stepper stops its iterations at 0.1 rtol,
-    # rtol = (tol / 10)**1.5, never tighter than the fixed-step 1e-8; the contact peaks are the
-    # same as those of iterations to 1e-10 well within the tolerance (the iterations converge
-    # past their stopping test), in fewer iterations; an iter_tol given wins
+    # rtol = (tol / 10)**1.5, never tighter than the fixed-step 1e-8, and (RATE_CARRY_DOWN) after
+    # a single correction when the contraction rate carried from earlier steps says the error
+    # left is within that; an iter_tol given wins
     m = fc.scenes.slider_crank(clearance_at="crank_pin")
     t_end = 0.012  # the first impacts
     r = m.simulate(t_end, tol=3e-2, record=fc.Record(histories=False))
@@ -244,9 +244,20 @@ def test_a_newton_tolerance_run_iterates_to_a_tenth_of_its_local_tolerance():
     tight = m.simulate(t_end, tol=3e-2, iter_tol=1e-10, record=fc.Record(histories=False))
     assert tight.stats["iter_tol"] == 1e-10
     a, b = r.joint("crank_pin"), tight.joint("crank_pin")
-    assert a.max_force == pytest.approx(b.max_force, rel=1e-6)
-    assert a.max_penetration == pytest.approx(b.max_penetration, rel=1e-6)
-    assert r.stats["iterations"] < tight.stats["iterations"]
+    # The two runs take different steps (each accepted by the same error test), so their peaks
+    # differ by what the steps sample of them, not by the iterations' 1.6e-5: the force's peak
+    # (the dashpot's, before the deepest penetration) within the tenth of the tolerance left to
+    # the iterations (measured 1.1e-3), the penetration's smooth maximum far closer (2e-7)
+    assert a.max_force == pytest.approx(b.max_force, rel=0.1 * 3e-2)
+    assert a.max_penetration == pytest.approx(b.max_penetration, rel=1e-5)
+    s = r.stats
+    tried = s["adaptive_steps"] + s["rejected_steps"] + s["event_steps"]
+    # the first correction alone (the predictor's error, about 3 times the local tolerance when
+    # the step's error is at its bound) would need a second iteration at every step: with the
+    # carried rate most steps stop after one (1.68 iterations a tried step here; over one crank
+    # turn 1.47, and 2.25 before the rate was carried)
+    assert s["iterations"] < 2 * tried
+    assert s["iterations"] < tight.stats["iterations"]
     fine = m.simulate(t_end, tol=1e-5, record=fc.Record(histories=False, joints=[]))
     assert fine.stats["iter_tol"] == 1e-8  # 0.1 (1e-6)**1.5 = 1e-10: the default holds
 

@@ -116,6 +116,21 @@ pub const ROUNDOFF_FLOOR: f64 = 1e-6;
 /// of its peak from the refactorizing solver's over 1000 steps, `tests/constant_rate.rs`).
 pub const CONTRACTION_STOP: f64 = 0.5;
 
+/// In a tolerance-driven run ([`crate::run::Settings::adaptive`]) the contraction rate of the
+/// Newton iterations is carried from step to step, as SUNDIALS' CVODE does: at every second or
+/// later iteration it becomes the larger of the measured rate (the last correction over the one
+/// before) and this fraction of the carried one, so it falls by at most this factor a
+/// measurement. A step then stops after its first correction when the carried rate is below
+/// [`CONTRACTION_STOP`], the rate times that correction (the error it leaves) is within the
+/// Newton tolerance for the displacements and, scaled by `gamma / (beta h)`, for the velocities
+/// (of the largest velocity: a dashpot's force follows them), and every joint's contact status
+/// at the corrected iterate is the one its terms were evaluated at. Without it every adaptive
+/// step took a second iteration: the first correction, the predictor's error, is about 3 times
+/// the local error `(beta - 1/6) h^2 (a1 - a0)` the step's error test bounds. One crank turn of
+/// the crank-pin slider-crank at `tol` 3e-2: 9776 -> 6294 iterations, 212.1 M -> 171.8 M
+/// instructions. Fixed-step runs keep their tolerance test as it was.
+pub const RATE_CARRY_DOWN: f64 = 0.3;
+
 /// The other half of the round-off test: the step's residual has fallen to this fraction of its
 /// first iteration's, so what is left is the arithmetic's, not a stalled iteration's (a Newton
 /// iteration that cycles, e.g. on a contact edge, keeps a residual of the order of the forces).
@@ -700,6 +715,9 @@ pub struct NewtonRun<'a> {
     /// The last step converged within [`JACOBIAN_REUSE_ITERATIONS`] iterations: the next may
     /// reuse its factor.
     reuse_ok: bool,
+    /// A tolerance-driven run's contraction rate of its Newton iterations, carried across steps
+    /// ([`RATE_CARRY_DOWN`]): 1 until measured at a step's second iteration.
+    iter_rate: f64,
     /// The length of the frame part of the Jacobian's signature ([`Self::frame_signature`]).
     frame_sig_len: usize,
     /// Some clearance joint has friction (evaluated at every iterate, its tangent in the
@@ -1025,6 +1043,7 @@ impl<'a> NewtonRun<'a> {
             factor_made: 0,
             reusing: false,
             reuse_ok: false,
+            iter_rate: 1.0,
             frame_sig_len: 0,
             friction: mech.joints.iter().any(|j| j.friction.is_some()),
             fric: vec![JointFrictionState::default(); nj],
@@ -2435,6 +2454,15 @@ impl<'a> NewtonRun<'a> {
         self.jstate_fresh = !from_start;
     }
 
+    /// Whether every joint's contact status (closed or open) at the current iterate is the one
+    /// its contact terms were evaluated at ([`Self::evaluate_contacts`]).
+    fn contact_status_kept(&self) -> bool {
+        (0..self.mech.joints.len()).all(|j| {
+            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+            self.law_terms(j, q, qd).active() == self.contact[j].active()
+        })
+    }
+
     /// One Newmark step from `t` of size `h`. On failure the state is restored.
     fn step(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         self.jstate_fresh = false;
@@ -2597,7 +2625,21 @@ impl<'a> NewtonRun<'a> {
             if !last_corr.is_finite() {
                 break false;
             }
+            let carried = self.settings.adaptive.is_some() && !iterate_friction && self.cont.is_none();
+            if carried && iters >= 2 {
+                self.iter_rate = (last_corr / prev_corr[1]).max(RATE_CARRY_DOWN * self.iter_rate);
+            }
             if linear || last_corr <= self.settings.newton.tol {
+                break true;
+            }
+            if carried
+                && iters == 1
+                && self.iter_rate < CONTRACTION_STOP
+                && self.iter_rate * last_corr <= self.settings.newton.tol
+                && self.iter_rate * (gh / bh2) * dmax
+                    <= self.settings.newton.tol * self.yd.iter().fold(0.0, |m: f64, v| m.max(v.abs()))
+                && self.contact_status_kept()
+            {
                 break true;
             }
             if iters >= 3 {
