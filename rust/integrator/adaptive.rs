@@ -6,6 +6,7 @@
 //! output). Each stepper keeps its own trial step, cut
 //! and restart.
 
+use super::norm2;
 use crate::contact::{ContactTerms, Mat2};
 use crate::run::{Adaptive, RunStats};
 
@@ -139,10 +140,10 @@ pub(crate) fn interpolate_state(
 /// adaptive steppers reject such a step and halve it.
 pub(crate) fn enters_within(q0v0: ([f64; 2], [f64; 2]), q1v1: ([f64; 2], [f64; 2]), h: f64, c: f64) -> bool {
     let (q0, q1) = (q0v0.0, q1v1.0);
-    if !(q0[0].hypot(q0[1]) <= c && q1[0].hypot(q1[1]) <= c) {
+    if !(norm2(q0) <= c && norm2(q1) <= c) {
         return false;
     }
-    hermite_points(q0v0, q1v1, h).any(|(_, q, _)| q[0].hypot(q[1]) > c)
+    hermite_points(q0v0, q1v1, h).any(|(_, q, _)| norm2(q) > c)
 }
 
 /// The Zienkiewicz-Xie estimate of a step's local displacement error (see [`local_error`]).
@@ -287,7 +288,7 @@ impl ForceErrors {
     pub(crate) fn add_joint(&mut self, j: usize, da: [f64; 2], h: f64, (beta, gamma): (f64, f64), cut: bool) {
         let (eq, third, a2) = self.local(j, da, h, beta);
         self.eq[j] += eq;
-        self.ev[j] += (gamma - 0.5).abs() * h * da[0].hypot(da[1]) + third;
+        self.ev[j] += (gamma - 0.5).abs() * h * norm2(da) + third;
         if let Some(a2) = a2 {
             // the last step took a stand-in: its own third-order term from this difference
             let hp = self.prev_h[j];
@@ -309,13 +310,13 @@ impl ForceErrors {
     /// [`Self::add_joint`]).
     fn local(&self, j: usize, da: [f64; 2], h: f64, beta: f64) -> (f64, f64, Option<f64>) {
         let c = (beta - 1.0 / 6.0).abs().max(1.0 / 24.0);
-        let n = da[0].hypot(da[1]);
+        let n = norm2(da);
         let (p, hp) = (self.prev_da[j], self.prev_h[j]);
         let h3 = h * h * h;
         if hp > 0.0 {
             let s = 2.0 / (h + hp);
             let add = [s * (da[0] / h - p[0] / hp), s * (da[1] / h - p[1] / hp)];
-            let a2 = add[0].hypot(add[1]);
+            let a2 = norm2(add);
             (c * h * h * n, h3 * a2 / 12.0, Some(a2))
         } else if self.last_a2[j].is_finite() {
             (c * h * h * n, h3 * self.last_a2[j] / 12.0, None)
@@ -396,7 +397,7 @@ pub(crate) fn hermite_crossing(
 ) -> f64 {
     let closed = |s: f64| {
         let (q, _) = hermite_at(start, end, h, s);
-        q[0].hypot(q[1]) > c
+        norm2(q) > c
     };
     let was = closed(0.0);
     let Some(k) = (1..=16).find(|&k| closed(f64::from(k) / 16.0) != was) else {

@@ -71,6 +71,7 @@
 use super::adaptive::{self, Levels};
 use super::divergence;
 use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
+use super::norm2;
 use super::run_loop::{self, Stepper};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
@@ -500,14 +501,6 @@ fn project_lane<const L: usize>(j: &crate::plan::assembly::JointPlan, x: &[[f64;
         r[1] += j.coef[1][k] * v;
     }
     r
-}
-
-/// Euclidean length of a 2-vector. Plain `sqrt(x^2 + y^2)`: `f64::hypot` is a slow library call,
-/// and the overflow it guards against (|v| > 1e154 m) only happens in a divergence, which the
-/// finite checks report.
-#[inline]
-fn norm2(v: [f64; 2]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1]).sqrt()
 }
 
 fn mat2_is_zero(m: &Mat2) -> bool {

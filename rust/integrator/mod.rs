@@ -13,3 +13,11 @@ pub mod newton;
 pub(crate) mod run_loop;
 
 pub use constant::{Newmark, NewmarkRun};
+
+/// Euclidean length of a 2-vector. Plain `sqrt(x^2 + y^2)`: `f64::hypot` is a slow library call,
+/// and the overflow it guards against (|v| > 1e154 m) only happens in a divergence, which the
+/// finite checks report.
+#[inline]
+pub(crate) fn norm2(v: [f64; 2]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1]).sqrt()
+}

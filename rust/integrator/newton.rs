@@ -81,6 +81,7 @@
 
 use super::adaptive;
 use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
+use super::norm2;
 use super::run_loop::{self, Stepper};
 use crate::contact::friction::FrictionEval;
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
@@ -90,8 +91,8 @@ use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
-use crate::run::JACOBIAN_REUSE_ITERATIONS;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
+use crate::run::{ADAPTIVE_JACOBIAN_AGE, JACOBIAN_REUSE_ITERATIONS};
 
 use crate::plan::dofs::{self, DofMap, LinkTerms, NodeMap, Trans, NONE};
 
@@ -2088,7 +2089,19 @@ impl<'a> NewtonRun<'a> {
         same_step
             && !self.direct
             && self.reuse_ok
-            && self.steps_begun - self.factor_made < u64::from(self.settings.newton.jacobian_age)
+            && self.steps_begun - self.factor_made < u64::from(self.jacobian_age())
+    }
+
+    /// The Jacobian age limit in steps:
+    /// [`NewtonSettings::jacobian_age`](crate::run::NewtonSettings::jacobian_age), raised to
+    /// [`ADAPTIVE_JACOBIAN_AGE`] in a tolerance-driven run that reuses factors at all.
+    fn jacobian_age(&self) -> u32 {
+        let age = self.settings.newton.jacobian_age;
+        if self.settings.adaptive.is_some() && age > 1 {
+            age.max(ADAPTIVE_JACOBIAN_AGE)
+        } else {
+            age
+        }
     }
 
     /// The part of the Jacobian's signature that does not depend on the contact (the step `h`,
@@ -3248,7 +3261,7 @@ impl<'a> NewtonRun<'a> {
             ad.p0.clear();
             for (j, jt) in self.mech.joints.iter().enumerate() {
                 let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-                ad.p0.push(q[0].hypot(q[1]) - jt.clearance);
+                ad.p0.push(norm2(q) - jt.clearance);
                 ad.q0.push((q, qd));
             }
             let at_floor = ad.levels.at_floor();
@@ -3424,7 +3437,7 @@ impl<'a> NewtonRun<'a> {
             let (q0, v0) = ad.q0[j];
             let (q1, v1) = self.joint_state(j, &self.y, &self.yd);
             let c = self.mech.joints[j].clearance;
-            if q0[0].hypot(q0[1]) <= c && q1[0].hypot(q1[1]) <= c {
+            if norm2(q0) <= c && norm2(q1) <= c {
                 continue;
             }
             for (_, q, qd) in adaptive::hermite_points((q0, v0), (q1, v1), h) {
@@ -3435,7 +3448,7 @@ impl<'a> NewtonRun<'a> {
                 let f = evaluation::recorded_force(&terms, q, qd);
                 let tr = &mut self.track[j];
                 tr.max_penetration = tr.max_penetration.max(terms.penetration);
-                tr.max_force = tr.max_force.max(f[0].hypot(f[1]));
+                tr.max_force = tr.max_force.max(norm2(f));
             }
         }
     }
@@ -3456,13 +3469,13 @@ impl<'a> NewtonRun<'a> {
             let terms = self.law_terms(j, q, qd);
             let end = if terms.penetration > 0.0 {
                 let f = evaluation::recorded_force(&terms, q, qd);
-                f[0].hypot(f[1])
+                norm2(f)
             } else {
                 0.0
             };
             let f = end.max(self.track[j].max_force);
             if forces.is_peak(j, f) {
-                let r = q[0].hypot(q[1]);
+                let r = norm2(q);
                 let terms = if terms.penetration > 0.0 || !(r > 0.0 && c > 0.0) {
                     terms
                 } else {
