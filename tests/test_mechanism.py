@@ -428,3 +428,21 @@ def test_flores_slider_crank_kinematics_give_the_published_slider_acceleration()
     assert acc.min() == pytest.approx(-r * w**2 * (1 + r / rod), rel=1e-12)
     assert round(acc.min()) == d["slider_acc_min"]
     assert round(acc.max()) == d["slider_acc_max"]
+
+
+def test_fixed_steps_stop_their_iterations_on_the_carried_contraction_rate():
+    # RATE_CARRY_DOWN: a step of the ideal slider-crank (no contact) stops once the correction
+    # times the contraction rate carried from earlier steps (about 1e-4 on a kept factor) is
+    # within iter_tol, instead of taking a third iteration to see its correction below it; the
+    # midspan deflection is that of iterations to 1e-12 within the iteration tolerance's scale
+    m = fc.scenes.slider_crank()
+    r = m.simulate(0.02, 1e-5, record=fc.Record(midspan=True))
+    tight = m.simulate(0.02, 1e-5, iter_tol=1e-12, record=fc.Record(midspan=True))
+    # measured 1.99 iterations a step from rest (2.91 at iter_tol 1e-9; 1.81 over 0.1 s, 2.87
+    # before the carried rate)
+    assert r.stats["iterations"] < 2.4 * r.stats["steps"]
+    a, b = r.link("rod").midspan, tight.link("rod").midspan
+    scale = np.abs(b).max()
+    # at most 1e-8 of the displacement scale left per step, over 2000 steps: 2e-5 of the
+    # deflection's amplitude (1.6 mm; measured 2.7e-6, and 1.6e-9 at iter_tol 1e-9)
+    assert np.abs(a - b).max() <= 2e-5 * scale
