@@ -129,7 +129,7 @@ pub const CONTRACTION_STOP: f64 = 0.5;
 /// predictor's error, is about 3 times the local error `(beta - 1/6) h^2 (a1 - a0)` the step's
 /// error test bounds), and a fixed step of the ideal slider-crank a third (its rate is 1e-4,
 /// its second correction 1e-7). Measured: the crank-pin slider-crank at `tol` 3e-2 (one crank
-/// turn) 9776 -> 6075 iterations; the ideal slider-crank at dt 1e-5 2.87 -> 1.81 iterations a
+/// turn) 9776 -> 6075 iterations (with [`ADAPTIVE_JACOBIAN_AGE`]); the ideal slider-crank at dt 1e-5 2.87 -> 1.81 iterations a
 /// step; with clearance, whose steps are mostly in contact, 1.84 -> 1.84. Stopping in contact in
 /// a fixed-step run too (1.15 a step) let the rattling contact force of
 /// `tests/constant_rate.rs` drift by 2.1e-3 of its scale from the refactorizing solver's
@@ -720,7 +720,7 @@ pub struct NewtonRun<'a> {
     /// The last step converged within [`JACOBIAN_REUSE_ITERATIONS`] iterations: the next may
     /// reuse its factor.
     reuse_ok: bool,
-    /// A tolerance-driven run's contraction rate of its Newton iterations, carried across steps
+    /// The contraction rate of the Newton iterations, carried across steps
     /// ([`RATE_CARRY_DOWN`]): 1 until measured at a step's second iteration.
     iter_rate: f64,
     /// The length of the frame part of the Jacobian's signature ([`Self::frame_signature`]).
