@@ -455,7 +455,9 @@ fn rot(a: f64) -> [[f64; 2]; 2] {
     [[c, -s], [s, c]]
 }
 
-fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
+/// The transforms of a node (see [`NodeT`]) in a link frame `f` whose rotation `R(f.angle)` is
+/// `r` (computed once per link), with the guides' unit directions `slider_dir`.
+fn node_t(map: &NodeMap, f: &FrameState, r: [[f64; 2]; 2], slider_dir: &[[f64; 2]]) -> NodeT {
     let mut nt = NodeT {
         idx: [NONE, NONE, map.rot],
         t: [[0.0; 3]; 3],
@@ -466,7 +468,6 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
     nt.t[2][2] = 1.0;
     // Columns of T for global unknowns: Rt = R(phi)^T; Td = -w S Rt; Tdd = (-al S - w^2) Rt.
     let glob = |cols: &[[f64; 2]], nt: &mut NodeT| {
-        let r = rot(f.angle);
         let (w, al) = (f.rate, f.accel);
         for (c, g) in cols.iter().enumerate() {
             // t = R^T g
@@ -502,8 +503,7 @@ fn node_t(map: &NodeMap, f: &FrameState, sliders: &[f64]) -> NodeT {
         }
         Trans::Slider { s, slider } => {
             nt.idx[0] = s;
-            let a = sliders[slider];
-            glob(&[[a.cos(), a.sin()]], &mut nt);
+            glob(&[slider_dir[slider]], &mut nt);
         }
         Trans::Fixed => {}
     }
@@ -598,7 +598,6 @@ pub struct NewtonRun<'a> {
     settings: &'a Settings,
     links: Vec<LinkData>,
     slider_dof: Vec<usize>,
-    slider_angle: Vec<f64>,
     n: usize,
     lu: BandLu,
     /// Values the factorized Jacobian was built with (refactorize when they change).
@@ -977,7 +976,6 @@ impl<'a> NewtonRun<'a> {
             mech,
             settings,
             links,
-            slider_angle: mech.sliders.iter().map(|s| s.angle).collect(),
             slider_dof,
             n,
             lu: BandLu::new(n, b),
@@ -1561,7 +1559,8 @@ impl<'a> NewtonRun<'a> {
             for (li, ld) in self.links.iter().enumerate() {
                 self.node_off.push(self.node_ts.len());
                 for map in &ld.nodes {
-                    self.node_ts.push(node_t(map, &self.frames[li], &self.slider_angle));
+                    let r = rot(self.frames[li].angle);
+                    self.node_ts.push(node_t(map, &self.frames[li], r, &self.slider_dir));
                 }
             }
         }
@@ -1570,7 +1569,7 @@ impl<'a> NewtonRun<'a> {
             let off = self.node_off[li];
             for (k, map) in ld.nodes.iter().enumerate() {
                 if !self.node_ts[off + k].plain {
-                    self.node_ts[off + k] = node_t(map, &self.frames[li], &self.slider_angle);
+                    self.node_ts[off + k] = node_t(map, &self.frames[li], self.rots[li], &self.slider_dir);
                 }
             }
         }
@@ -1962,9 +1961,9 @@ impl<'a> NewtonRun<'a> {
             Endpoint::Body { .. } => ([0.0; 2], [0.0; 2]),
             Endpoint::Slider(s) => {
                 let i = self.slider_dof[*s];
-                let a = self.slider_angle[*s];
+                let e = self.slider_dir[*s];
                 let (sv, sd) = if i == NONE { (0.0, 0.0) } else { (y[i], yd[i]) };
-                ([a.cos() * sv, a.sin() * sv], [a.cos() * sd, a.sin() * sd])
+                ([e[0] * sv, e[1] * sv], [e[0] * sd, e[1] * sd])
             }
         }
     }
@@ -2016,16 +2015,14 @@ impl<'a> NewtonRun<'a> {
                         out[1] = (ix[1], [0.0, 1.0], [0.0; 2]);
                     }
                     Trans::Slider { s, slider } => {
-                        let a = self.slider_angle[slider];
-                        out[0] = (s, [a.cos(), a.sin()], [0.0; 2]);
+                        out[0] = (s, self.slider_dir[slider], [0.0; 2]);
                     }
                     Trans::Fixed => {}
                 }
             }
             Endpoint::Body { .. } => {}
             Endpoint::Slider(s) => {
-                let a = self.slider_angle[*s];
-                out[0] = (self.slider_dof[*s], [a.cos(), a.sin()], [0.0; 2]);
+                out[0] = (self.slider_dof[*s], self.slider_dir[*s], [0.0; 2]);
             }
         }
         out

@@ -293,9 +293,9 @@ impl NewtonRun<'_> {
             Endpoint::Body { .. } => [0.0; 2],
             Endpoint::Slider(s) => {
                 let i = self.slider_dof[*s];
-                let a = self.slider_angle[*s];
+                let e = self.slider_dir[*s];
                 let sdd = if i == NONE { 0.0 } else { ydd[i] };
-                [a.cos() * sdd, a.sin() * sdd]
+                [e[0] * sdd, e[1] * sdd]
             }
         }
     }
