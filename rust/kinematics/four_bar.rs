@@ -37,10 +37,13 @@ pub struct FourBar {
     rocker: f64,
     branch: f64,
     driver: Rotation,
+    /// The last pose solved ([`PoseMemo`]).
+    last: PoseMemo<FourBarPose>,
 }
 
 /// Solved configuration of a four-bar at one instant: angles, rates, accelerations of crank (2),
 /// coupler (3) and rocker (4), and the crank pin A.
+#[derive(Debug, Clone, Copy)]
 struct FourBarPose {
     th: [f64; 3],
     w: [f64; 3],
@@ -76,6 +79,7 @@ impl FourBar {
             rocker,
             branch,
             driver,
+            last: PoseMemo::default(),
         })
     }
 
@@ -115,7 +119,13 @@ impl FourBar {
         (self.ground - self.crank * e[0]).hypot(self.crank * e[1])
     }
 
+    /// The pose at `t` (s), solved once per instant ([`PoseMemo`]).
     fn pose(&self, t: f64) -> FourBarPose {
+        self.last.get(t, |t| self.solve(t))
+    }
+
+    /// Solves the loop closure at `t` (s).
+    fn solve(&self, t: f64) -> FourBarPose {
         let (g, a2, a3, a4, k) = (self.ground, self.crank, self.coupler, self.rocker, self.branch);
         let (th2, w2, al2) = self.driver.at(t);
         let e2 = unit(th2);

@@ -543,6 +543,51 @@ impl FrameKinematics for RotatingFrame {
     }
 }
 
+/// The last solved pose of a closed-loop mechanism and its time (the bits of `t`): the frames of
+/// its links (and of a slider on its guide) ask for the same instant in turn, and each would solve
+/// the loop closure again. The pose is a pure function of `t`, so a hit is bitwise the solve.
+/// Behind a `Mutex` because the mechanism is shared (`Arc`) and `Sync`; a clone starts empty, and
+/// two memos always compare equal (the mechanism's equality is its geometry and driver).
+#[derive(Debug)]
+pub(crate) struct PoseMemo<P>(std::sync::Mutex<Option<(u64, P)>>);
+
+impl<P: Copy> PoseMemo<P> {
+    /// The pose at `t`: the kept one when `t` is its time, else `solve(t)`, kept. A poisoned
+    /// lock (a panic elsewhere while it was held) only skips the memo.
+    pub(crate) fn get(&self, t: f64, solve: impl FnOnce(f64) -> P) -> P {
+        let key = t.to_bits();
+        let Ok(mut last) = self.0.lock() else {
+            return solve(t);
+        };
+        if let Some((k, p)) = *last {
+            if k == key {
+                return p;
+            }
+        }
+        let p = solve(t);
+        *last = Some((key, p));
+        p
+    }
+}
+
+impl<P> Default for PoseMemo<P> {
+    fn default() -> Self {
+        PoseMemo(std::sync::Mutex::new(None))
+    }
+}
+
+impl<P> Clone for PoseMemo<P> {
+    fn clone(&self) -> Self {
+        PoseMemo::default()
+    }
+}
+
+impl<P> PartialEq for PoseMemo<P> {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
 mod four_bar;
 mod slider_crank;
 #[cfg(test)]

@@ -16,9 +16,12 @@ pub struct SliderCrank {
     rod: f64,
     offset: f64,
     driver: Rotation,
+    /// The last pose solved ([`PoseMemo`]).
+    last: PoseMemo<SliderCrankPose>,
 }
 
 /// Solved configuration of a slider-crank at one instant.
+#[derive(Debug, Clone, Copy)]
 struct SliderCrankPose {
     theta: (f64, f64, f64),
     psi: (f64, f64, f64),
@@ -53,6 +56,7 @@ impl SliderCrank {
             rod,
             offset,
             driver,
+            last: PoseMemo::default(),
         })
     }
 
@@ -76,7 +80,13 @@ impl SliderCrank {
         &self.driver
     }
 
+    /// The pose at `t` (s), solved once per instant ([`PoseMemo`]).
     fn pose(&self, t: f64) -> SliderCrankPose {
+        self.last.get(t, |t| self.solve(t))
+    }
+
+    /// Solves the loop closure at `t` (s).
+    fn solve(&self, t: f64) -> SliderCrankPose {
         let (a, l) = (self.crank, self.rod);
         let (th, w, al) = self.driver.at(t);
         let e = unit(th);

@@ -689,3 +689,29 @@ fn frame_kinematics_wrappers() {
     assert!(sct.rotates() && sct.translates());
     assert_eq!(err_name(sct.check("s", 1.5).unwrap_err()), "s.driver.time");
 }
+
+/// The pose memo ([`PoseMemo`]) returns what solving would: frames asked for in turn at
+/// alternating and repeated instants are bitwise those of a fresh mechanism (a clone starts with
+/// an empty memo) asked for each instant once.
+#[test]
+fn remembered_poses_are_the_solved_ones() {
+    let driver = Rotation::SpinUp {
+        angle0: 0.2,
+        final_rate: 150.0,
+        ramp_time: 0.01,
+    };
+    let sc = SliderCrank::new(0.15, 0.6, 0.08, driver.clone()).unwrap();
+    let fb = FourBar::new(0.4, 0.1, 0.35, 0.3, 1.0, driver).unwrap();
+    for t in [0.0, 1e-3, 1e-3, 0.0, 2.5e-3, 1e-3, 1e-3] {
+        let (a, b) = (sc.clone(), fb.clone());
+        assert_eq!(sc.rod_frame(t), a.rod_frame(t), "slider-crank rod at {t}");
+        assert_eq!(
+            sc.slider_frame(t),
+            sc.clone().slider_frame(t),
+            "slider-crank slider at {t}"
+        );
+        assert_eq!(sc.angles(t), a.angles(t), "slider-crank angles at {t}");
+        assert_eq!(fb.coupler_frame(t), b.coupler_frame(t), "four-bar coupler at {t}");
+        assert_eq!(fb.rocker_frame(t), fb.clone().rocker_frame(t), "four-bar rocker at {t}");
+    }
+}
