@@ -2525,6 +2525,9 @@ impl<'a> NewtonRun<'a> {
         // tangent in the refactorized Jacobian)
         let iterate_friction = self.friction;
         let linear = !self.nonlinear_geometric && !iterate_contact && !iterate_friction;
+        // the iterations may stop on the contraction rate carried from earlier steps
+        // (RATE_CARRY_DOWN; not with friction's secant switch or the continuous-contact model)
+        let carried = !iterate_friction && self.cont.is_none();
         // the contact terms on the contact-free factor by Woodbury (the constant-rate stepper at
         // its step; the Newton stepper with the Woodbury solver when the joints allow it)
         let rate_step = !self.direct
@@ -2647,7 +2650,6 @@ impl<'a> NewtonRun<'a> {
             if !last_corr.is_finite() {
                 break false;
             }
-            let carried = !iterate_friction && self.cont.is_none();
             if carried && iters >= 2 {
                 self.iter_rate = (last_corr / prev_corr[1]).max(RATE_CARRY_DOWN * self.iter_rate);
             }

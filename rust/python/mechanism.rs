@@ -374,7 +374,6 @@ impl PyMechanism {
         self.inner.joints.iter().map(|j| j.friction.is_some()).collect()
     }
 
-    /// Ideal pin names, in order.
     /// The adaptive settings `(rtol, atol, h_min, h_max, newton_tol)` of a run of this model
     /// over `t_end` (s) asked for the relative accuracy `tol` with output grid `dt` (s) and
     /// longest step `max_step` (s; `None`: `crate::run::Adaptive::default_max_step`)
@@ -396,6 +395,7 @@ impl PyMechanism {
         Ok((a.rtol, a.atol, a.h_min, a.h_max, newton))
     }
 
+    /// Ideal pin names, in order.
     #[getter]
     fn pin_names(&self) -> Vec<String> {
         self.inner.pins.iter().map(|p| p.name.clone()).collect()
