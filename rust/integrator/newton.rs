@@ -3790,7 +3790,9 @@ impl Stepper for NewtonLoop<'_, '_> {
         let r = &mut *self.run;
         let every = r.settings.record.every as u64;
         if self.outcome.is_none() && (k.is_multiple_of(every) || last) {
-            if r.t_frames != t1 {
+            // the step ended at `t + h`, which differs from the grid's `k dt` by rounding: its
+            // frames (those the state was computed with) are the record's, not recomputed
+            if (r.t_frames - t1).abs() > 1e-9 * r.settings.dt {
                 r.update_frames(t1);
             }
             r.record(t1);
