@@ -253,12 +253,19 @@ def listed(exe: Path) -> set:
     return {line.rsplit(": ", 1)[0] for line in out.splitlines() if line.endswith(": benchmark")}
 
 
-def measure(exe: Path, name: str, cfg: dict, scratch: Path) -> float:
-    """Criterion's median time per iteration (ns) of one run of a fresh copy of `exe` on `name`."""
+def fresh_copy(exe: Path, scratch: Path) -> tuple:
+    """A new directory under `scratch` (a run's CRITERION_HOME) and a copy of `exe` in it, at a
+    path of the same length for both sides (argv[0] sits on the stack): `(home, run)`."""
     home = Path(tempfile.mkdtemp(dir=scratch))
-    run = home / "bench"  # same path length for both sides: argv[0] sits on the stack
+    run = home / "bench"
     shutil.copyfile(exe, run)
     run.chmod(0o755)
+    return home, run
+
+
+def measure(exe: Path, name: str, cfg: dict, scratch: Path) -> float:
+    """Criterion's median time per iteration (ns) of one run of a fresh copy of `exe` on `name`."""
+    home, run = fresh_copy(exe, scratch)
     cmd = [
         str(run),
         "--bench",
@@ -291,10 +298,7 @@ def instructions(exe: Path, name: str, scratch: Path) -> int | None:
     `--test`) counted by callgrind; None when valgrind is not installed."""
     if shutil.which("valgrind") is None:
         return None
-    home = Path(tempfile.mkdtemp(dir=scratch))
-    run = home / "bench"
-    shutil.copyfile(exe, run)
-    run.chmod(0o755)
+    home, run = fresh_copy(exe, scratch)
     cmd = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={home / 'cg.out'}"]
     cmd += [str(run), "--bench", "--noplot", "--exact", name, "--test"]
     p = subprocess.Popen(
