@@ -186,6 +186,40 @@ def test_fuzz_wrong_types_raise_invalid_parameter(call, parameter) -> None:
     assert parameter in str(e.value)
 
 
+#: A Python integer has no size limit: one beyond a float's range (|x| >= 2**1024) made
+#: ``float(x)`` raise OverflowError, and one beyond int64 made ``np.isfinite(x)`` raise TypeError.
+HUGE = 2**1100
+
+HUGE_INTEGERS = [
+    (lambda: fc.scenes.slider_yoke(clearance=HUGE), "clearance"),
+    (lambda: fc.scenes.slider_yoke(bearing_stiffness=-HUGE), "bearing_stiffness"),
+    (lambda: fc.scenes.flores_slider_crank(crank_speed=HUGE), "crank_speed"),
+    (lambda: fc.scenes.flores_slider_crank(rod_elements=2**70), "rod_elements"),
+    (_link(length=HUGE), "length"),
+    (_link(elements=HUGE), "elements"),
+    (_simulate(record=fc.Record(start=HUGE)), "record.start"),
+    (lambda: fc.scenes.slider_yoke(elements=2).simulate(HUGE, 1e-5), "t_end"),
+    (lambda: fc.scenes.slider_yoke(elements=2).simulate(1e-3, tol=2**70), "tol"),
+    (lambda: fc.scenes.slider_yoke(elements=2).simulate(1e-3, tol=1e-2, max_step=HUGE), "max_step"),
+    (_simulate(iter_tol=HUGE), "iter_tol"),
+    (lambda: motion.tabulated([0.0, HUGE], [(0.0, 0.0), (1.0, 0.0)]), "time"),
+    (lambda: motion.harmonic((HUGE, 0.0), 1.0), "amplitude"),
+    (lambda: fc.contact.Hertz(stiffness=HUGE), "stiffness"),
+    (lambda: Study("slider_yoke", samples=2, t_end=HUGE), "t_end"),
+    (lambda: Study("slider_yoke", samples=2, start=HUGE), "start"),
+    (lambda: Uniform(0.0, HUGE), "high"),
+]
+
+
+@pytest.mark.parametrize("call, parameter", HUGE_INTEGERS, ids=[p for _, p in HUGE_INTEGERS])
+def test_fuzz_integers_beyond_a_float_raise_invalid_parameter(call, parameter) -> None:
+    """An integer no float can hold is refused like any other bad number, naming the parameter
+    (it escaped as OverflowError or TypeError from float(), math.isfinite or np.isfinite)."""
+    with pytest.raises(fc.InvalidParameterError) as e:
+        call()
+    assert parameter in str(e.value)
+
+
 def test_fuzz_result_node_accepts_the_integral_float_record_nodes_accepts() -> None:
     """``Record(nodes=[("slider", 8.0)])`` is accepted (an integral float), but ``res.node("slider",
     8.0)`` indexed an array with the float: IndexError."""

@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._numbers import is_real
 from .errors import InvalidParameterError
 
 __all__ = [
@@ -70,7 +71,7 @@ def _invalid(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
 def _float(parameter: str, value: Any) -> float:
     """A law's number as a float; any other type is an :class:`InvalidParameterError` naming
     ``parameter`` (ranges are the core's to check)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if not is_real(value):
         raise _invalid(parameter, value, "a real number")
     return float(value)
 
@@ -629,7 +630,7 @@ def _positive(name: str, value: Any, unit: str) -> float:
     allowed = f"finite and > 0 {unit}"
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _invalid(name, value, allowed) from None
     if not (math.isfinite(v) and v > 0.0):
         raise _invalid(name, value, allowed)
@@ -640,7 +641,7 @@ def _poisson(name: str, value: Any) -> float:
     allowed = f"-1 < {name} < 0.5"
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _invalid(name, value, allowed) from None
     if not -1.0 < v < 0.5:
         raise _invalid(name, value, allowed)

@@ -27,6 +27,7 @@ from typing import Any, Callable, Optional, Union
 import numpy as np
 
 from . import _core
+from ._numbers import is_real
 from .errors import (
     ConvergenceError,
     FlexclearError,
@@ -96,7 +97,7 @@ def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
 
 
 def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+    return is_real(x)
 
 
 #: Largest integer a count of the core (``every``, ``max_iter``) may be: a signed 64-bit value.
@@ -846,7 +847,7 @@ class Model:
     def add_gravity(self, gx: float, gy: float) -> Model:
         """Sets gravity, global axes, m/s^2 (none by default; a second call replaces it)."""
         for k, v in (("gx", gx), ("gy", gy)):
-            if not (_is_number(v) and np.isfinite(v)):
+            if not (_is_number(v) and math.isfinite(v)):
                 raise _bad(k, v, "a finite acceleration, m/s^2")
         self._core.set_gravity(float(gx), float(gy))
         return self
@@ -1356,7 +1357,12 @@ class Model:
             # a tolerance-driven Newton run iterates to a tenth of its step's error test
             # (Adaptive::newton_tol); fixed steps to the validated default
             iter_tol = newton_tol if adaptive is not None and kind == MOVING else tol_default
-        elif not (isinstance(iter_tol, (int, float, np.floating)) and np.isfinite(iter_tol) and iter_tol > 0):
+        elif not (
+            isinstance(iter_tol, (int, float, np.floating))
+            and is_real(iter_tol)
+            and math.isfinite(iter_tol)
+            and iter_tol > 0
+        ):
             raise _bad("iter_tol", iter_tol, "a finite relative tolerance > 0")
         max_iter = iter_default if max_iter is None else max_iter
         if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool)) or not (
@@ -1449,9 +1455,9 @@ class Model:
         iterate, stepper)``; the local tolerances, the default longest step and the Newton
         tolerance come from the core (``Adaptive::for_tolerance``, ``Adaptive::default_max_step``,
         ``Adaptive::newton_tol``)."""
-        if not (_is_number(tol) and np.isfinite(tol) and 0 < tol < 1):
+        if not (_is_number(tol) and math.isfinite(tol) and 0 < tol < 1):
             raise _bad("tol", tol, "a relative accuracy in (0, 1), e.g. 1e-3")
-        if not (_is_number(t_end) and np.isfinite(t_end) and t_end > 0):
+        if not (_is_number(t_end) and math.isfinite(t_end) and t_end > 0):
             raise _bad("t_end", t_end, "a finite time > 0, s")
         if method != "modified":
             raise _bad("method", method, '"modified" with tol= (the coupling is chosen for the tolerance)')
@@ -1466,9 +1472,9 @@ class Model:
             )
         if dt is None:
             dt = float(t_end) / self.TOL_OUTPUT_POINTS
-        elif not (_is_number(dt) and np.isfinite(dt) and 0 < dt <= t_end):
+        elif not (_is_number(dt) and math.isfinite(dt) and 0 < dt <= t_end):
             raise _bad("dt", dt, f"the output grid, 0 < dt <= t_end = {t_end} s")
-        if max_step is not None and not (_is_number(max_step) and np.isfinite(max_step) and max_step > 0):
+        if max_step is not None and not (_is_number(max_step) and math.isfinite(max_step) and max_step > 0):
             raise _bad("max_step", max_step, "None or the longest adaptive step, a finite time > 0, s")
         adaptive = tuple(
             self._core.tolerance_settings(

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from ._numbers import is_real
 from .errors import InvalidParameterError
 
 Motion = _core.Motion
@@ -20,7 +21,7 @@ def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
 
 
 def _real(x: Any) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, (bool, np.bool_))
+    return is_real(x)
 
 
 def _pair(parameter: str, value: Any, unit: str) -> tuple[float, float]:
@@ -89,7 +90,7 @@ def tabulated(time, position, velocity=None, acceleration=None) -> Motion:
     def floats(name: str, a: Any, shape: str) -> np.ndarray:
         try:
             out = np.asarray(a, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise _bad(name, a, f"an array of numbers of shape {shape}") from None
         return out
 

@@ -47,6 +47,7 @@ import numpy as np
 
 from . import _core, scenes
 from . import model as _model
+from ._numbers import is_real
 from .errors import (
     FlexclearError,
     InvalidParameterError,
@@ -63,7 +64,7 @@ from .errors import (
 
 def _check_finite(name: str, **values: float) -> None:
     for k, v in values.items():
-        if not isinstance(v, (int, float)) or not math.isfinite(v):
+        if not (isinstance(v, (int, float)) and is_real(v)) or not math.isfinite(v):
             raise InvalidParameterError(f"{name}: {k} = {v!r} is not allowed; allowed: a finite number")
 
 
@@ -401,7 +402,7 @@ def _check_run_options(options: Mapping[str, Any]) -> None:
     ``run_options.<key>``, not as a foreign exception in the middle of the run."""
 
     def real(v: Any) -> bool:
-        return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+        return is_real(v)
 
     def integer(v: Any) -> bool:
         return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
@@ -670,10 +671,14 @@ class Study:
         #: The relative accuracy of every sample's run (adaptive steps), or None (fixed ``dt``).
         self.tol = None if tol is None else float(tol)
         if dt is None:
-            t = t_end if isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0 else 1.0
+            t = (
+                t_end
+                if isinstance(t_end, (int, float)) and is_real(t_end) and math.isfinite(t_end) and t_end > 0
+                else 1.0
+            )
             dt = 1e-5 if tol is None else t / _model.Model.TOL_OUTPUT_POINTS
         for name, v in (("t_end", t_end), ("dt", dt)):
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            if not (isinstance(v, (int, float)) and is_real(v) and math.isfinite(v) and v > 0):
                 raise InvalidParameterError(f"{name} = {v!r} is not allowed; allowed: finite and > 0 s")
         self.t_end, self.dt = float(t_end), float(dt)
         if not isinstance(method, str) or method not in ("modified", "force", "gap"):
@@ -695,8 +700,7 @@ class Study:
         self.outputs = outputs
         #: Whether the runs track the contact modes (an output of :data:`MODE_OUTPUTS` is asked for).
         self._modes = any(o in MODE_OUTPUTS for o in outputs)
-        numeric = isinstance(start, (int, float, np.integer, np.floating))
-        if not (numeric and math.isfinite(start) and start >= 0):
+        if not (is_real(start) and math.isfinite(start) and start >= 0):
             raise InvalidParameterError(f"start = {start!r} is not allowed; allowed: finite and >= 0 s")
         if "t_end" not in (vary or {}) and "dt" not in (vary or {}):
             from .model import check_window
@@ -2181,9 +2185,7 @@ class StudyResult:
         from scipy import stats
 
         output = self.study.column(output)
-        real = isinstance(threshold, (int, float, np.integer, np.floating)) and not isinstance(
-            threshold, bool
-        )
+        real = is_real(threshold)
         if not (real and not math.isnan(threshold)):
             raise InvalidParameterError(f"threshold = {threshold!r} is not allowed; allowed: a number")
         if not (isinstance(confidence, (int, float)) and 0 < confidence < 1):

@@ -6,9 +6,8 @@ import inspect
 import math
 from typing import Any, Callable, Optional, Union
 
-import numpy as np
-
 from .. import scenes
+from .._numbers import is_real
 from ..errors import InvalidParameterError, ModelError
 from ..model import Model
 
@@ -22,7 +21,7 @@ def bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
 
 def number(parameter: str, value: Any, *, low: float = 0.0, strict: bool = True, unit: str = "") -> float:
     """``value`` as a finite float ``> low`` (``>= low`` when not ``strict``), else raises."""
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    ok = is_real(value)
     v = float(value) if ok else float("nan")
     if not (ok and math.isfinite(v) and (v > low if strict else v >= low)):
         rel = ">" if strict else ">="

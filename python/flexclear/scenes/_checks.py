@@ -7,6 +7,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from .._numbers import is_real
 from ..errors import InvalidParameterError
 
 
@@ -18,7 +19,7 @@ def _bad(parameter: str, value: Any, allowed: str) -> InvalidParameterError:
 
 
 def _real(v: Any) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+    return is_real(v)
 
 
 def _types(

@@ -106,7 +106,11 @@ def flores_slider_crank(
         raise _bad("crank_speed", crank_speed, "a finite number, rad/s")
     if not isinstance(flexible_rod, bool):
         raise _bad("flexible_rod", flexible_rod, "True or False")
-    if isinstance(rod_elements, bool) or not isinstance(rod_elements, int):
+    if (
+        isinstance(rod_elements, bool)
+        or not isinstance(rod_elements, int)
+        or not 1 <= rod_elements <= 1_000_000
+    ):
         raise _bad("rod_elements", rod_elements, "an integer in 1 ..= 1000000")
     if friction is not None:
         from ..contact import Coulomb, LuGre
