@@ -71,8 +71,8 @@
 use super::adaptive::{self, Levels};
 use super::divergence;
 use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
-use super::norm2;
 use super::run_loop::{self, Stepper};
+use super::{norm2, same_instant};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, LowRankBlocks};
@@ -2080,7 +2080,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// (divergence, a matrix that is not positive definite) is retired as in a fixed step.
     fn adaptive_advance(&mut self, t1: f64, ad: &mut AdaptiveSteps) {
         debug_assert!(L == 1);
-        let eps = 1e-9 * self.sh.grid_dt;
+        let eps = same_instant(self.sh.grid_dt);
         let tol = ad.tol;
         ad.interpolated = false;
         while t1 - ad.t > eps {

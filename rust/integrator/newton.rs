@@ -81,8 +81,8 @@
 
 use super::adaptive;
 use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CUTS};
-use super::norm2;
 use super::run_loop::{self, Stepper};
+use super::{norm2, same_instant};
 use crate::contact::friction::FrictionEval;
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::element::{Mat6, Vec6};
@@ -216,11 +216,10 @@ impl Extrapolation {
 
     /// The weight of `a_n - a_(n-1)` in an extrapolated first iterate of a step of `h` (s)
     /// from `t` (s) where the accelerations are `a`, `h / h_(n-1)`, when the last converged
-    /// step ended at `t` (within 1e-9 of the step, as a grid's `k dt` may differ from `t + h`
-    /// by rounding) with exactly these accelerations and the step is at most
+    /// step ended at `t` (the same instant up to rounding, [`super::same_instant`]) with exactly these accelerations and the step is at most
     /// [`EXTRAPOLATION_MAX_RATIO`] times as long; else `None`.
     fn applicable(&self, t: f64, h: f64, a: &[f64]) -> Option<f64> {
-        if self.h <= 0.0 || (t - self.t1).abs() > 1e-9 * h {
+        if self.h <= 0.0 || (t - self.t1).abs() > same_instant(h) {
             return None;
         }
         let w = h / self.h;
@@ -3278,7 +3277,7 @@ impl<'a> NewtonRun<'a> {
     /// end, in time order with the output instants (an end past `t1` after `t1`'s output).
     fn adaptive_advance(&mut self, t1: f64, k: u64, ad: &mut AdaptiveScratch) -> Result<()> {
         let tol = self.settings.adaptive.expect("adaptive settings");
-        let eps = 1e-9 * self.settings.dt;
+        let eps = same_instant(self.settings.dt);
         self.restore_integrated(ad);
         while t1 - ad.t > eps {
             if ad.pending {
@@ -3792,7 +3791,7 @@ impl Stepper for NewtonLoop<'_, '_> {
         if self.outcome.is_none() && (k.is_multiple_of(every) || last) {
             // the step ended at `t + h`, which differs from the grid's `k dt` by rounding: its
             // frames (those the state was computed with) are the record's, not recomputed
-            if (r.t_frames - t1).abs() > 1e-9 * r.settings.dt {
+            if (r.t_frames - t1).abs() > same_instant(r.settings.dt) {
                 r.update_frames(t1);
             }
             r.record(t1);
