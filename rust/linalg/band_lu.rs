@@ -32,6 +32,12 @@ pub struct BandLu {
     pivot_scale: Vec<f64>,
     /// `1 / u_jj`.
     inv_diag: Vec<f64>,
+    /// The factors' columns, contiguous for the fixed-bandwidth substitutions (copied from `a`
+    /// after each factorization, [`Self::copy_columns`]): `lcols[j b + t] = L[j + 1 + t, j]`,
+    /// `ucols[j b + t] = U[j - b + t, j]`. In `a` a column's entries are `2b` apart, and the
+    /// solves' loads of them could not be vector loads.
+    lcols: Vec<f64>,
+    ucols: Vec<f64>,
     /// Numeric factorizations done.
     pub factorizations: u64,
 }
@@ -45,6 +51,8 @@ impl BandLu {
             a: vec![0.0; n * (2 * b + 1)],
             pivot_scale: vec![0.0; n],
             inv_diag: vec![0.0; n],
+            lcols: vec![0.0; n * b],
+            ucols: vec![0.0; n * b],
             factorizations: 0,
         }
     }
@@ -140,6 +148,7 @@ impl BandLu {
             }
         }
         self.invert_pivots();
+        self.copy_columns();
         self.factorizations += 1;
         Ok(())
     }
@@ -205,6 +214,50 @@ impl BandLu {
         }
     }
 
+    /// The factors' columns the fixed-bandwidth solves read ([`Self::solve_fixed`]: L's columns
+    /// `0..n`, zero past the last row, and U's columns `b..n`) into [`Self::lcols`] and
+    /// [`Self::ucols`].
+    fn copy_columns(&mut self) {
+        match self.b {
+            1 => self.copy_columns_fixed::<1>(),
+            2 => self.copy_columns_fixed::<2>(),
+            3 => self.copy_columns_fixed::<3>(),
+            4 => self.copy_columns_fixed::<4>(),
+            5 => self.copy_columns_fixed::<5>(),
+            6 => self.copy_columns_fixed::<6>(),
+            7 => self.copy_columns_fixed::<7>(),
+            8 => self.copy_columns_fixed::<8>(),
+            _ => {}
+        }
+    }
+
+    fn copy_columns_fixed<const B: usize>(&mut self) {
+        let n = self.n;
+        if n <= B {
+            return;
+        }
+        let w = 2 * B + 1;
+        let a = &self.a[..n * w];
+        for j in 0..n - B {
+            let l: &mut [f64; B] = (&mut self.lcols[j * B..j * B + B]).try_into().expect("band column");
+            for t in 0..B {
+                l[t] = a[(j + 1 + t) * w + B - 1 - t];
+            }
+        }
+        for j in n - B..n {
+            for t in 0..B {
+                let i = j + 1 + t;
+                self.lcols[j * B + t] = if i < n { a[i * w + j + B - i] } else { 0.0 };
+            }
+        }
+        for j in B..n {
+            let u: &mut [f64; B] = (&mut self.ucols[j * B..j * B + B]).try_into().expect("band column");
+            for t in 0..B {
+                u[t] = a[(j - B + t) * w + 2 * B - t];
+            }
+        }
+    }
+
     /// Solves `A x = rhs` in place with the factorization.
     ///
     /// By columns: once `x_j` is final its multiples are subtracted from the next `b` entries
@@ -238,49 +291,38 @@ impl BandLu {
         let w = 2 * B + 1;
         let a = &self.a[..n * w];
         let x = &mut x[..n];
-        // forward: window = x[j+1..=j+B]; L[j+1+t, j] at a[(j+1+t) w + B - 1 - t]
+        // forward: window = x[j+1..=j+B], column j of L from `lcols`
         let mut win = [0.0; B];
         win.copy_from_slice(&x[1..=B]);
         let mut xj = x[0];
-        for j in 0..n - B {
-            let at = j * w + w + B - 1;
+        let lcols = &self.lcols[..n * B];
+        for j in 0..n - 1 {
+            // L[j+1+t, j], contiguous; zero past the last row (the window's entries there,
+            // rows >= n, are never written back)
+            let l: &[f64; B] = lcols[j * B..j * B + B].try_into().expect("band column");
             let next = if j + B + 1 < n { x[j + B + 1] } else { 0.0 };
             let mut out = [0.0; B];
             for t in 0..B {
-                out[t] = win[t] - a[at + t * (w - 1)] * xj;
+                out[t] = win[t] - l[t] * xj;
             }
             x[j + 1] = out[0];
             win[..B - 1].copy_from_slice(&out[1..]);
             win[B - 1] = next;
             xj = out[0];
         }
-        // the last B columns update fewer entries (already in x from the window)
-        for (t, &v) in win.iter().take(B - 1).enumerate() {
-            x[n - B + 1 + t] = v;
-        }
-        for j in n - B..n {
-            let xj = x[j];
-            for i in j + 1..n {
-                x[i] -= a[i * w + j + B - i] * xj;
-            }
-        }
-        // backward: window = x[j-B..j]; U[j-B+t, j] at a[(j-B+t) w + 2B - t]
-        for j in (n - B..n).rev() {
+        // backward: U[j-B+t, j] from `ucols` down to column B, from `a` below it
+        let ucols = &self.ucols[..n * B];
+        for j in (B..n).rev() {
             let xj = x[j] * self.inv_diag[j];
             x[j] = xj;
-            for i in j.saturating_sub(B)..j {
-                x[i] -= a[i * w + j + B - i] * xj;
-            }
-        }
-        for j in (B..n - B).rev() {
-            let xj = x[j] * self.inv_diag[j];
-            x[j] = xj;
-            let at = (j - B) * w + 2 * B;
+            // U[j-B+t, j], contiguous
+            let u: &[f64; B] = ucols[j * B..j * B + B].try_into().expect("band column");
+            let xs: &mut [f64; B] = (&mut x[j - B..j]).try_into().expect("band window");
             for t in 0..B {
-                x[j - B + t] -= a[at + t * (w - 1)] * xj;
+                xs[t] -= u[t] * xj;
             }
         }
-        for j in (0..B.min(n - B)).rev() {
+        for j in (0..B).rev() {
             let xj = x[j] * self.inv_diag[j];
             x[j] = xj;
             for i in 0..j {
