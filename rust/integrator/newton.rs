@@ -358,6 +358,9 @@ struct LinkData {
     point_mass: Vec<f64>,
     /// Constant nodal loads per node `[Fu, Fv, M]`.
     nodal_load: Vec<[f64; 3]>,
+    /// The nodes with a point mass or a nodal load (the residual's loop over them skips the
+    /// others without testing each node at every call).
+    loaded_nodes: Vec<usize>,
     /// A rigid link: its first moment `m c` (kg m), the rotation's stiffness per unit of the
     /// frame origin's nominal acceleration along the link, `K_thth = -m c a_x`
     /// ([`crate::model::mechanism::RigidBody::matrices`]); `None` for a beam.
@@ -865,6 +868,9 @@ impl<'a> NewtonRun<'a> {
                 x[1] += f.force[1];
                 x[2] += f.moment;
             }
+            let loaded_nodes: Vec<usize> = (0..l.nodes())
+                .filter(|&nd| !(point_mass[nd] == 0.0 && nodal_load[nd] == [0.0; 3]))
+                .collect();
             if let Some(body) = l.rigid {
                 let rm = body.matrices();
                 let zero = Mat6::zeros();
@@ -893,6 +899,7 @@ impl<'a> NewtonRun<'a> {
                     active,
                     point_mass,
                     nodal_load,
+                    loaded_nodes,
                     rigid_moment: Some(rm.first_moment),
                 });
                 continue;
@@ -926,6 +933,7 @@ impl<'a> NewtonRun<'a> {
                 active,
                 point_mass,
                 nodal_load,
+                loaded_nodes,
                 rigid_moment: None,
             });
         }
@@ -1732,11 +1740,8 @@ impl<'a> NewtonRun<'a> {
                 wprev = wn;
             }
             // Point masses and nodal loads.
-            for nd in 0..ld.nodes.len() {
+            for &nd in &ld.loaded_nodes {
                 let (m, fl) = (ld.point_mass[nd], ld.nodal_load[nd]);
-                if m == 0.0 && fl == [0.0; 3] {
-                    continue;
-                }
                 let nt = self.nt(li, nd);
                 let w = Self::local(nt, &self.y, &self.yd, &self.ydd);
                 let fr = &self.frames[li];
