@@ -434,3 +434,22 @@ def test_fuzz_memory_estimate_of_more_steps_than_a_run_may_take() -> None:
     m = fc.scenes.slider_crank()
     with pytest.raises(fc.InvalidParameterError, match="dt"):
         m.memory_estimate(1e300, 1.9e-6)
+
+
+def test_fuzz_27_159_a_body_on_a_four_bar_that_does_not_close_is_refused() -> None:
+    """Fuzz case 27:159: a body following the coupler of a four-bar that cannot close (ground
+    5e-324 m) ran, and its joint's force was NaN at half the recorded instants; a body's frame is
+    now checked over the run as a link's is."""
+    frame = fc.Frame.four_bar(
+        0.001, 0.0329, 0.298, 0.2532, fc.Rotation.constant(2.777), "coupler", branch=-1.0
+    )
+    m = fc.Model()
+    m.add_link(
+        "L0", length=0.0716, elements=1, youngs_modulus=6.1e10, density=1071.0, area=9.6e-5, inertia=7.75e-10,
+        frame=fc.Frame.rotating(fc.Rotation.constant(1.0)),
+    )  # fmt: skip
+    m.add_body("B0", frame=frame)
+    m.add_joint("J2", "L0", 0, clearance=2.8e-6, stiffness=1.7e8, damping=0.0, body="B0")
+    m.add_support("L0", 0, theta=True)
+    with pytest.raises(fc.ModelError, match=r'bodies\["B0"\]\.frame: the four-bar does not close'):
+        m.simulate(0.014, 1.45e-5)

@@ -484,6 +484,13 @@ impl Mechanism {
             }
             self.check_endpoint(&format!("{label}.a"), a)?;
             self.check_endpoint(&format!("{label}.b"), b)?;
+            // a body's prescribed frame, as a link's: a four-bar that does not close, a table
+            // that does not cover the run (a frame evaluated outside them is NaN)
+            for e in [a, b] {
+                if let Endpoint::Body { frame, name, .. } = e {
+                    frame.check(&format!("bodies[{name:?}].frame"), t_end)?;
+                }
+            }
             if let (Endpoint::Node { link: la, node: na }, Endpoint::Node { link: lb, node: nb }) = (a, b) {
                 if la == lb {
                     return Err(Error::InvalidModel {
