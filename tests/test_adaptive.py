@@ -478,3 +478,68 @@ def test_interpolated_outputs_of_the_constant_stepper_follow_the_converged_histo
     force = np.interp(r.time, ref.time, ref.joint(j).force)
     assert np.max(np.abs(r.joint(j).penetration - pen)) <= 2e-3 * np.max(np.abs(pen))
     assert np.max(np.abs(r.joint(j).force - force)) <= 5e-2 * np.max(force)
+
+
+def _violent_link() -> fc.Model:
+    """Fuzz case 27:25205 (a stiffness of 1e8 N/m where the case had 1e20): a translating link
+    whose stiff clearance joints start far inside their circles and throw it past half a turn
+    within microseconds."""
+    mot = fc.motion.tabulated([0.0, 5.0, 10.0], [[-0.0095028, 0.0], [0.0084813, 0.0], [0.00032732, 0.0]])
+    m = fc.Model()
+    m.add_link(
+        "L0", length=0.245524, elements=7, youngs_modulus=4.2079e9, density=1368.9, area=2.19707e-05,
+        inertia=4.0226e-11, angle=-0.736375, motion=mot,
+    )  # fmt: skip
+    m.add_body("B0")
+    m.add_joint(
+        "J0",
+        "L0",
+        1,
+        clearance=3.0128e-06,
+        stiffness=2.5249e8,
+        damping=0.0,
+        body="B0",
+        point=(-0.034993, -0.060285),
+    )
+    m.add_joint(
+        "J1",
+        "L0",
+        4,
+        clearance=1.2952e-05,
+        stiffness=1e8,
+        damping=2.0918,
+        body="B0",
+        point=(-0.043746, -0.020339),
+    )
+    m.add_body("S_L0", motion=mot)
+    m.add_joint(
+        "J2",
+        "L0",
+        6,
+        clearance=9.9381e-06,
+        stiffness=3.446e8,
+        damping=26.04,
+        body="S_L0",
+        point=(0.155924, -0.141339),
+    )
+    m.add_mass("L0", 4, 0.14486)
+    m.add_load("L0", 3, fv=10.136)
+    return m
+
+
+@pytest.mark.parametrize(
+    "build, t_end, options",
+    [
+        (lambda: fc.scenes.slider_yoke(), 0.01, dict(divergence_limit=1e-6)),
+        (_violent_link, 4.86e-5, {}),
+    ],
+    ids=["constant", "newton"],
+)
+def test_an_adaptive_run_that_diverges_between_output_instants_stops_where_it_diverged(build, t_end, options):
+    # one output instant, at t_end: the divergence limits are checked at every accepted
+    # adaptive step, so the run stops at the step that crossed a limit, not at the output
+    # instant (a diverged state was carried there with ever shorter steps: the fuzz case with
+    # its 1e20 N/m took minutes)
+    with pytest.raises(fc.SimulationDivergedError) as e:
+        build().simulate(t_end, t_end, tol=1e-2, progress=False, **options)
+    assert 0 < e.value.time < t_end / 10

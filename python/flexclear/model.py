@@ -1271,7 +1271,8 @@ class Model:
             halved (0: raise :class:`ConvergenceError`).
         divergence_limit : float, optional
             A displacement (or a clearance joint's penetration) beyond this, m, counts as
-            divergence; default 10 x the longest link.
+            divergence; default 10 x the longest link. Checked at every output instant and,
+            with ``tol``, at every accepted adaptive step.
         progress : bool or callable, optional
             True shows a progress bar; a callable receives the fraction done.
         raise_on_failure : bool

@@ -2187,6 +2187,12 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             ad.pending = Some(cut);
             self.track_peak_errors(&mut ad.forces);
             ad.t = reached;
+            // the divergence limits at every accepted step (as Newton's `track_step_end`): a run
+            // that diverged between output instants stops there
+            if let Err(e) = self.check_lane(0, reached, self.step) {
+                self.retire(0, Some(e), self.step, reached);
+                return;
+            }
         }
         if (ad.t - t1).abs() <= eps {
             // the step ended at the output instant, whose record takes its end (a cut's right

@@ -3409,7 +3409,10 @@ impl<'a> NewtonRun<'a> {
             let name = &self.mech.joints[j].name;
             return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
         }
-        Ok(())
+        // the unknowns too, at every accepted step: a run that diverged between two output
+        // instants stops there, not after as many ever shorter steps as a stiff contact of the
+        // diverged state asks for up to the next output instant
+        self.check_divergence(t, k)
     }
 
     /// Whether a joint open at both ends of the trial step of length `h` (s) just taken passes
