@@ -453,3 +453,19 @@ def test_fuzz_27_159_a_body_on_a_four_bar_that_does_not_close_is_refused() -> No
     m.add_support("L0", 0, theta=True)
     with pytest.raises(fc.ModelError, match=r'bodies\["B0"\]\.frame: the four-bar does not close'):
         m.simulate(0.014, 1.45e-5)
+
+
+def test_fuzz_28_16101_an_integer_parameter_drawn_infinite_is_refused() -> None:
+    """Fuzz case 28:16101: ``elements`` varied as ``LogNormal(8.35, 1e300)`` drew inf (and warned
+    of an overflow in exp), and the sample table's conversion to integers raised pandas'
+    IntCastingNaNError; now InvalidParameterError naming ``vary['elements']``."""
+    from flexclear.study import LogNormal
+
+    s = Study(
+        "slider_crank",
+        vary={"elements": LogNormal(8.35, 1e300)},
+        fixed={"clearance_at": "crank_pin"},
+        samples=6,
+    )
+    with pytest.raises(fc.InvalidParameterError, match=r"vary\['elements'\].*drew inf"):
+        s.inputs()

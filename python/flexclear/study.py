@@ -146,7 +146,8 @@ class LogNormal:
     def ppf(self, u: np.ndarray) -> np.ndarray:
         from scipy import stats
 
-        return self.median * np.exp(self.sigma * stats.norm.ppf(u))
+        with np.errstate(over="ignore"):  # a huge sigma draws inf, refused where it is used
+            return self.median * np.exp(self.sigma * stats.norm.ppf(u))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -951,7 +952,15 @@ class Study:
         frame = pd.DataFrame(table, columns=names)
         for k in names:
             if self._is_integer(k):
-                frame[k] = np.round(frame[k]).astype(np.int64)
+                col = np.round(frame[k].to_numpy())
+                bad = ~(np.abs(col) < 2**62)  # also NaN
+                if bad.any():
+                    i = int(np.argmax(bad))
+                    raise InvalidParameterError(
+                        f"vary[{k!r}] = {self.vary[k]!r} drew {float(frame[k].iloc[i])!r} for sample {i}; "
+                        "allowed: an integer parameter's draws finite and below 2**62"
+                    )
+                frame[k] = col.astype(np.int64)
         frame.index.name = "sample"
         self._inputs = frame
         return frame
