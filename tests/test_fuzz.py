@@ -469,3 +469,24 @@ def test_fuzz_28_16101_an_integer_parameter_drawn_infinite_is_refused() -> None:
     )
     with pytest.raises(fc.InvalidParameterError, match=r"vary\['elements'\].*drew inf"):
         s.inputs()
+
+
+def test_fuzz_28_33934_a_tolerance_no_step_can_meet_stops_with_an_error() -> None:
+    """Fuzz case 28:33934: a clearance joint with a damping of 1e20 N s/m in a ``tol=`` run on
+    the Newton stepper went on at the shortest step (1.8e-14 s, each step over the tolerance)
+    for 0.39 ms, some 2e10 steps: 'no answer within 60 s'. After 1000 steps in a row at the
+    shortest step the run stops, saying so."""
+    rod = fc.Frame.slider_crank(0.0800, 0.2503, fc.Rotation.constant(6.05), "rod", offset=-0.00869)
+    m = fc.Model()
+    m.add_link(
+        "L0", length=0.618, elements=6, youngs_modulus=3.17e9, density=4232.0, area=1.706e-4,
+        inertia=2.426e-9, frame=rod,
+    )  # fmt: skip
+    m.add_body("B0", frame=fc.Frame.rotating(fc.Rotation.spin_up(final_rate=0.896, ramp_time=0.321)))
+    m.add_joint(
+        "J0", "L0", 1, clearance=2.956e-6, stiffness=1.593e7, damping=1e20, body="B0", damping_law="radial"
+    )
+    m.add_support("L0", 3, v=True)
+    with pytest.raises(fc.SimulationDivergedError, match="1000 steps in a row at the shortest step") as e:
+        m.simulate(3.93e-4, 1.965e-5, tol=1.59e-3, progress=False)
+    assert e.value.result.stats["floor_steps"] == 1000

@@ -8,7 +8,30 @@
 
 use super::norm2;
 use crate::contact::{ContactTerms, Mat2};
+use crate::error::Error;
 use crate::run::{Adaptive, RunStats};
+
+/// Accepted steps in a row at the shortest step over the error tolerance after which an
+/// adaptive run stops ([`floor_error`]): a step at the floor is accepted over the tolerance (a
+/// discontinuity the error estimate cannot resolve), but a run of them means no step can meet
+/// the tolerance, and the run would go on at `h_min` for up to `(t_end - t) / h_min` steps
+/// (a damping of 1e20 N s/m: 2e10 steps of 1.8e-14 s, hours, in a fuzz case).
+pub(crate) const FLOOR_RUN_LIMIT: u32 = 1000;
+
+/// The error of a run stopped by [`FLOOR_RUN_LIMIT`] steps in a row at the shortest step `h`
+/// (s), at time `t` (s), output step `step`.
+pub(crate) fn floor_error(t: f64, step: u64, h: f64) -> Error {
+    Error::Diverged {
+        time: t,
+        step,
+        dof: "the adaptive step".to_string(),
+        reason: format!(
+            "{FLOOR_RUN_LIMIT} steps in a row at the shortest step, h_min = {h:.3e} s, exceed the \
+             local error tolerance: no step meets it (a contact stiffness or damping far too large \
+             for the masses it acts on?); a larger tol or a fixed dt runs the model"
+        ),
+    }
+}
 
 /// The level `m` of the next step `h_max / 2^m`, and the level of the shortest step `h_min`.
 #[derive(Debug, Clone, Copy)]
@@ -16,6 +39,8 @@ pub(crate) struct Levels {
     h_max: f64,
     level: u32,
     max_level: u32,
+    /// Accepted steps in a row at the floor over the tolerance ([`Self::count_floor`]).
+    floor_run: u32,
 }
 
 /// The deepest level: `h_max / 2^60`.
@@ -31,12 +56,21 @@ impl Levels {
             h_max,
             level: start.min(max_level),
             max_level,
+            floor_run: 0,
         }
     }
 
     /// The step of the current level, `h_max / 2^m` (s; exact: a power of two).
     pub(crate) fn step(&self) -> f64 {
         self.h_max * 0.5f64.powi(self.level as i32)
+    }
+
+    /// Counts an accepted step, `over` the tolerance (at the floor) or not; true when
+    /// [`FLOOR_RUN_LIMIT`] accepted steps in a row were over it (the run is to stop with
+    /// [`floor_error`]).
+    pub(crate) fn count_floor(&mut self, over: bool) -> bool {
+        self.floor_run = if over { self.floor_run + 1 } else { 0 };
+        self.floor_run >= FLOOR_RUN_LIMIT
     }
 
     /// Whether the current level is the shortest step's.
@@ -418,6 +452,27 @@ pub(crate) fn hermite_crossing(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_run_of_floor_steps_stops_at_the_limit_and_one_within_the_tolerance_resets_it() {
+        let mut l = Levels::new(1.0, 1e-3, 1.0);
+        for _ in 0..FLOOR_RUN_LIMIT - 1 {
+            assert!(!l.count_floor(true));
+        }
+        assert!(
+            !l.count_floor(false),
+            "a step within the tolerance ends the run of floor steps"
+        );
+        for _ in 0..FLOOR_RUN_LIMIT - 1 {
+            assert!(!l.count_floor(true));
+        }
+        assert!(l.count_floor(true));
+        let e = floor_error(0.5, 3, 1e-14);
+        assert!(
+            e.to_string().contains("1000 steps in a row at the shortest step"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn hermite_points_follow_a_cubic_exactly() {

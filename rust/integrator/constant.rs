@@ -2154,6 +2154,11 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 ad.levels.reject(err.ratio);
                 continue;
             }
+            if ad.levels.count_floor(err.ratio > 1.0) {
+                let e = adaptive::floor_error(t, self.step, h);
+                self.retire(0, Some(e), self.step, t);
+                return;
+            }
             let stats = &mut self.lanes[0].stats;
             if err.ratio > 1.0 {
                 stats.floor_steps += 1;

@@ -3360,6 +3360,9 @@ impl<'a> NewtonRun<'a> {
             if err.ratio > 1.0 {
                 self.stats.floor_steps += 1;
             }
+            if ad.levels.count_floor(err.ratio > 1.0) {
+                return Err(adaptive::floor_error(t, k, h));
+            }
             // the accepted step's start and end, for the output instants within it (before a
             // restart at a cut changes the accelerations: the step's own left limit)
             ad.t_start = t;
