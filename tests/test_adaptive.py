@@ -491,37 +491,14 @@ def _violent_link() -> fc.Model:
         inertia=4.0226e-11, angle=-0.736375, motion=mot,
     )  # fmt: skip
     m.add_body("B0")
-    m.add_joint(
-        "J0",
-        "L0",
-        1,
-        clearance=3.0128e-06,
-        stiffness=2.5249e8,
-        damping=0.0,
-        body="B0",
-        point=(-0.034993, -0.060285),
-    )
-    m.add_joint(
-        "J1",
-        "L0",
-        4,
-        clearance=1.2952e-05,
-        stiffness=1e8,
-        damping=2.0918,
-        body="B0",
-        point=(-0.043746, -0.020339),
-    )
     m.add_body("S_L0", motion=mot)
-    m.add_joint(
-        "J2",
-        "L0",
-        6,
-        clearance=9.9381e-06,
-        stiffness=3.446e8,
-        damping=26.04,
-        body="S_L0",
-        point=(0.155924, -0.141339),
-    )
+    joints = [  # name, node, clearance m, stiffness N/m, damping N s/m, body, point m
+        ("J0", 1, 3.0128e-06, 2.5249e8, 0.0, "B0", (-0.034993, -0.060285)),
+        ("J1", 4, 1.2952e-05, 1e8, 2.0918, "B0", (-0.043746, -0.020339)),
+        ("J2", 6, 9.9381e-06, 3.446e8, 26.04, "S_L0", (0.155924, -0.141339)),
+    ]
+    for name, node, c, k, d, body, point in joints:
+        m.add_joint(name, "L0", node, clearance=c, stiffness=k, damping=d, body=body, point=point)
     m.add_mass("L0", 4, 0.14486)
     m.add_load("L0", 3, fv=10.136)
     return m
