@@ -2564,6 +2564,27 @@ impl<'a> NewtonRun<'a> {
 
     /// One Newmark step from `t` of size `h`. On failure the state is restored.
     fn step(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`has_avx2_fma`)
+            return unsafe { self.step_avx2(t, h, step, depth) };
+        }
+        self.step_body(t, h, step, depth)
+    }
+
+    /// [`Self::step`] compiled with AVX2 enabled, as [`Self::residual_avx2`]: bitwise the
+    /// baseline's.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn step_avx2(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
+        self.step_body(t, h, step, depth)
+    }
+
+    #[inline(always)]
+    fn step_body(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         self.jstate_fresh = false;
         let nm = self.settings.newmark;
         let (bh2, gh) = nm.coefficients(h);
@@ -3925,6 +3946,38 @@ mod tests {
             baseline.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
             run.r.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
         );
+    }
+
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn a_run_in_the_avx2_build_equals_the_baseline_run_bitwise() {
+        // the step and the residual in their AVX2 builds against both in the baseline's, over
+        // 2 ms of the crank-pin slider-crank (its first impacts)
+        use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
+        if !super::has_avx2_fma() {
+            return;
+        }
+        let mech = FlexibleSliderCrank {
+            clearance_at: Some(SliderCrankPin::CrankPin),
+            ..Default::default()
+        }
+        .build()
+        .expect("slider-crank scene");
+        let settings = crate::Settings::new(2e-3, 1e-5);
+        let outputs: Vec<_> = [true, false]
+            .into_iter()
+            .map(|avx2| {
+                let mut run = super::NewtonRun::new(&mech, &settings).expect("a Newton run");
+                run.avx2 = avx2;
+                run.run(&mut |_| true).expect("the run")
+            })
+            .collect();
+        let bits = |o: &crate::run::RunOutput| -> Vec<u64> { o.state.iter().flatten().map(|x| x.to_bits()).collect() };
+        assert_eq!(bits(&outputs[0]), bits(&outputs[1]));
+        assert_eq!(outputs[0].stats.iterations, outputs[1].stats.iterations);
+        let force = |o: &crate::run::RunOutput| o.record.extremes[0].max_force.to_bits();
+        assert_eq!(force(&outputs[0]), force(&outputs[1]));
+        assert!(outputs[0].record.extremes[0].max_force > 0.0);
     }
 
     /// Steps of `h` from 0 whose accelerations are `a(t)`: the first iterate each step
