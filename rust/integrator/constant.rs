@@ -1557,7 +1557,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// every running lane stops with [`Error::Interrupted`].
     pub fn run(self, control: &mut dyn FnMut(f64) -> bool) -> Vec<RunResult> {
         #[cfg(target_arch = "x86_64")]
-        if L > 1 && std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        if L > 1 && crate::linalg::avx2_fma_available() {
             // SAFETY: the CPU reports AVX2 and FMA.
             return unsafe { self.run_avx2(control) };
         }

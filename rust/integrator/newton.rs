@@ -436,18 +436,6 @@ fn mul6(a: &Mat6, s: Sparsity, v: &Vec6) -> Vec6 {
     }
 }
 
-/// Whether the CPU has AVX2 and FMA (false off x86-64).
-fn has_avx2_fma() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// A 6 x 6 element matrix with `a` on node 0's block (a rigid link's terms, all on node 0).
 fn node0_block(a: &[[f64; 3]; 3]) -> Mat6 {
     let mut m = Mat6::zeros();
@@ -1014,7 +1002,7 @@ impl<'a> NewtonRun<'a> {
             }
         }
         let mut run = NewtonRun {
-            avx2: has_avx2_fma(),
+            avx2: crate::linalg::avx2_fma_available(),
             mech,
             settings,
             links,
@@ -1717,7 +1705,7 @@ impl<'a> NewtonRun<'a> {
     fn residual(&mut self, h: f64, t: f64) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`has_avx2_fma`)
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`linalg::avx2_fma_available`)
             unsafe { self.residual_avx2(h, t) };
             return;
         }
@@ -2568,7 +2556,7 @@ impl<'a> NewtonRun<'a> {
     fn step(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`has_avx2_fma`)
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`linalg::avx2_fma_available`)
             return unsafe { self.step_avx2(t, h, step, depth) };
         }
         self.step_body(t, h, step, depth)
@@ -3913,19 +3901,27 @@ pub fn simulate_constant_rate(
 mod tests {
     use super::{mul6, Extrapolation, Mat6, Sparsity, Vec6, EXTRAPOLATION_MAX_RATIO};
 
+    /// The crank-pin slider-crank the AVX2 tests run, `None` where the CPU has no AVX2 build to
+    /// compare.
+    #[cfg(target_arch = "x86_64")]
+    fn avx2_crank_pin() -> Option<crate::model::mechanism::Mechanism> {
+        use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
+        crate::linalg::avx2_fma_available().then(|| {
+            FlexibleSliderCrank {
+                clearance_at: Some(SliderCrankPin::CrankPin),
+                ..Default::default()
+            }
+            .build()
+            .expect("slider-crank scene")
+        })
+    }
+
     #[test]
     #[cfg(target_arch = "x86_64")]
     fn the_avx2_residual_equals_the_baseline_one_bitwise() {
-        use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
-        if !super::has_avx2_fma() {
+        let Some(mech) = avx2_crank_pin() else {
             return;
-        }
-        let mech = FlexibleSliderCrank {
-            clearance_at: Some(SliderCrankPin::CrankPin),
-            ..Default::default()
-        }
-        .build()
-        .expect("slider-crank scene");
+        };
         let settings = crate::Settings::new(0.01, 1e-5);
         let mut run = super::NewtonRun::new(&mech, &settings).expect("a Newton run");
         run.update_frames(3.3e-3);
@@ -3955,16 +3951,9 @@ mod tests {
     fn a_run_in_the_avx2_build_equals_the_baseline_run_bitwise() {
         // the step and the residual in their AVX2 builds against both in the baseline's, over
         // 2 ms of the crank-pin slider-crank (its first impacts)
-        use crate::scenes::{FlexibleSliderCrank, SliderCrankPin};
-        if !super::has_avx2_fma() {
+        let Some(mech) = avx2_crank_pin() else {
             return;
-        }
-        let mech = FlexibleSliderCrank {
-            clearance_at: Some(SliderCrankPin::CrankPin),
-            ..Default::default()
-        }
-        .build()
-        .expect("slider-crank scene");
+        };
         let settings = crate::Settings::new(2e-3, 1e-5);
         let outputs: Vec<_> = [true, false]
             .into_iter()

@@ -567,8 +567,9 @@ fn fma_available() -> bool {
     }
 }
 
-/// True when the CPU has AVX2 and fused multiply-add (x86_64).
-fn avx2_fma_available() -> bool {
+/// True when the CPU has AVX2 and fused multiply-add (x86_64): the one test behind every AVX2
+/// build of the crate (these substitutions, the constant stepper's lockstep, the Newton step).
+pub(crate) fn avx2_fma_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")

@@ -14,5 +14,6 @@ mod woodbury;
 pub use band_lu::BandLu;
 pub use dense::solve_dense_in_place;
 pub use factor::Factor;
+pub(crate) use ldlt::avx2_fma_available;
 pub use ldlt::{Analysis, AnalysisCache, Cholesky, BAND};
 pub use woodbury::{capacitance_solve, subtract_ws, LowRankBlocks, Woodbury, WoodburyScratch};
