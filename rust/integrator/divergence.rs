@@ -1,11 +1,12 @@
 //! The one divergence rule of every stepper.
 //!
-//! Every [`CHECK_STRIDE`] steps and at the last step, the state is checked: every unknown's
-//! displacement and velocity must be finite, and every translational unknown (a displacement in
-//! metres: nodal `u, v` in a link frame, global `x, y` of a pinned node, a slider's travel) must
-//! stay within the divergence limit (by default 10 x the longest link), and every elastic
-//! rotation within [`ROTATION_LIMIT`] (half a turn: far outside what a small-rotation beam
-//! element describes; a limit in metres says nothing about an angle). The constant stepper also
+//! Every [`CHECK_STRIDE`] steps (of an adaptive run: accepted steps, [`AcceptedSteps`]) and at
+//! the last step, the state is checked: every unknown's displacement and velocity must be
+//! finite, and every translational unknown (a displacement in metres: nodal `u, v` in a link
+//! frame, global `x, y` of a pinned node, a slider's travel) must stay within the divergence
+//! limit (by default 10 x the longest link), and every elastic rotation within
+//! [`ROTATION_LIMIT`] (half a turn: far outside what a small-rotation beam element describes; a
+//! limit in metres says nothing about an angle).
 //! Both steppers also compare each clearance joint's penetration with the limit at every step (one
 //! comparison per joint, which is also its finite check; an open gap of any width passes): a joint
 //! whose sides follow prescribed motions can run away while every unknown stays bounded.
@@ -30,6 +31,40 @@ pub(crate) fn first_bad(
     (0..n).position(|i| {
         let (xi, vi) = (x(i), v(i));
         !(xi.is_finite() && vi.is_finite()) || xi.abs() > if translational(i) { limit } else { ROTATION_LIMIT }
+    })
+}
+
+/// The accepted steps of an adaptive run since its last check of the whole state: adaptive
+/// steps check at every [`CHECK_STRIDE`]-th accepted step and at the run's last, as fixed steps
+/// do, so that a state that diverged between two output instants stops within
+/// [`CHECK_STRIDE`] steps rather than being carried on with ever shorter ones.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct AcceptedSteps(u64);
+
+impl AcceptedSteps {
+    /// Counts one accepted step; whether the state is to be checked after it (every
+    /// [`CHECK_STRIDE`]-th, or `last`, the run's last step).
+    #[inline]
+    pub(crate) fn check_due(&mut self, last: bool) -> bool {
+        self.0 += 1;
+        if self.0 >= CHECK_STRIDE || last {
+            self.0 = 0;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// Whether no unknown fails [`first_bad`]'s test (displacements `x`, velocities `v`, whether
+/// each is `translational`, `limit` in m): one pass without early exit or bounds checks, which
+/// the compiler vectorizes, for the common case where nothing is wrong (the search for the
+/// culprit runs only when this fails).
+#[inline]
+pub(crate) fn all_within(x: &[f64], v: &[f64], translational: &[bool], limit: f64) -> bool {
+    x.iter().zip(v).zip(translational).fold(true, |ok, ((&xi, &vi), &tr)| {
+        let lim = if tr { limit } else { ROTATION_LIMIT };
+        ok & xi.is_finite() & vi.is_finite() & (xi.abs() <= lim)
     })
 }
 
@@ -80,8 +115,30 @@ mod tests {
         assert_eq!(check([0.0, 0.0, -1.1], [0.0; 3]), Some(2));
         assert_eq!(check([0.0, 0.0, 0.0], [0.0, f64::NAN, 0.0]), Some(1));
         assert_eq!(check([f64::INFINITY, 0.0, 0.0], [0.0; 3]), Some(0));
+        // the one-pass test agrees
+        let trs = [true, false, true];
+        let all = |x: [f64; 3], v: [f64; 3], limit: f64| all_within(&x, &v, &trs, limit);
+        assert!(all([0.9, 3.0, -0.9], [1e9; 3], 1.0));
+        assert!(!all([0.9, 3.2, 0.0], [0.0; 3], 1.0));
+        assert!(!all([0.0, 0.0, -1.1], [0.0; 3], 1.0));
+        assert!(!all([0.0; 3], [0.0, f64::NAN, 0.0], 1.0));
+        assert!(!all([0.0; 3], [0.0, 0.0, f64::NEG_INFINITY], 1.0));
+        // an infinite limit still catches an infinite displacement
+        assert!(all([1e300, 0.0, 0.0], [0.0; 3], f64::INFINITY));
+        assert!(!all([0.0, 0.0, f64::NEG_INFINITY], [0.0; 3], f64::INFINITY));
+        assert_eq!(
+            first_bad(3, tr, |i| [0.0, 0.0, f64::INFINITY][i], |_| 0.0, f64::INFINITY),
+            Some(2)
+        );
         assert!(reason(1.1, 0.0, true, 1.0).contains("1.100e0 m exceeds the divergence limit"));
         assert!(reason(3.2, 0.0, false, 1.0).contains("rad exceeds half a turn"));
         assert!(reason(0.0, f64::NAN, false, 1.0).starts_with("non-finite"));
+    }
+
+    #[test]
+    fn adaptive_runs_check_every_stride_th_accepted_step_and_the_last() {
+        let mut count = AcceptedSteps::default();
+        let due: Vec<u64> = (1..=40).filter(|&k| count.check_due(k == 37)).collect();
+        assert_eq!(due, vec![CHECK_STRIDE, 2 * CHECK_STRIDE, 37]);
     }
 }

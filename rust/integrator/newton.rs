@@ -2919,6 +2919,9 @@ impl<'a> NewtonRun<'a> {
     /// The divergence rule of [`crate::integrator::divergence`] on the unknowns.
     fn check_divergence(&self, t: f64, step: u64) -> Result<()> {
         let (y, yd) = (&self.y, &self.yd);
+        if super::divergence::all_within(y, yd, &self.translational, self.limit) {
+            return Ok(());
+        }
         match super::divergence::first_bad(self.n, |i| self.translational[i], |i| y[i], |i| yd[i], self.limit) {
             None => Ok(()),
             Some(i) => Err(Error::Diverged {
@@ -3338,7 +3341,8 @@ impl<'a> NewtonRun<'a> {
         while t1 - ad.t > eps {
             if ad.pending {
                 // the end of the last step, past the output instants recorded since
-                self.track_step_end(ad.t, k)?;
+                let check = ad.accepted.check_due(ad.t >= ad.t_end);
+                self.track_step_end(ad.t, k, check)?;
                 ad.pending = false;
             }
             let t = ad.t;
@@ -3457,16 +3461,20 @@ impl<'a> NewtonRun<'a> {
     /// Tracks the joints at the end of an accepted adaptive step at `t` (s), output step `k`,
     /// that no output instant took: the extremes and the shared recorder (as an event), and the
     /// divergence limit on each joint's penetration.
-    fn track_step_end(&mut self, t: f64, k: u64) -> Result<()> {
+    fn track_step_end(&mut self, t: f64, k: u64, check: bool) -> Result<()> {
         self.track_joints(t, None);
         if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
             let name = &self.mech.joints[j].name;
             return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
         }
-        // the unknowns too, at every accepted step: a run that diverged between two output
-        // instants stops there, not after as many ever shorter steps as a stiff contact of the
-        // diverged state asks for up to the next output instant
-        self.check_divergence(t, k)
+        // the unknowns too, every few accepted steps (`check`, [`divergence::AcceptedSteps`]):
+        // a run that diverged between two output instants stops there, not after as many ever
+        // shorter steps as a stiff contact of the diverged state asks for up to the next
+        // output instant
+        if check {
+            self.check_divergence(t, k)?;
+        }
+        Ok(())
     }
 
     /// Whether a joint open at both ends of the trial step of length `h` (s) just taken passes
@@ -3684,6 +3692,7 @@ impl<'a> NewtonRun<'a> {
             levels: adaptive::Levels::new(a.h_max, a.h_min, h),
             forces: adaptive::ForceErrors::new(self.mech.joints.len()),
             da: vec![[0.0; 2]; self.mech.joints.len()],
+            accepted: Default::default(),
         });
         let events =
             (self.settings.events && !self.mech.joints.is_empty() && adaptive.is_none()).then(EventScratch::default);
@@ -3797,6 +3806,8 @@ struct AdaptiveScratch {
     /// relative acceleration over the accepted step (m/s^2).
     forces: adaptive::ForceErrors,
     da: Vec<[f64; 2]>,
+    /// Accepted steps since the last divergence check.
+    accepted: super::divergence::AcceptedSteps,
 }
 
 impl Stepper for NewtonLoop<'_, '_> {
