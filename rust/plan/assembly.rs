@@ -2,7 +2,6 @@
 //! the mass, stiffness, damping and effective matrices for the whole run, and the scatter of
 //! element matrices into it through precomputed positions.
 
-use std::collections::BTreeSet;
 use std::sync::Arc;
 
 use super::translating::{JointTarget, Model};
@@ -23,17 +22,19 @@ pub struct Pattern {
 }
 
 impl Pattern {
-    /// Builds the pattern from `(row, col)` entries (duplicates merged).
-    pub fn from_entries(n: usize, entries: &BTreeSet<(usize, usize)>) -> Self {
+    /// Builds the pattern from `(row, col)` entries, in any order (duplicates merged): one sort
+    /// by column and row.
+    pub fn from_entries(n: usize, entries: impl IntoIterator<Item = (usize, usize)>) -> Self {
+        let mut by_col: Vec<(usize, usize)> = entries.into_iter().map(|(r, c)| (c, r)).collect();
+        by_col.sort_unstable();
+        by_col.dedup();
         let mut col_ptr = vec![0usize; n + 1];
-        for &(_, c) in entries {
+        for &(c, _) in &by_col {
             col_ptr[c + 1] += 1;
         }
         for c in 0..n {
             col_ptr[c + 1] += col_ptr[c];
         }
-        let mut by_col: Vec<(usize, usize)> = entries.iter().map(|&(r, c)| (c, r)).collect();
-        by_col.sort_unstable();
         let row_idx = by_col.into_iter().map(|(_, r)| r).collect();
         Pattern { n, col_ptr, row_idx }
     }
@@ -283,13 +284,13 @@ impl System {
             offset += l.dofs();
         }
         let n = offset;
-        let mut entries = BTreeSet::new();
+        let mut entries = Vec::new();
         for (l, &o) in model.links.iter().zip(&offsets) {
             for e in 0..l.section.elements {
                 let base = o + NODE_DOFS * e;
                 for i in 0..6 {
                     for j in 0..6 {
-                        entries.insert((base + i, base + j));
+                        entries.push((base + i, base + j));
                     }
                 }
             }
@@ -328,12 +329,12 @@ impl System {
             }
             for a in 0..plan.ndof {
                 for b in 0..plan.ndof {
-                    entries.insert((plan.dofs[a], plan.dofs[b]));
+                    entries.push((plan.dofs[a], plan.dofs[b]));
                 }
             }
             joints.push(plan);
         }
-        let pattern = Pattern::from_entries(n, &entries);
+        let pattern = Pattern::from_entries(n, entries);
         let nnz = pattern.nnz();
         let (mut mass, mut stiffness, mut damping) = (vec![0.0; nnz], vec![0.0; nnz], vec![0.0; nnz]);
         let mut links = Vec::with_capacity(model.links.len());
