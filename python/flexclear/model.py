@@ -1271,8 +1271,9 @@ class Model:
             halved (0: raise :class:`ConvergenceError`).
         divergence_limit : float, optional
             A displacement (or a clearance joint's penetration) beyond this, m, counts as
-            divergence; default 10 x the longest link. Checked at every output instant and,
-            with ``tol``, at every accepted adaptive step.
+            divergence; default 10 x the longest link. Each clearance joint's penetration is
+            checked at every step, the whole state every 16 steps (with ``tol``: every 16
+            accepted adaptive steps) and at the last.
         progress : bool or callable, optional
             True shows a progress bar; a callable receives the fraction done.
         raise_on_failure : bool
