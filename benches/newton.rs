@@ -13,10 +13,11 @@
 use std::hint::black_box;
 use std::sync::Arc;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use flexclear::contact::Coupling;
 use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
 use flexclear::kinematics::{FrameKinematics, RotatingFrame, Rotation};
+use flexclear::linalg::{BandLu, BandLuLanes};
 use flexclear::model::mechanism::{Link, Mechanism, Support, Terms};
 use flexclear::model::section::BeamSection;
 use flexclear::model::Motion;
@@ -204,5 +205,59 @@ fn contact(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, step_terms, runs, scaling, contact);
+/// The lockstep lanes' band LU (issue 14, item 2): `L = 4` nonsymmetric band matrices of the
+/// slider-crank's size (26 unknowns, half-bandwidth 5) factorized and solved as four
+/// [`BandLu`]s one after the other, and as one [`BandLuLanes`] (each lane bitwise the same).
+fn band_lanes(c: &mut Criterion) {
+    let (n, b) = (26, 5);
+    let mats: Vec<BandLu> = (0..4)
+        .map(|q| {
+            let mut m = BandLu::new(n, b);
+            for i in 0..n {
+                for j in i.saturating_sub(b)..(i + b + 1).min(n) {
+                    let v = ((i * 7 + j * 13 + q * 5) % 11) as f64 / 11.0 - 0.5;
+                    m.add(i, j, if i == j { 4.0 * b as f64 + v } else { v });
+                }
+            }
+            m
+        })
+        .collect();
+    let rhs: Vec<f64> = (0..n).map(|i| 1.0 + i as f64).collect();
+    let mut g = c.benchmark_group("linalg/band LU n 26 b 5, 4 matrices");
+    // the matrices are copied outside the timed part (iter_batched)
+    g.bench_function("4 x BandLu factorize + solve", |bch| {
+        bch.iter_batched(
+            || (mats.clone(), vec![rhs.clone(); 4]),
+            |(mut work, mut xs)| {
+                for (m, x) in work.iter_mut().zip(xs.iter_mut()) {
+                    m.factorize("bench").expect("factorizes");
+                    m.solve_in_place(black_box(x));
+                }
+                (work, xs)
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    let mut lanes = BandLuLanes::<4>::new(n, b);
+    for (q, m) in mats.iter().enumerate() {
+        lanes.set_lane(q, m);
+    }
+    let xl: Vec<[f64; 4]> = rhs.iter().map(|&r| [r; 4]).collect();
+    g.bench_function("BandLuLanes<4> factorize + solve", |bch| {
+        bch.iter_batched(
+            || (lanes.clone(), xl.clone()),
+            |(mut work, mut x)| {
+                for r in work.factorize("bench") {
+                    r.expect("factorizes");
+                }
+                work.solve_in_place(black_box(&mut x));
+                (work, x)
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    g.finish();
+}
+
+criterion_group!(benches, step_terms, runs, scaling, contact, band_lanes);
 criterion_main!(benches);

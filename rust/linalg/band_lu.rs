@@ -2,6 +2,15 @@
 
 use crate::error::{Error, Result};
 
+/// The storage position of entry `(i, j)` of an `n x n` band of half-bandwidth `b` stored row by
+/// row, `2b + 1` entries a row: `i (2b + 1) + (j + b - i)`. Panics outside the band (an assembly
+/// bug, not user input: the bandwidth is computed from the same connectivity).
+#[inline]
+pub(super) fn band_position(n: usize, b: usize, i: usize, j: usize) -> usize {
+    assert!(i.abs_diff(j) <= b && i < n && j < n, "entry outside the band");
+    i * (2 * b + 1) + j + b - i
+}
+
 /// Dense-band LU factorization without pivoting, for the nonsymmetric effective matrices of
 /// rotating links (the Coriolis term `2 phidot rho A int N^T S N` and the `phiddot` part of
 /// `M_IC` are skew-symmetric). Refactorized in place with no allocation, `O(n b^2)` for
@@ -85,11 +94,7 @@ impl BandLu {
     /// that add into the same entries at every assembly compute it once.
     #[inline]
     pub fn position(&self, i: usize, j: usize) -> usize {
-        assert!(
-            i.abs_diff(j) <= self.b && i < self.n && j < self.n,
-            "entry outside the band"
-        );
-        i * (2 * self.b + 1) + j + self.b - i
+        band_position(self.n, self.b, i, j)
     }
 
     /// Adds `v` at a position from [`Self::position`].
@@ -103,7 +108,7 @@ impl BandLu {
         if i.abs_diff(j) > self.b {
             return 0.0;
         }
-        self.a[i * (2 * self.b + 1) + j + self.b - i]
+        self.a[band_position(self.n, self.b, i, j)]
     }
 
     /// Factorizes the assembled matrix in place (L unit lower, U upper). `what` names the

@@ -6,12 +6,14 @@
 //! Nothing here allocates after construction.
 
 mod band_lu;
+mod band_lu_lanes;
 mod dense;
 mod factor;
 mod ldlt;
 mod woodbury;
 
 pub use band_lu::BandLu;
+pub use band_lu_lanes::BandLuLanes;
 pub use dense::solve_dense_in_place;
 pub use factor::Factor;
 pub(crate) use ldlt::avx2_fma_available;
