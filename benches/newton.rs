@@ -205,12 +205,18 @@ fn contact(c: &mut Criterion) {
     g.finish();
 }
 
-/// The lockstep lanes' band LU (issue 14, item 2): `L = 4` nonsymmetric band matrices of the
-/// slider-crank's size (26 unknowns, half-bandwidth 5) factorized and solved as four
-/// [`BandLu`]s one after the other, and as one [`BandLuLanes`] (each lane bitwise the same).
+/// The lockstep lanes' band LU (issue 14, item 2): `L` nonsymmetric band matrices of the
+/// slider-crank's size (26 unknowns, half-bandwidth 5) factorized and solved as `L` [`BandLu`]s
+/// one after the other, and as one [`BandLuLanes`] (each lane bitwise the same), for 4 and 8
+/// lanes.
 fn band_lanes(c: &mut Criterion) {
+    band_lanes_of::<4>(c);
+    band_lanes_of::<8>(c);
+}
+
+fn band_lanes_of<const L: usize>(c: &mut Criterion) {
     let (n, b) = (26, 5);
-    let mats: Vec<BandLu> = (0..4)
+    let mats: Vec<BandLu> = (0..L)
         .map(|q| {
             let mut m = BandLu::new(n, b);
             for i in 0..n {
@@ -223,11 +229,11 @@ fn band_lanes(c: &mut Criterion) {
         })
         .collect();
     let rhs: Vec<f64> = (0..n).map(|i| 1.0 + i as f64).collect();
-    let mut g = c.benchmark_group("linalg/band LU n 26 b 5, 4 matrices");
+    let mut g = c.benchmark_group(format!("linalg/band LU n 26 b 5, {L} matrices"));
     // the matrices are copied outside the timed part (iter_batched)
-    g.bench_function("4 x BandLu factorize + solve", |bch| {
+    g.bench_function(format!("{L} x BandLu factorize + solve"), |bch| {
         bch.iter_batched(
-            || (mats.clone(), vec![rhs.clone(); 4]),
+            || (mats.clone(), vec![rhs.clone(); L]),
             |(mut work, mut xs)| {
                 for (m, x) in work.iter_mut().zip(xs.iter_mut()) {
                     m.factorize("bench").expect("factorizes");
@@ -238,12 +244,12 @@ fn band_lanes(c: &mut Criterion) {
             BatchSize::SmallInput,
         )
     });
-    let mut lanes = BandLuLanes::<4>::new(n, b);
+    let mut lanes = BandLuLanes::<L>::new(n, b);
     for (q, m) in mats.iter().enumerate() {
         lanes.set_lane(q, m);
     }
-    let xl: Vec<[f64; 4]> = rhs.iter().map(|&r| [r; 4]).collect();
-    g.bench_function("BandLuLanes<4> factorize + solve", |bch| {
+    let xl: Vec<[f64; L]> = rhs.iter().map(|&r| [r; L]).collect();
+    g.bench_function(format!("BandLuLanes<{L}> factorize + solve"), |bch| {
         bch.iter_batched(
             || (lanes.clone(), xl.clone()),
             |(mut work, mut x)| {
