@@ -62,6 +62,7 @@ impl AcceptedSteps {
 /// culprit runs only when this fails).
 #[inline]
 pub(crate) fn all_within(x: &[f64], v: &[f64], translational: &[bool], limit: f64) -> bool {
+    debug_assert!(x.len() == translational.len() && v.len() == translational.len());
     x.iter().zip(v).zip(translational).fold(true, |ok, ((&xi, &vi), &tr)| {
         let lim = if tr { limit } else { ROTATION_LIMIT };
         ok & xi.is_finite() & vi.is_finite() & (xi.abs() <= lim)
