@@ -1355,13 +1355,17 @@ impl<'m> Lane<'m> {
 
     /// Finite and within-limit check of this lane's state (`u`, `v` give the lane's entries).
     fn check_state(&self, u: impl DofAt, v: impl DofAt, translational: &[bool], t: f64, step: u64) -> Result<()> {
-        let bad = divergence::first_bad(
-            translational.len(),
-            |i| translational[i],
-            |i| u.at(i),
-            |i| v.at(i),
-            self.limit,
-        );
+        let bad = match (u.slice(), v.slice()) {
+            // contiguous (one lane): the vectorized pass first
+            (Some(us), Some(vs)) => divergence::first_bad_in(us, vs, translational, self.limit),
+            _ => divergence::first_bad(
+                translational.len(),
+                |i| translational[i],
+                |i| u.at(i),
+                |i| v.at(i),
+                self.limit,
+            ),
+        };
         if let Some(d) = bad {
             let reason = divergence::reason(u.at(d), v.at(d), translational[d], self.limit);
             return Err(Error::Diverged {
@@ -1378,12 +1382,20 @@ impl<'m> Lane<'m> {
 /// Read access to one lane's entries of a global vector.
 trait DofAt: Copy {
     fn at(&self, i: usize) -> f64;
+    /// The entries as one contiguous slice, where they are.
+    fn slice(&self) -> Option<&[f64]> {
+        None
+    }
 }
 
 impl DofAt for &[f64] {
     #[inline]
     fn at(&self, i: usize) -> f64 {
         self[i]
+    }
+    #[inline]
+    fn slice(&self) -> Option<&[f64]> {
+        Some(self)
     }
 }
 
@@ -2419,11 +2431,13 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     fn check_lane(&self, l: usize, t: f64, step: u64) -> Result<()> {
         let lane = &self.lanes[l];
         if L == 1 {
-            let (u, v) = (self.u.as_flattened(), self.v.as_flattened());
-            if divergence::all_within(u, v, &self.sh.translational, lane.limit) {
-                return Ok(());
-            }
-            lane.check_state(u, v, &self.sh.translational, t, step)
+            lane.check_state(
+                self.u.as_flattened(),
+                self.v.as_flattened(),
+                &self.sh.translational,
+                t,
+                step,
+            )
         } else {
             lane.check_state(LaneOf(&self.u, l), LaneOf(&self.v, l), &self.sh.translational, t, step)
         }

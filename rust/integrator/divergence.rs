@@ -56,12 +56,22 @@ impl AcceptedSteps {
     }
 }
 
-/// Whether no unknown fails [`first_bad`]'s test (displacements `x`, velocities `v`, whether
-/// each is `translational`, `limit` in m): one pass without early exit or bounds checks, which
-/// the compiler vectorizes, for the common case where nothing is wrong (the search for the
-/// culprit runs only when this fails).
+/// [`first_bad`] on contiguous displacements `x`, velocities `v` and unknown kinds
+/// `translational` (one length): first one pass over all of them without early exit or bounds
+/// checks, which the compiler vectorizes, for the common case where nothing is wrong; the search
+/// for the culprit only when that pass fails.
 #[inline]
-pub(crate) fn all_within(x: &[f64], v: &[f64], translational: &[bool], limit: f64) -> bool {
+pub(crate) fn first_bad_in(x: &[f64], v: &[f64], translational: &[bool], limit: f64) -> Option<usize> {
+    if all_within(x, v, translational, limit) {
+        return None;
+    }
+    first_bad(translational.len(), |i| translational[i], |i| x[i], |i| v[i], limit)
+}
+
+/// Whether no unknown fails [`first_bad`]'s test (displacements `x`, velocities `v`, whether
+/// each is `translational`, `limit` in m), in one pass ([`first_bad_in`]'s fast path).
+#[inline]
+fn all_within(x: &[f64], v: &[f64], translational: &[bool], limit: f64) -> bool {
     debug_assert!(x.len() == translational.len() && v.len() == translational.len());
     x.iter().zip(v).zip(translational).fold(true, |ok, ((&xi, &vi), &tr)| {
         let lim = if tr { limit } else { ROTATION_LIMIT };
@@ -131,6 +141,10 @@ mod tests {
             first_bad(3, tr, |i| [0.0, 0.0, f64::INFINITY][i], |_| 0.0, f64::INFINITY),
             Some(2)
         );
+        // and the slice form finds the same culprit
+        assert_eq!(first_bad_in(&[0.9, 3.2, 0.0], &[0.0; 3], &trs, 1.0), Some(1));
+        assert_eq!(first_bad_in(&[0.0; 3], &[0.0, 0.0, f64::NAN], &trs, 1.0), Some(2));
+        assert_eq!(first_bad_in(&[0.9, 3.0, -0.9], &[1e9; 3], &trs, 1.0), None);
         assert!(reason(1.1, 0.0, true, 1.0).contains("1.100e0 m exceeds the divergence limit"));
         assert!(reason(3.2, 0.0, false, 1.0).contains("rad exceeds half a turn"));
         assert!(reason(0.0, f64::NAN, false, 1.0).starts_with("non-finite"));

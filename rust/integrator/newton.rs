@@ -2918,11 +2918,8 @@ impl<'a> NewtonRun<'a> {
 
     /// The divergence rule of [`crate::integrator::divergence`] on the unknowns.
     fn check_divergence(&self, t: f64, step: u64) -> Result<()> {
-        let (y, yd) = (&self.y, &self.yd);
-        if super::divergence::all_within(y, yd, &self.translational, self.limit) {
-            return Ok(());
-        }
-        match super::divergence::first_bad(self.n, |i| self.translational[i], |i| y[i], |i| yd[i], self.limit) {
+        let (y, yd) = (&self.y[..self.n], &self.yd[..self.n]);
+        match super::divergence::first_bad_in(y, yd, &self.translational[..self.n], self.limit) {
             None => Ok(()),
             Some(i) => Err(Error::Diverged {
                 time: t,
