@@ -641,6 +641,9 @@ pub struct NewtonRun<'a> {
     /// Per link, per element on its own unknowns (both nodes plain, else `None`): the band
     /// positions of its 36 entries (column-major, `NONE` for a held slot), fixed for the run.
     elem_pos: Vec<Vec<Option<Box<[usize; 36]>>>>,
+    /// Per link, per element whose six unknowns are consecutive (both nodes plain, none held):
+    /// the first, else `NONE`; the residual reads and adds its element vectors as slices.
+    elem_first: Vec<Vec<usize>>,
     /// Per slider, its guide's frame at [`Self::t_frames`] and `(cos, sin)` of the guide angle.
     slider_frames: Vec<FrameState>,
     slider_dir: Vec<[f64; 2]>,
@@ -1017,6 +1020,7 @@ impl<'a> NewtonRun<'a> {
             node_off: Vec::new(),
             link_ck: Vec::new(),
             elem_pos: Vec::new(),
+            elem_first: Vec::new(),
             slider_frames: vec![FrameState::default(); mech.sliders.len()],
             slider_dir: mech.sliders.iter().map(|s| [s.angle.cos(), s.angle.sin()]).collect(),
             y: vec![0.0; n],
@@ -1112,6 +1116,22 @@ impl<'a> NewtonRun<'a> {
                             }
                         }
                         Some(Box::new(pos))
+                    })
+                    .collect()
+            })
+            .collect();
+        run.elem_first = (0..run.links.len())
+            .map(|li| {
+                (0..run.mech.links[li].section.elements)
+                    .map(|e| {
+                        let (p, q) = (run.nt(li, e), run.nt(li, e + 1));
+                        let idx = [p.idx[0], p.idx[1], p.idx[2], q.idx[0], q.idx[1], q.idx[2]];
+                        let consecutive = idx[0] != NONE && (1..6).all(|k| idx[k] == idx[0] + k);
+                        if p.plain && q.plain && consecutive {
+                            idx[0]
+                        } else {
+                            NONE
+                        }
                     })
                     .collect()
             })
@@ -1734,20 +1754,37 @@ impl<'a> NewtonRun<'a> {
             let ld = &self.links[li];
             let le = self.mech.links[li].element_length();
             let mut prev = self.nt(li, 0);
-            let mut wprev = Self::local(prev, &self.y, &self.yd, &self.ydd);
+            // the local state of `prev` where the last element computed it
+            let mut wprev = None;
             let (c0, k0) = self.link_ck[li];
             // the nominal acceleration of the frame origin and the frame's rates: the same for
             // every element of the link (one rotation per link, not per element)
             let fr = self.frames[li];
             let fs = if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] };
+            let first = &self.elem_first[li];
             for e in 0..self.mech.links[li].section.elements {
                 let next = self.nt(li, e + 1);
-                let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
-                let (q, qd, qdd) = (
-                    element_vec(&wprev, &wn, 0),
-                    element_vec(&wprev, &wn, 1),
-                    element_vec(&wprev, &wn, 2),
-                );
+                // an element on six consecutive unknowns reads its vectors as slices (the same
+                // values as through its nodes' local states, T = I)
+                let s0 = first[e];
+                let (q, qd, qdd) = if s0 != NONE {
+                    wprev = None;
+                    let s = s0..s0 + 6;
+                    (
+                        Vec6::from_column_slice(&self.y[s.clone()]),
+                        Vec6::from_column_slice(&self.yd[s.clone()]),
+                        Vec6::from_column_slice(&self.ydd[s]),
+                    )
+                } else {
+                    let w0 = wprev.unwrap_or_else(|| Self::local(prev, &self.y, &self.yd, &self.ydd));
+                    let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
+                    wprev = Some(wn);
+                    (
+                        element_vec(&w0, &wn, 0),
+                        element_vec(&w0, &wn, 1),
+                        element_vec(&w0, &wn, 2),
+                    )
+                };
                 let mut f = mul6(&ld.m, ld.m_sparsity, &qdd) + c0 * qd + k0 * q;
                 if ld.active.geometric {
                     let fax = ld.ea_l * (q[3] - q[0]);
@@ -1764,10 +1801,15 @@ impl<'a> NewtonRun<'a> {
                 if let Some(mc) = ld.rigid_moment {
                     f[2] -= mc * self.a_ref(li, 0.0)[0] * q[2];
                 }
-                Self::project(prev, [f[0], f[1], f[2]], &mut r);
-                Self::project(next, [f[3], f[4], f[5]], &mut r);
+                if s0 != NONE {
+                    for (ri, fi) in r[s0..s0 + 6].iter_mut().zip(f.iter()) {
+                        *ri += fi;
+                    }
+                } else {
+                    Self::project(prev, [f[0], f[1], f[2]], &mut r);
+                    Self::project(next, [f[3], f[4], f[5]], &mut r);
+                }
                 prev = next;
-                wprev = wn;
             }
             // Point masses and nodal loads.
             for &nd in &ld.loaded_nodes {
@@ -2579,10 +2621,9 @@ impl<'a> NewtonRun<'a> {
         let nm = self.settings.newmark;
         let (bh2, gh) = nm.coefficients(h);
         // State at the start (kept for contact terms and for a retry).
-        for i in 0..self.n {
-            self.y_pred[i] = self.y[i];
-            self.v_pred[i] = self.yd[i];
-        }
+        let n = self.n;
+        self.y_pred[..n].copy_from_slice(&self.y[..n]);
+        self.v_pred[..n].copy_from_slice(&self.yd[..n]);
         // Contact terms from the start-of-step state (lagged kappa, force method).
         self.evaluate_contacts(true);
         self.y0.copy_from_slice(&self.y);
@@ -2596,16 +2637,20 @@ impl<'a> NewtonRun<'a> {
             // step ended here and nothing has changed the accelerations since
             let w = self.extrapolation.start(t, h, &self.ydd);
             // (`w = 0`: `a = a0` exactly)
-            let a_prev = &self.extrapolation.a0[..self.n];
-            for i in 0..self.n {
-                let (y0, v0, a0) = (self.y[i], self.yd[i], self.ydd[i]);
-                self.y_pred[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * a0;
-                self.v_pred[i] = v0 + (1.0 - nm.gamma) * h * a0;
+            // (slices of one length: no reload of the vectors' pointers nor bounds check per
+            // unknown)
+            let a_prev = &self.extrapolation.a0[..n];
+            let (yp, vp, av) = (&mut self.y_pred[..n], &mut self.v_pred[..n], &mut self.a[..n]);
+            let (yv, ydv, yddv) = (&mut self.y[..n], &mut self.yd[..n], &mut self.ydd[..n]);
+            for i in 0..n {
+                let (y0, v0, a0) = (yv[i], ydv[i], yddv[i]);
+                yp[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * a0;
+                vp[i] = v0 + (1.0 - nm.gamma) * h * a0;
                 let a = if w > 0.0 { a0 + w * (a0 - a_prev[i]) } else { a0 };
-                self.a[i] = a;
-                self.y[i] = self.y_pred[i] + bh2 * a;
-                self.yd[i] = self.v_pred[i] + gh * a;
-                self.ydd[i] = a;
+                av[i] = a;
+                yv[i] = yp[i] + bh2 * a;
+                ydv[i] = vp[i] + gh * a;
+                yddv[i] = a;
             }
         }
         let iterate_contact = self.implicit_contact;
