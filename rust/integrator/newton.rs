@@ -463,6 +463,80 @@ struct NodeT {
     plain: bool,
 }
 
+/// The Newmark predictors of a step of `h` (s) from the state `[y, yd, ydd]` into `[y_pred,
+/// v_pred]`, and its first iterate `a = a_n + w (a_n - a_prev)` (`a_n` where `w = 0`) into `a`
+/// and the state; `c = [h, beta, gamma, beta h^2, gamma h, w]`. A function of its own so that the
+/// slices are known not to overlap (the loop runs in vector registers).
+#[inline(always)]
+fn predict(state: [&mut [f64]; 3], pred: [&mut [f64]; 3], a_prev: &[f64], c: [f64; 6]) {
+    let [yv, ydv, yddv] = state;
+    let [yp, vp, av] = pred;
+    let [h, beta, gamma, bh2, gh, w] = c;
+    let n = yv.len();
+    let (ydv, yddv, yp, vp, av, a_prev) = (
+        &mut ydv[..n],
+        &mut yddv[..n],
+        &mut yp[..n],
+        &mut vp[..n],
+        &mut av[..n],
+        &a_prev[..n],
+    );
+    for i in 0..n {
+        let (y0, v0, a0) = (yv[i], ydv[i], yddv[i]);
+        yp[i] = y0 + h * v0 + (0.5 - beta) * h * h * a0;
+        vp[i] = v0 + (1.0 - gamma) * h * a0;
+        let a = if w > 0.0 { a0 + w * (a0 - a_prev[i]) } else { a0 };
+        av[i] = a;
+        yv[i] = yp[i] + bh2 * a;
+        ydv[i] = vp[i] + gh * a;
+        yddv[i] = a;
+    }
+}
+
+/// A Newton correction `dx` (the accelerations' `-dx`) into `[a, ydd, y, yd]` from the predictors
+/// `[y_pred, v_pred]` (`bh2 = beta h^2`, `gh = gamma h`); returns the largest displacement
+/// correction `bh2 |dx|` and the largest `|y|` (NaN entries skipped, as `f64::max` does; four
+/// running maxima each, exact whatever the order). A function of its own so that the slices
+/// are known not to overlap.
+#[inline(always)]
+fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
+    let [av, yddv, yv, ydv] = state;
+    let [ypv, vpv, dxv] = pred;
+    let n = av.len();
+    let (yddv, yv, ydv, ypv, vpv, dxv) = (
+        &mut yddv[..n],
+        &mut yv[..n],
+        &mut ydv[..n],
+        &ypv[..n],
+        &vpv[..n],
+        &dxv[..n],
+    );
+    let mut dm = [0.0f64; 4];
+    let mut ym = [0.0f64; 4];
+    let mut one = |i: usize, k: usize| {
+        let da = -dxv[i];
+        av[i] += da;
+        yddv[i] = av[i];
+        yv[i] = ypv[i] + bh2 * av[i];
+        ydv[i] = vpv[i] + gh * av[i];
+        dm[k] = dm[k].max((bh2 * da).abs());
+        ym[k] = ym[k].max(yv[i].abs());
+    };
+    // unknown i into maximum i % 4, four at a time
+    for c in 0..n / 4 {
+        for k in 0..4 {
+            one(4 * c + k, k);
+        }
+    }
+    for i in n / 4 * 4..n {
+        one(i, i % 4);
+    }
+    (
+        dm[0].max(dm[1]).max(dm[2].max(dm[3])),
+        ym[0].max(ym[1]).max(ym[2].max(ym[3])),
+    )
+}
+
 /// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
 /// 2 acceleration) from the local states of its two nodes (see [`NewtonRun::local`]).
 #[inline]
@@ -2637,21 +2711,12 @@ impl<'a> NewtonRun<'a> {
             // step ended here and nothing has changed the accelerations since
             let w = self.extrapolation.start(t, h, &self.ydd);
             // (`w = 0`: `a = a0` exactly)
-            // (slices of one length: no reload of the vectors' pointers nor bounds check per
-            // unknown)
-            let a_prev = &self.extrapolation.a0[..n];
-            let (yp, vp, av) = (&mut self.y_pred[..n], &mut self.v_pred[..n], &mut self.a[..n]);
-            let (yv, ydv, yddv) = (&mut self.y[..n], &mut self.yd[..n], &mut self.ydd[..n]);
-            for i in 0..n {
-                let (y0, v0, a0) = (yv[i], ydv[i], yddv[i]);
-                yp[i] = y0 + h * v0 + (0.5 - nm.beta) * h * h * a0;
-                vp[i] = v0 + (1.0 - nm.gamma) * h * a0;
-                let a = if w > 0.0 { a0 + w * (a0 - a_prev[i]) } else { a0 };
-                av[i] = a;
-                yv[i] = yp[i] + bh2 * a;
-                ydv[i] = vp[i] + gh * a;
-                yddv[i] = a;
-            }
+            predict(
+                [&mut self.y[..n], &mut self.yd[..n], &mut self.ydd[..n]],
+                [&mut self.y_pred[..n], &mut self.v_pred[..n], &mut self.a[..n]],
+                &self.extrapolation.a0[..n],
+                [h, nm.beta, nm.gamma, bh2, gh, w],
+            );
         }
         let iterate_contact = self.implicit_contact;
         // friction is evaluated at every iterate (its force in the residual, its slip-speed
@@ -2751,27 +2816,18 @@ impl<'a> NewtonRun<'a> {
             }
             // the largest correction and displacement, four running maxima each (no chain
             // through every unknown; the maxima are exact, so the order does not matter)
-            let mut dm = [0.0f64; 4];
-            let mut ym = [0.0f64; 4];
             let n = self.n;
-            let (av, yddv, yv, ydv) = (
-                &mut self.a[..n],
-                &mut self.ydd[..n],
-                &mut self.y[..n],
-                &mut self.yd[..n],
+            let (dmax, ymax) = correct(
+                [
+                    &mut self.a[..n],
+                    &mut self.ydd[..n],
+                    &mut self.y[..n],
+                    &mut self.yd[..n],
+                ],
+                [&self.y_pred[..n], &self.v_pred[..n], &dx[..n]],
+                bh2,
+                gh,
             );
-            let (ypv, vpv, dxv) = (&self.y_pred[..n], &self.v_pred[..n], &dx[..n]);
-            for i in 0..n {
-                let da = -dxv[i];
-                av[i] += da;
-                yddv[i] = av[i];
-                yv[i] = ypv[i] + bh2 * av[i];
-                ydv[i] = vpv[i] + gh * av[i];
-                dm[i % 4] = dm[i % 4].max((bh2 * da).abs());
-                ym[i % 4] = ym[i % 4].max(yv[i].abs());
-            }
-            let dmax = dm[0].max(dm[1]).max(dm[2].max(dm[3]));
-            let ymax = ym[0].max(ym[1]).max(ym[2].max(ym[3]));
             // f64::max skips NaN: a non-finite correction is caught here, not by dmax
             let finite = dx.iter().all(|d| d.is_finite());
             self.r = dx;
