@@ -3078,7 +3078,20 @@ impl<'a> NewtonRun<'a> {
             let nn = l.nodes();
             let ch = rec.links;
             let need_w = ch.displacements || ch.axial_force || ch.midspan || ch.energy;
-            if need_w {
+            if need_w && !(ch.axial_force || ch.midspan || ch.energy) {
+                // the displacements alone (the default): a node plain on three consecutive
+                // unknowns is a slice of `y` (its local state's displacements, T = I)
+                for nd in 0..nn {
+                    let nt = self.nt(li, nd);
+                    let [i, j, k] = nt.idx;
+                    if nt.plain && i != NONE && j == i + 1 && k == i + 2 {
+                        hist.displacements.extend_from_slice(&self.y[i..i + 3]);
+                    } else {
+                        hist.displacements
+                            .extend_from_slice(&Self::local(nt, &self.y, &self.yd, &self.ydd)[0]);
+                    }
+                }
+            } else if need_w {
                 buf.clear();
                 for nd in 0..nn {
                     let nt = self.nt(li, nd);
