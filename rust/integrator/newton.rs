@@ -3256,8 +3256,14 @@ impl<'a> NewtonRun<'a> {
         let reference = settings.record.slider_reference.as_deref().filter(|_| keep);
         let point = self.slider_point;
         for (s, sl) in self.mech.sliders.iter().enumerate() {
-            let fs = sl.path.frame(t);
-            let e = [sl.angle.cos(), sl.angle.sin()];
+            // the guide's frame of the current frames where they are of `t` (bitwise), else
+            // solved at `t`; its unit direction as computed once
+            let fs = if t == self.t_frames {
+                self.slider_frames[s]
+            } else {
+                sl.path.frame(t)
+            };
+            let e = self.slider_dir[s];
             let along = |v: [f64; 2]| e[0] * v[0] + e[1] * v[1];
             let i = self.slider_dof[s];
             let own = if i == NONE {
