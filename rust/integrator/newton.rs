@@ -820,6 +820,8 @@ pub struct NewtonRun<'a> {
     /// The last step converged within [`JACOBIAN_REUSE_ITERATIONS`] iterations: the next may
     /// reuse its factor.
     reuse_ok: bool,
+    /// The grid instant (s) the fixed-step run loop's next step ends at ([`Self::step_body`]).
+    step_end: Option<f64>,
     /// The contraction rate of the Newton iterations, carried across steps
     /// ([`RATE_CARRY_DOWN`]): 1 until measured at a step's second iteration.
     iter_rate: f64,
@@ -1154,6 +1156,7 @@ impl<'a> NewtonRun<'a> {
             factor_made: 0,
             reusing: false,
             reuse_ok: false,
+            step_end: None,
             iter_rate: 1.0,
             frame_sig_len: 0,
             friction: mech.joints.iter().any(|j| j.friction.is_some()),
@@ -2703,7 +2706,13 @@ impl<'a> NewtonRun<'a> {
         self.y0.copy_from_slice(&self.y);
         self.yd0.copy_from_slice(&self.yd);
         self.ydd0.copy_from_slice(&self.ydd);
-        self.update_frames(t + h);
+        // the step's end: the grid instant the run loop asked for where this step ends there up
+        // to rounding (its frames are then the record's and the slider tracking's), else t + h
+        let t_end = match self.step_end.take() {
+            Some(te) if (te - (t + h)).abs() <= same_instant(h) => te,
+            _ => t + h,
+        };
+        self.update_frames(t_end);
         if nm.is_alpha() {
             self.alpha_predictors(h);
         } else {
@@ -2779,7 +2788,7 @@ impl<'a> NewtonRun<'a> {
             let mut failure = prepared.err();
             let mut dx = Vec::new();
             if failure.is_none() {
-                self.residual(h, t + h);
+                self.residual(h, t_end);
                 last_res = max_abs_or_inf(&self.r);
                 dx = std::mem::take(&mut self.r);
                 if rate_step {
@@ -3947,12 +3956,16 @@ impl Stepper for NewtonLoop<'_, '_> {
         let r = &mut *self.run;
         let h = r.settings.dt;
         let t0 = (k - 1) as f64 * h;
+        // a fixed step's frames are those of the grid instant `t1` (the first step the events
+        // or the continuous contact take is the whole step)
+        r.step_end = self.adaptive.is_none().then_some(t1);
         let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
             (Some(ad), _) => r.adaptive_advance(t1, k, ad),
             (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
             (None, None) if r.cont.is_some() => r.continuous_step(t0, h, k),
             (None, None) => r.step(t0, h, k, 0),
         };
+        r.step_end = None;
         if let Err(e) = res {
             self.outcome = Some(Err((e, t0)));
             return;
