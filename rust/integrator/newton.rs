@@ -3071,7 +3071,10 @@ impl<'a> NewtonRun<'a> {
         format!("unknown #{i}")
     }
 
-    fn record(&mut self, t: f64) {
+    /// Records the state at `t` (s) into the histories; with `tracked`, the joints' relative
+    /// displacements, penetrations and forces are those [`Self::track_joints`] computed at this
+    /// state and these frames (not computed again).
+    fn record(&mut self, t: f64, tracked: bool) {
         if !self.keep_grid {
             return;
         }
@@ -3183,12 +3186,17 @@ impl<'a> NewtonRun<'a> {
             let Some(slot) = self.hist_slot[j] else {
                 continue;
             };
-            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let mut pen = self.law_terms(j, q, qd).penetration;
-            let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
-            if let Some(c) = &self.cont {
-                (pen, f) = c.recorded(j, q, self.mech.joints[j].clearance);
-            }
+            let (q, pen, f) = if tracked {
+                (self.jq[j], self.jpen[j], self.jforce[j])
+            } else {
+                let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+                let mut pen = self.law_terms(j, q, qd).penetration;
+                let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
+                if let Some(c) = &self.cont {
+                    (pen, f) = c.recorded(j, q, self.mech.joints[j].clearance);
+                }
+                (q, pen, f)
+            };
             let h = &mut self.hist_joints[slot];
             h.penetration.push(pen);
             h.force.push((f[0] * f[0] + f[1] * f[1]).sqrt());
@@ -3793,7 +3801,7 @@ impl<'a> NewtonRun<'a> {
             })
             .collect();
         self.track_sliders(0.0, true);
-        self.record(0.0);
+        self.record(0.0, true);
         let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         let adaptive = self.settings.adaptive.map(|a| AdaptiveScratch {
             t: 0.0,
@@ -3992,12 +4000,15 @@ impl Stepper for NewtonLoop<'_, '_> {
         let r = &mut *self.run;
         let every = r.settings.record.every as u64;
         if self.outcome.is_none() && (k.is_multiple_of(every) || last) {
-            // the step ended at `t + h`, which differs from the grid's `k dt` by rounding: its
-            // frames (those the state was computed with) are the record's, not recomputed
+            // a step that ended at the grid's `k dt` up to rounding: its frames (those the state
+            // was computed with) are the record's, not recomputed; then a fixed step's joints
+            // are as `track_joints` left them after it (`advance`), at this state and frames
+            let mut tracked = self.adaptive.is_none();
             if (r.t_frames - t1).abs() > same_instant(r.settings.dt) {
                 r.update_frames(t1);
+                tracked = false;
             }
-            r.record(t1);
+            r.record(t1, tracked);
         }
     }
 
