@@ -40,11 +40,17 @@ use crate::run::{simulate_shared, RunFailure, RunOutput, Settings, SolverMode};
 /// ([`Error::NotConverged`]): run it again from the start at a smaller step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Retry {
-    /// How many times to retry such a sample (0 = never).
+    /// How many times to retry such a sample (0 = never), as long as the step stays at least
+    /// [`RETRY_MIN_STEP_RATIO`] of the sample's own.
     pub attempts: u32,
     /// The step is multiplied by this at each retry (0 < factor < 1).
     pub factor: f64,
 }
+
+/// Retries stop once the next step would be shorter than this fraction of the sample's own
+/// step: each retry runs the sample again from its start, at a cost that grows as the step
+/// shrinks (a sample that diverges whatever the step would otherwise retry for ever).
+pub const RETRY_MIN_STEP_RATIO: f64 = 1e-3;
 
 impl Default for Retry {
     fn default() -> Self {
@@ -357,11 +363,13 @@ fn retry_failed(
     mut wall: f64,
 ) -> SampleOutcome {
     let mut settings = settings.clone();
+    let dt0 = settings.dt;
     let mut retries = 0;
     loop {
         let failed =
             matches!(&result, Err(f) if matches!(f.error, Error::Diverged { .. } | Error::NotConverged { .. }));
-        if failed && retries < retry.attempts && !stop.load(Ordering::Relaxed) {
+        let above_floor = settings.dt * retry.factor >= RETRY_MIN_STEP_RATIO * dt0;
+        if failed && retries < retry.attempts && above_floor && !stop.load(Ordering::Relaxed) {
             retries += 1;
             settings.dt *= retry.factor;
             let start = Instant::now();

@@ -376,6 +376,39 @@ def test_fuzz_study_retries_too_large() -> None:
         Study("slider_yoke", samples=2, retries=2**64)
 
 
+@pytest.mark.parametrize(
+    "build, kwargs",
+    [
+        # fuzz 33:37909, the constant stepper's batch: a divergence limit of 4.5 um that the
+        # sample exceeds at any step retried 10**7 times at 0.116 x the step, each retry longer
+        ("slider_yoke", {"t_end": 0.00217, "dt": 1.045e-5, "run_options": {"divergence_limit": 4.5e-6}}),
+        # the same rule on the Newton stepper's samples (Python's retry loop)
+        (
+            "slider_crank",
+            {
+                "t_end": 0.002,
+                "dt": 1e-5,
+                "fixed": {"clearance_at": "crank_pin"},
+                "run_options": {"divergence_limit": 1e-12},
+            },
+        ),
+    ],
+)
+def test_fuzz_study_retries_stop_at_the_step_floor(build, kwargs) -> None:
+    """A sample that diverges at any step retried ``retries`` times at ``retry_factor`` x the
+    step: the retries stop before the step falls below RETRY_MIN_STEP_RATIO of the study's, so the
+    study ends (it hung: each retry reran the sample at an ever smaller step)."""
+    floor = fc._core.RETRY_MIN_STEP_RATIO
+    factor = 0.116
+    res = Study(build, samples=1, retries=10**7, retry_factor=factor, **kwargs).run(progress=False)
+    row = res.frame.iloc[0]
+    # the largest number of retries whose step stays at or above the floor: 3 at 0.116 (1.56e-3)
+    most = int(np.floor(np.log(floor) / np.log(factor) + 1e-9))
+    assert row["status"] == "diverged" and row["retries"] == most == 3
+    assert row["dt_used"] == pytest.approx(kwargs["dt"] * factor**most)
+    assert row["dt_used"] >= floor * kwargs["dt"]
+
+
 @pytest.mark.parametrize("method", [3, None, "bogus"])
 def test_fuzz_study_method_checked_at_study(method) -> None:
     """``Study(method=3)`` passed and raised TypeError from the batch engine in ``run()``."""

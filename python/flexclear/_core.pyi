@@ -28,10 +28,13 @@ __all__ = [
     "NormalLaw",
     "CoulombFriction",
     "LuGreFriction",
+    "RETRY_MIN_STEP_RATIO",
     "__version__",
 ]
 
 __version__: str
+#: Retries of a diverged sample stop before the step falls below this fraction of its own.
+RETRY_MIN_STEP_RATIO: float
 
 @final
 class Motion:

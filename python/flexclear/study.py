@@ -568,6 +568,10 @@ class Study:
     retries : int
         Retry a diverged sample this many times with the step times ``retry_factor``; the
         retried samples are flagged (column ``retries``) and the step used is in ``dt_used``.
+        Retries stop before the step would fall below 1/1000 of the study's ``dt``
+        (``flexclear._core.RETRY_MIN_STEP_RATIO``): each retry reruns the sample from its start,
+        and one that diverges at any step would otherwise retry at ever smaller, ever longer
+        steps.
     """
 
     def __init__(
@@ -1532,7 +1536,8 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
             from .errors import ConvergenceError, SimulationDivergedError, SingularMatrixError
 
             failed = isinstance(e, (SimulationDivergedError, ConvergenceError))
-            if failed and retries < study.retries:
+            above_floor = dt * study.retry_factor >= _core.RETRY_MIN_STEP_RATIO * dt0
+            if failed and retries < study.retries and above_floor:
                 retries += 1
                 dt *= study.retry_factor
                 continue

@@ -107,6 +107,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenes::spin_up_data, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;
     contact::register(m)?;
+    m.add("RETRY_MIN_STEP_RATIO", crate::batch::RETRY_MIN_STEP_RATIO)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
