@@ -409,6 +409,18 @@ def test_fuzz_study_retries_stop_at_the_step_floor(build, kwargs) -> None:
     assert row["dt_used"] >= floor * kwargs["dt"]
 
 
+def test_fuzz_lugre_subnormal_sigma0_is_refused() -> None:
+    """fuzz 34:35341: ``LuGre(sigma0=5e-324)`` on a joint: the steady bristle state
+    ``g / sigma0`` overflowed and 952 of the run's recorded values were NaN. The microslip
+    ``mu_static / sigma0`` is now at most 1 m, the error naming ``sigma0`` and its lower bound."""
+    with pytest.raises(fc.InvalidParameterError, match=r"sigma0.*mu_static / 1 m"):
+        fc.contact.LuGre(0.02, 0.03, sigma0=5e-324)
+    with pytest.raises(fc.InvalidParameterError, match="sigma0"):
+        fc.contact.LuGre(0.02, 0.03, sigma0=0.029)
+    # a microslip of up to 1 m is a law (if a soft one), and runs as before
+    assert fc.contact.LuGre(0.02, 0.03, sigma0=0.03).sigma0 == 0.03
+
+
 @pytest.mark.parametrize("method", [3, None, "bogus"])
 def test_fuzz_study_method_checked_at_study(method) -> None:
     """``Study(method=3)`` passed and raised TypeError from the batch engine in ``run()``."""

@@ -5,6 +5,11 @@ use super::super::laws::pname;
 use super::coulomb::sign;
 use crate::error::{check_non_negative, check_positive, Error, Result};
 
+/// The largest microslip `mu_static / sigma0` (m) a LuGre law may have: a bristle deflection of
+/// a metre is far beyond any joint's clearance, and it keeps the steady state `g(v) / sigma0`
+/// finite.
+pub const MAX_MICROSLIP: f64 = 1.0;
+
 /// LuGre friction with the coefficients scaled by the normal force `F_N`, so that a joint whose
 /// load varies keeps a friction coefficient (Canudas de Wit et al. 1995, "A new model for control
 /// of systems with friction", IEEE Trans. Autom. Control 40:419-425, with `F_c = mu F_N`,
@@ -27,8 +32,8 @@ pub struct LuGre {
     pub mu_static: f64,
     /// Stribeck speed, m/s (> 0).
     pub stribeck_speed: f64,
-    /// Bristle stiffness per unit normal force `sigma0`, 1/m (> 0; default 1e5: a microslip
-    /// `mu / sigma0` of 1 micrometre at mu = 0.1).
+    /// Bristle stiffness per unit normal force `sigma0`, 1/m (at least `mu_static /
+    /// MAX_MICROSLIP`; default 1e5: a microslip `mu / sigma0` of 1 micrometre at mu = 0.1).
     pub sigma0: f64,
     /// Bristle damping per unit normal force `sigma1`, s/m (>= 0; default 0).
     pub sigma1: f64,
@@ -128,6 +133,19 @@ impl LuGre {
         }
         check_positive(&pname(name, "stribeck_speed"), self.stribeck_speed, "m/s")?;
         check_positive(&pname(name, "sigma0"), self.sigma0, "1/m")?;
+        // the microslip mu_static / sigma0 (the bristles' steady deflection) at most
+        // MAX_MICROSLIP: beyond it the law is no friction model, and at a subnormal sigma0 the
+        // steady state g / sigma0 overflows (the bristle update then computes inf - inf)
+        if self.mu_static / self.sigma0 > MAX_MICROSLIP {
+            return Err(Error::param(
+                pname(name, "sigma0"),
+                self.sigma0,
+                format!(
+                    ">= mu_static / {MAX_MICROSLIP} m = {} 1/m (a microslip mu_static / sigma0 of at most {MAX_MICROSLIP} m)",
+                    self.mu_static / MAX_MICROSLIP
+                ),
+            ));
+        }
         check_non_negative(&pname(name, "sigma1"), self.sigma1, "s/m")?;
         check_non_negative(&pname(name, "sigma2"), self.sigma2, "N s/m")
     }
