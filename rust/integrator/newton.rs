@@ -463,6 +463,15 @@ struct NodeT {
     plain: bool,
 }
 
+impl NodeT {
+    /// The first of the node's unknowns where it is plain (T = I) on three consecutive ones
+    /// `i, i + 1, i + 2`: its local state is then a slice of the global vectors.
+    fn consecutive(&self) -> Option<usize> {
+        let [i, j, k] = self.idx;
+        (self.plain && i != NONE && j == i + 1 && k == i + 2).then_some(i)
+    }
+}
+
 /// The Newmark predictors of a step of `h` (s) from the state `[y, yd, ydd]` into `[y_pred,
 /// v_pred]`, and its first iterate `a = a_n + w (a_n - a_prev)` (`a_n` where `w = 0`) into `a`
 /// and the state; `c = [h, beta, gamma, beta h^2, gamma h, w]`. A function of its own so that the
@@ -1200,16 +1209,12 @@ impl<'a> NewtonRun<'a> {
         run.elem_first = (0..run.links.len())
             .map(|li| {
                 (0..run.mech.links[li].section.elements)
-                    .map(|e| {
-                        let (p, q) = (run.nt(li, e), run.nt(li, e + 1));
-                        let idx = [p.idx[0], p.idx[1], p.idx[2], q.idx[0], q.idx[1], q.idx[2]];
-                        let consecutive = idx[0] != NONE && (1..6).all(|k| idx[k] == idx[0] + k);
-                        if p.plain && q.plain && consecutive {
-                            idx[0]
-                        } else {
-                            NONE
-                        }
-                    })
+                    .map(
+                        |e| match (run.nt(li, e).consecutive(), run.nt(li, e + 1).consecutive()) {
+                            (Some(a), Some(b)) if b == a + 3 => a,
+                            _ => NONE,
+                        },
+                    )
                     .collect()
             })
             .collect();
@@ -3090,17 +3095,16 @@ impl<'a> NewtonRun<'a> {
             let nn = l.nodes();
             let ch = rec.links;
             let need_w = ch.displacements || ch.axial_force || ch.midspan || ch.energy;
-            if need_w && !(ch.axial_force || ch.midspan || ch.energy) {
+            if ch.displacements && !(ch.axial_force || ch.midspan || ch.energy) {
                 // the displacements alone (the default): a node plain on three consecutive
                 // unknowns is a slice of `y` (its local state's displacements, T = I)
                 for nd in 0..nn {
                     let nt = self.nt(li, nd);
-                    let [i, j, k] = nt.idx;
-                    if nt.plain && i != NONE && j == i + 1 && k == i + 2 {
-                        hist.displacements.extend_from_slice(&self.y[i..i + 3]);
-                    } else {
-                        hist.displacements
-                            .extend_from_slice(&Self::local(nt, &self.y, &self.yd, &self.ydd)[0]);
+                    match nt.consecutive() {
+                        Some(i) => hist.displacements.extend_from_slice(&self.y[i..i + 3]),
+                        None => hist
+                            .displacements
+                            .extend_from_slice(&Self::local(nt, &self.y, &self.yd, &self.ydd)[0]),
                     }
                 }
             } else if need_w {
