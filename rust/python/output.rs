@@ -6,7 +6,7 @@
 //! the joint histories as dicts ([`joint_histories`]).
 
 use numpy::ndarray::Array2;
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, ToPyArray};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -209,11 +209,12 @@ pub(super) fn joint_histories(py: Python<'_>, joints: Vec<JointHistory>) -> PyRe
     Ok(list)
 }
 
-/// A row-major matrix as a numpy array.
+/// A row-major matrix as a numpy array that takes over `v`'s buffer (no copy: a run's link
+/// histories are megabytes).
 pub(super) fn mat<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let a = Array2::from_shape_vec((rows, cols), v)
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("internal shape error: {e}")))?;
-    Ok(a.to_pyarray(py))
+    Ok(a.into_pyarray(py))
 }
 
 /// The run's counters by name (`steps`, `factorizations`, ..., `stepper`), as `Result.stats`
@@ -284,7 +285,7 @@ pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]
     for (h, &ne) in rec.links.into_iter().zip(link_elements) {
         let nn = ne + 1;
         let fr_rows = h.frame.len();
-        let fr: Vec<f64> = h.frame.into_iter().flatten().collect();
+        let fr: Vec<f64> = h.frame.into_flattened();
         let drows = h.displacements.len() / (3 * nn);
         let arows = h.axial_force.len() / ne;
         let l = PyLinkHistory {
