@@ -351,6 +351,10 @@ struct LinkData {
     m_sparsity: Sparsity,
     k23_sparsity: Sparsity,
     d2_sparsity: Sparsity,
+    /// `m`, `k23` and `d2` in the layout of [`mul6`]'s split product.
+    m_split: SplitMat,
+    k23_split: SplitMat,
+    d2_split: SplitMat,
     /// Inertia load vectors per element: bx, by, bxx, byx.
     loads: Vec<[Vec6; 4]>,
     active: LinkTerms,
@@ -407,23 +411,11 @@ impl Sparsity {
 /// same result up to the sign of a zero, in 20 (split), 9 (node 0's block) or no
 /// multiplications instead of 36.
 #[inline(always)]
-fn mul6(a: &Mat6, s: Sparsity, v: &Vec6) -> Vec6 {
+fn mul6(a: &Mat6, s: Sparsity, split: &SplitMat, v: &Vec6) -> Vec6 {
     match s {
         Sparsity::Full => a * v,
         Sparsity::Zero => Vec6::zeros(),
-        Sparsity::Split => {
-            let mut y = Vec6::zeros();
-            for i in [0, 3] {
-                y[i] = a[(i, 3)] * v[3] + a[(i, 0)] * v[0];
-            }
-            for i in [1, 2, 4, 5] {
-                let mut x = a[(i, 1)] * v[1];
-                x += a[(i, 2)] * v[2];
-                x += a[(i, 4)] * v[4];
-                y[i] = a[(i, 5)] * v[5] + x;
-            }
-            y
-        }
+        Sparsity::Split => split.mul(v),
         Sparsity::Node0 => {
             let mut y = Vec6::zeros();
             for i in 0..3 {
@@ -433,6 +425,56 @@ fn mul6(a: &Mat6, s: Sparsity, v: &Vec6) -> Vec6 {
             }
             y
         }
+    }
+}
+
+/// The two blocks of a [`Sparsity::Split`] matrix stored for [`mul6`]: the axial rows' entries
+/// (rows 0 and 3) by column, and the bending block (rows and columns 1, 2, 4, 5) as four
+/// columns of four. The product takes the bending rows four at a time (one vector register in
+/// the AVX2 build) where reading them out of the 6 x 6 matrix took them one by one; the
+/// operations per row are those of the row-by-row product (`a_i1 v_1 + a_i2 v_2 + a_i4 v_4`,
+/// then `a_i5 v_5 +` that; the axial rows `a_i3 v_3 + a_i0 v_0`), so the same bits.
+#[derive(Debug, Clone, Copy, Default)]
+struct SplitMat {
+    /// `[a_00, a_30]` and `[a_03, a_33]`.
+    ax0: [f64; 2],
+    ax3: [f64; 2],
+    /// `bend[c][r] = a[(B[r], B[c])]`, `B = [1, 2, 4, 5]`.
+    bend: [[f64; 4]; 4],
+}
+
+impl SplitMat {
+    const BEND: [usize; 4] = [1, 2, 4, 5];
+
+    fn of(a: &Mat6) -> SplitMat {
+        SplitMat {
+            ax0: [a[(0, 0)], a[(3, 0)]],
+            ax3: [a[(0, 3)], a[(3, 3)]],
+            bend: Self::BEND.map(|c| Self::BEND.map(|r| a[(r, c)])),
+        }
+    }
+
+    #[inline(always)]
+    fn mul(&self, v: &Vec6) -> Vec6 {
+        let mut ya = [0.0; 2];
+        for (r, y) in ya.iter_mut().enumerate() {
+            *y = self.ax3[r] * v[3] + self.ax0[r] * v[0];
+        }
+        let b = &self.bend;
+        let mut x = [0.0; 4];
+        for r in 0..4 {
+            x[r] = b[0][r] * v[1];
+        }
+        for r in 0..4 {
+            x[r] += b[1][r] * v[2];
+        }
+        for r in 0..4 {
+            x[r] += b[2][r] * v[4];
+        }
+        for r in 0..4 {
+            x[r] = b[3][r] * v[5] + x[r];
+        }
+        Vec6::new(ya[0], x[0], x[1], ya[1], x[2], x[3])
     }
 }
 
@@ -970,6 +1012,9 @@ impl<'a> NewtonRun<'a> {
                 links.push(LinkData {
                     nodes,
                     m_sparsity: Sparsity::of(&m),
+                    m_split: SplitMat::of(&m),
+                    k23_split: SplitMat::default(),
+                    d2_split: SplitMat::default(),
                     m,
                     k1: zero,
                     d1: zero,
@@ -1004,6 +1049,9 @@ impl<'a> NewtonRun<'a> {
                 m_sparsity: Sparsity::of(&m),
                 k23_sparsity: Sparsity::of(&k23),
                 d2_sparsity: Sparsity::of(&d2),
+                m_split: SplitMat::of(&m),
+                k23_split: SplitMat::of(&k23),
+                d2_split: SplitMat::of(&d2),
                 m,
                 k1: e.stiffness(),
                 d1: e.damping_matrix(),
@@ -1867,12 +1915,12 @@ impl<'a> NewtonRun<'a> {
                         element_vec(&w0, &wn, 2),
                     )
                 };
-                let mut f = mul6(&ld.m, ld.m_sparsity, &qdd) + c0 * qd + k0 * q;
+                let mut f = mul6(&ld.m, ld.m_sparsity, &ld.m_split, &qdd) + c0 * qd + k0 * q;
                 if ld.active.geometric {
                     let fax = ld.ea_l * (q[3] - q[0]);
-                    let mut g = mul6(&ld.k23, ld.k23_sparsity, &q);
+                    let mut g = mul6(&ld.k23, ld.k23_sparsity, &ld.k23_split, &q);
                     if ld.d2_sparsity != Sparsity::Zero {
-                        g += mul6(&ld.d2, ld.d2_sparsity, &qd);
+                        g += mul6(&ld.d2, ld.d2_sparsity, &ld.d2_split, &qd);
                     }
                     f += g * fax;
                 }
@@ -4105,7 +4153,7 @@ pub fn simulate_constant_rate(
 
 #[cfg(test)]
 mod tests {
-    use super::{mul6, Extrapolation, Mat6, Sparsity, Vec6, EXTRAPOLATION_MAX_RATIO};
+    use super::{mul6, Extrapolation, Mat6, Sparsity, SplitMat, Vec6, EXTRAPOLATION_MAX_RATIO};
 
     /// The crank-pin slider-crank the AVX2 tests run, `None` where the CPU has no AVX2 build to
     /// compare.
@@ -4214,7 +4262,7 @@ mod tests {
                 let a = Mat6::from_fn(|i, j| if keep(i, j) { next() } else { 0.0 });
                 let v = Vec6::from_fn(|_, _| next());
                 assert_eq!(Sparsity::of(&a), pattern);
-                let (x, y) = (mul6(&a, pattern, &v), a * v);
+                let (x, y) = (mul6(&a, pattern, &SplitMat::of(&a), &v), a * v);
                 for i in 0..6 {
                     assert!(
                         x[i] == y[i] && (x[i] != 0.0 || y[i] == 0.0),
