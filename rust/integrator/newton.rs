@@ -472,7 +472,8 @@ impl SplitMat {
             x[r] += b[2][r] * v[4];
         }
         for r in 0..4 {
-            x[r] = b[3][r] * v[5] + x[r];
+            // `x + a_i5 v_5`: a sum of two terms, the same bits in either order
+            x[r] += b[3][r] * v[5];
         }
         Vec6::new(ya[0], x[0], x[1], ya[1], x[2], x[3])
     }
