@@ -535,3 +535,28 @@ def test_fuzz_28_33934_a_tolerance_no_step_can_meet_stops_with_an_error() -> Non
     with pytest.raises(fc.SimulationDivergedError, match="1000 steps in a row at the shortest step") as e:
         m.simulate(3.93e-4, 1.965e-5, tol=1.59e-3, progress=False)
     assert e.value.result.stats["floor_steps"] == 1000
+
+
+def test_fuzz_37_76181_an_adaptive_run_that_crawls_stops_with_an_error() -> None:
+    """Fuzz case 37:76181: a clearance joint of 1e20 N/m on a link held by a moving body, in a
+    ``tol=`` run on the Newton stepper: the steps (3e-14 to 1.3e-12 s, within the tolerance and
+    above the floor) resolved a contact period of about 1e-10 s, 3.3 million steps a
+    microsecond for 2.2e-5 s: 'no answer within 60 s', and no progress or Ctrl-C either (the
+    run loop's control came only between output instants). A block of a million accepted steps
+    averaging below 1e-6 of the output step now stops the run, saying how much work was left."""
+    m = fc.Model()
+    m.add_link(
+        "L0", length=0.8813, elements=6, youngs_modulus=1.177e10, density=1711.5, area=1.748e-5,
+        inertia=2.546e-11, frame=fc.Frame.rotating(fc.Rotation.fixed(angle=-2.3448)),
+    )  # fmt: skip
+    m.add_body("B0", motion=motion.harmonic(amplitude=[7.05e-4, 1.08e-2], frequency=19.02, phase=2.73))
+    m.add_joint("J0", "L0", 1, clearance=1.767e-6, stiffness=1e20, damping=6.976, body="B0")
+    m.add_support("L0", 6, theta=False)
+    m.add_support("L0", 3, u=True, v=False)
+    m.add_load("L0", 3, fu=-54.96)
+    crawl = r"1000000 accepted steps averaged .* more steps"
+    with pytest.raises(fc.SimulationDivergedError, match=crawl) as e:
+        m.simulate(2.154e-5, 1.077e-6, tol=0.0378, progress=False)
+    res = e.value.result
+    assert res.stats["stepper"] == "newton" and res.stats["adaptive_steps"] == 999_999
+    assert 0 < e.value.time < 2.154e-5

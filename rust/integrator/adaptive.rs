@@ -33,6 +33,62 @@ pub(crate) fn floor_error(t: f64, step: u64, h: f64) -> Error {
     }
 }
 
+/// Accepted steps per block of an adaptive run's crawl test ([`Levels::count_crawl`]): a block
+/// whose steps average less than [`CRAWL_RATIO`] times the output step stops the run
+/// ([`crawl_error`]). Such steps are within the tolerance and above the floor, but the model asks
+/// for steps no run can afford: a fuzz case's contact of 1e20 N/m took steps of 3e-14 to 1.3e-12
+/// s against an output step of 1.1e-6 s, 3.3 million a microsecond of simulated time (minutes
+/// for its 2e-5 s). No validated run comes near: their shortest steps are isolated event cuts,
+/// their contact phases at 1e-4 of the output step or more.
+pub(crate) const CRAWL_BLOCK: u32 = 1_000_000;
+
+/// The average step of a [`CRAWL_BLOCK`], as a fraction of the output step, below which the run
+/// stops: `2^-20`, about 1e-6.
+pub(crate) const CRAWL_RATIO: f64 = 1.0 / 1_048_576.0;
+
+/// The error of a run stopped by the crawl test: a block of [`CRAWL_BLOCK`] accepted steps whose
+/// average `mean` (s) is below `limit` (s), ending at time `t` (s), output step `step`; `t_end`
+/// (s) is the run's end.
+pub(crate) fn crawl_error(t: f64, step: u64, mean: f64, limit: f64, t_end: f64) -> Error {
+    Error::Diverged {
+        time: t,
+        step,
+        dof: "the adaptive step".to_string(),
+        reason: format!(
+            "{CRAWL_BLOCK} accepted steps averaged {mean:.3e} s, below {limit:.3e} s (1e-6 of the \
+             output step): the rest of the run would take about {:.1e} more steps (a contact \
+             stiffness or damping far too large for the masses it acts on?); a larger tol or a \
+             fixed dt runs the model",
+            (t_end - t).max(0.0) / mean
+        ),
+    }
+}
+
+/// Trial steps of an adaptive run between two calls of the caller's control function (progress,
+/// Ctrl-C from Python): the run loop calls it every so many output steps, and an output interval
+/// may hold any number of adaptive steps (millions in a fuzz case), so the adaptive loops call it
+/// too ([`ControlTicker`]).
+pub(crate) const CONTROL_STRIDE: u32 = 1024;
+
+/// Counts an adaptive loop's trial steps and calls the control function every
+/// [`CONTROL_STRIDE`]-th.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct ControlTicker(u32);
+
+impl ControlTicker {
+    /// Counts a trial step; at every [`CONTROL_STRIDE`]-th, `control(fraction)` (the fraction
+    /// of the run done) decides: false when the run is to stop ([`Error::Interrupted`]).
+    #[inline]
+    pub(crate) fn tick(&mut self, control: &mut dyn FnMut(f64) -> bool, fraction: f64) -> bool {
+        self.0 += 1;
+        if self.0 < CONTROL_STRIDE {
+            return true;
+        }
+        self.0 = 0;
+        control(fraction)
+    }
+}
+
 /// The level `m` of the next step `h_max / 2^m`, and the level of the shortest step `h_min`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Levels {
@@ -41,6 +97,11 @@ pub(crate) struct Levels {
     max_level: u32,
     /// Accepted steps in a row at the floor over the tolerance ([`Self::count_floor`]).
     floor_run: u32,
+    /// [`CRAWL_RATIO`] times the output step (s); the accepted steps of the current block of the
+    /// crawl test and their total length (s) ([`Self::count_crawl`]).
+    crawl_h: f64,
+    crawl_steps: u32,
+    crawl_time: f64,
 }
 
 /// The deepest level: `h_max / 2^60`.
@@ -57,7 +118,26 @@ impl Levels {
             level: start.min(max_level),
             max_level,
             floor_run: 0,
+            crawl_h: h_start * CRAWL_RATIO,
+            crawl_steps: 0,
+            crawl_time: 0.0,
         }
+    }
+
+    /// Counts an accepted step of length `h` (s) into the crawl test's block; at the end of a
+    /// block of [`CRAWL_BLOCK`] steps, `Some((mean, limit))` when their average `mean` (s) was
+    /// below `limit`, [`CRAWL_RATIO`] times the output step (the run is to stop with
+    /// [`crawl_error`]), else a new block begins.
+    pub(crate) fn count_crawl(&mut self, h: f64) -> Option<(f64, f64)> {
+        self.crawl_steps += 1;
+        self.crawl_time += h;
+        if self.crawl_steps < CRAWL_BLOCK {
+            return None;
+        }
+        let mean = self.crawl_time / f64::from(CRAWL_BLOCK);
+        self.crawl_steps = 0;
+        self.crawl_time = 0.0;
+        (mean < self.crawl_h).then_some((mean, self.crawl_h))
     }
 
     /// The step of the current level, `h_max / 2^m` (s; exact: a power of two).

@@ -716,6 +716,8 @@ struct AdaptiveSteps {
     p1: Vec<f64>,
     tol: crate::run::Adaptive,
     levels: Levels,
+    /// Calls of the caller's control function between output instants.
+    control: adaptive::ControlTicker,
     /// The achieved-accuracy estimate of the joints' largest forces.
     forces: adaptive::ForceErrors,
     /// Accepted steps since the last divergence check.
@@ -1609,6 +1611,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 p1: Vec::with_capacity(nj),
                 tol,
                 levels: Levels::new(tol.h_max, tol.h_min, dt),
+                control: Default::default(),
                 forces: adaptive::ForceErrors::new(nj),
                 accepted: Default::default(),
             }
@@ -2093,13 +2096,22 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// ([`Self::record_interpolated`]). Accepted steps' ends enter the joints' extremes
     /// ([`Recorder::record_substep`]) in time order with the output instants. A lane that fails
     /// (divergence, a matrix that is not positive definite) is retired as in a fixed step.
-    fn adaptive_advance(&mut self, t1: f64, ad: &mut AdaptiveSteps) {
+    fn adaptive_advance(&mut self, t1: f64, ad: &mut AdaptiveSteps, control: &mut dyn FnMut(f64) -> bool) {
         debug_assert!(L == 1);
         let eps = same_instant(self.sh.grid_dt);
         let tol = ad.tol;
         ad.interpolated = false;
         while t1 - ad.t > eps {
             self.record_pending(ad);
+            if !ad.control.tick(control, ad.t / ad.t_end) {
+                // at the last accepted step, recorded above
+                let e = Error::Interrupted {
+                    time: ad.t,
+                    step: self.step,
+                };
+                self.retire(0, Some(e), self.step, ad.t);
+                return;
+            }
             let t = ad.t;
             let rest = ad.t_end - t;
             let mut h = ad.levels.step();
@@ -2171,6 +2183,11 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             }
             if ad.levels.count_floor(err.ratio > 1.0) {
                 let e = adaptive::floor_error(t, self.step, h);
+                self.retire(0, Some(e), self.step, t);
+                return;
+            }
+            if let Some((mean, limit)) = ad.levels.count_crawl(taken) {
+                let e = adaptive::crawl_error(t, self.step, mean, limit, ad.t_end);
                 self.retire(0, Some(e), self.step, t);
                 return;
             }
@@ -2505,10 +2522,10 @@ impl<const L: usize> Stepper for LockstepLoop<'_, '_, L> {
     }
 
     #[inline(always)]
-    fn advance(&mut self, k: u64, t1: f64) {
+    fn advance(&mut self, k: u64, t1: f64, control: &mut dyn FnMut(f64) -> bool) {
         debug_assert_eq!(k, self.ls.step + 1);
         match (self.adaptive.as_mut(), self.events.as_mut()) {
-            (Some(ad), _) => self.ls.adaptive_advance(t1, ad),
+            (Some(ad), _) => self.ls.adaptive_advance(t1, ad, control),
             (None, None) => self.ls.advance(t1),
             (None, Some(ev)) => self.ls.advance_with_events(t1, ev),
         }

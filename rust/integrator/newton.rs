@@ -3570,11 +3570,24 @@ impl<'a> NewtonRun<'a> {
     /// stop at output instants: the last one may end past `t1`, whose state
     /// [`Self::interpolate_output`] then gives. The joints are tracked at every accepted step's
     /// end, in time order with the output instants (an end past `t1` after `t1`'s output).
-    fn adaptive_advance(&mut self, t1: f64, k: u64, ad: &mut AdaptiveScratch) -> Result<()> {
+    fn adaptive_advance(
+        &mut self,
+        t1: f64,
+        k: u64,
+        ad: &mut AdaptiveScratch,
+        control: &mut dyn FnMut(f64) -> bool,
+    ) -> Result<()> {
         let tol = self.settings.adaptive.expect("adaptive settings");
         let eps = same_instant(self.settings.dt);
         self.restore_integrated(ad);
         while t1 - ad.t > eps {
+            if !ad.control.tick(control, ad.t / ad.t_end) {
+                // at the last accepted step (the integrated state); its end is tracked below
+                return Err(Error::Interrupted {
+                    time: ad.t,
+                    step: k - 1,
+                });
+            }
             if ad.pending {
                 // the end of the last step, past the output instants recorded since
                 let check = ad.accepted.check_due(ad.t >= ad.t_end);
@@ -3653,6 +3666,9 @@ impl<'a> NewtonRun<'a> {
             }
             if ad.levels.count_floor(err.ratio > 1.0) {
                 return Err(adaptive::floor_error(t, k, h));
+            }
+            if let Some((mean, limit)) = ad.levels.count_crawl(taken) {
+                return Err(adaptive::crawl_error(t, k, mean, limit, ad.t_end));
             }
             // the accepted step's start and end, for the output instants within it (before a
             // restart at a cut changes the accelerations: the step's own left limit)
@@ -3927,6 +3943,7 @@ impl<'a> NewtonRun<'a> {
             p1: Vec::with_capacity(self.mech.joints.len()),
             pc: Vec::with_capacity(self.mech.joints.len()),
             levels: adaptive::Levels::new(a.h_max, a.h_min, h),
+            control: Default::default(),
             forces: adaptive::ForceErrors::new(self.mech.joints.len()),
             da: vec![[0.0; 2]; self.mech.joints.len()],
             accepted: Default::default(),
@@ -4039,6 +4056,8 @@ struct AdaptiveScratch {
     p1: Vec<f64>,
     pc: Vec<f64>,
     levels: adaptive::Levels,
+    /// Calls of the caller's control function between output instants.
+    control: adaptive::ControlTicker,
     /// The achieved-accuracy estimate of the joints' largest forces, and each joint's change of
     /// relative acceleration over the accepted step (m/s^2).
     forces: adaptive::ForceErrors,
@@ -4062,7 +4081,7 @@ impl Stepper for NewtonLoop<'_, '_> {
         self.outcome.is_none()
     }
 
-    fn advance(&mut self, k: u64, t1: f64) {
+    fn advance(&mut self, k: u64, t1: f64, control: &mut dyn FnMut(f64) -> bool) {
         let last = k == self.steps;
         let r = &mut *self.run;
         let h = r.settings.dt;
@@ -4071,7 +4090,7 @@ impl Stepper for NewtonLoop<'_, '_> {
         // or the continuous contact take is the whole step)
         r.step_end = self.adaptive.is_none().then_some(t1);
         let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
-            (Some(ad), _) => r.adaptive_advance(t1, k, ad),
+            (Some(ad), _) => r.adaptive_advance(t1, k, ad, control),
             (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
             (None, None) if r.cont.is_some() => r.continuous_step(t0, h, k),
             (None, None) => r.step(t0, h, k, 0),

@@ -39,8 +39,11 @@ pub(crate) trait Stepper {
     fn running(&self) -> bool;
     /// Advances every running lane from `t_{k-1}` to `t1 = t_k` (s). A lane whose step fails
     /// (no convergence, a singular matrix, a joint beyond the divergence limit) stops with its
-    /// error at the start of the step.
-    fn advance(&mut self, k: u64, t1: f64);
+    /// error at the start of the step. Adaptive steps call `control` every
+    /// [`CONTROL_STRIDE`](super::adaptive::CONTROL_STRIDE) trial steps (an output interval may
+    /// hold millions); `false` stops the run with [`Error::Interrupted`] at the last accepted
+    /// step.
+    fn advance(&mut self, k: u64, t1: f64, control: &mut dyn FnMut(f64) -> bool);
     /// The divergence rule's check of every running lane's state after step `k`, at `t1` (s).
     fn check(&mut self, k: u64, t1: f64);
     /// Records every running lane after step `k`, at `t1` (s).
@@ -60,7 +63,7 @@ pub(crate) fn run<S: Stepper>(stepper: &mut S, control: &mut dyn FnMut(f64) -> b
     while k < steps && stepper.running() {
         k += 1;
         let t1 = k as f64 * dt;
-        stepper.advance(k, t1);
+        stepper.advance(k, t1, control);
         if k.is_multiple_of(CHECK_STRIDE) || k == steps {
             stepper.check(k, t1);
         }
