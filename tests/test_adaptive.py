@@ -556,3 +556,15 @@ def test_an_adaptive_run_reports_progress_and_stops_between_output_instants(buil
     # the same run without the callback completes
     assert model.simulate(t_end, t_end, tol=tol, progress=False).complete
 
+
+def test_a_tol_run_whose_output_step_is_the_whole_run_rejects_a_first_step_that_cannot_be_cut():
+    # the first trial step of the crank-pin slider-crank at dt = t_end (one crank turn) converged
+    # to a state across the clearance circle that no cut try reproduced: the cut's
+    # non-convergence ended the run (ConvergenceError at t = 0) instead of rejecting the step
+    model = fc.scenes.slider_crank(clearance_at="crank_pin")
+    t_end = 2 * math.pi / 150
+    whole = model.simulate(t_end, t_end, tol=3e-2, progress=False)
+    halves = model.simulate(t_end, t_end / 2, tol=3e-2, progress=False)
+    assert whole.complete and whole.stats["rejected_steps"] >= 1
+    # the rejection takes it to the steps the run with two output steps took
+    assert whole.joint("crank_pin").max_force == pytest.approx(halves.joint("crank_pin").max_force, rel=1e-9)

@@ -3636,9 +3636,24 @@ impl<'a> NewtonRun<'a> {
             if err.ratio.is_finite() {
                 self.penetrations(&mut ad.p1);
                 if let Some((theta, j)) = earliest_crossing(&ad.p0, &ad.p1) {
-                    taken = self.adaptive_cut(t, h, k, ad, theta, j)?;
-                    err = self.local_error(taken, &ad.ydd, &tol);
-                    cut = true;
+                    match self.adaptive_cut(t, h, k, ad, theta, j) {
+                        Ok(h1) => {
+                            taken = h1;
+                            err = self.local_error(taken, &ad.ydd, &tol);
+                            cut = true;
+                        }
+                        // a cut try whose iterations do not converge (a trial step far too long
+                        // converged to a state whose crossing no shorter step reproduces: the
+                        // first step of a run whose output step is its whole length): the step
+                        // is rejected, as one that does not converge itself
+                        Err(Error::NotConverged { .. }) if !at_floor => {
+                            self.restore_adaptive(ad, t);
+                            self.stats.rejected_steps += 1;
+                            ad.levels.reject(f64::INFINITY);
+                            continue;
+                        }
+                        Err(e) => return Err(e),
+                    }
                 } else if !at_floor && self.passes_through_a_circle(h, ad) {
                     // a contact within the step, open at both ends: shorter steps locate it
                     self.restore_adaptive(ad, t);
