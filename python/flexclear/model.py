@@ -1193,7 +1193,13 @@ class Model:
             slider-yoke at tol 1e-2, pessimistic in a chatter; it speaks for the peak the run
             found). See
             ``docs/method.md``, "The achieved accuracy of a run". The iteration tolerance is
-            ``iter_tol`` (by default tied to ``tol``, see there).
+            ``iter_tol`` (by default tied to ``tol``, see there). The run stops with
+            :class:`SimulationDivergedError` (its result so far on the exception) after 1000
+            accepted steps in a row at the shortest step over the tolerance, or after a million
+            accepted steps averaging below 1e-6 of the output step ``dt`` (a contact stiffness
+            far too large for its masses: the message says how many steps the rest would take).
+            ``progress`` and Ctrl-C are served every 1024 adaptive steps, also within one output
+            step.
         max_step : float, optional
             With ``tol``: the longest adaptive step, s (> 0; default: the whole run, the error
             control alone bounding the step). Steps are ``max_step / 2**m``; a step whose
