@@ -560,3 +560,21 @@ def test_fuzz_37_76181_an_adaptive_run_that_crawls_stops_with_an_error() -> None
     res = e.value.result
     assert res.stats["stepper"] == "newton" and res.stats["adaptive_steps"] == 999_999
     assert 0 < e.value.time < 2.154e-5
+
+
+def test_fuzz_38_43998_a_study_step_of_no_finite_step_count_is_an_invalid_sample() -> None:
+    """Fuzz case 38:43998: ``vary={'dt': [5e-324, 4.17e-5]}`` with histories: the memory estimate
+    divided t_end by 5e-324 (inf steps, NaN after the history stride) and ``Study.run`` raised
+    ValueError from ``int(NaN)``. Such a sample runs as "invalid" (``simulate`` refuses the step)
+    and keeps nothing, so the estimate leaves it out, as it does a step <= 0."""
+    kw = dict(samples=4, design="random", seed=422, t_end=2.59e-4, dt=1.08e-5, history_every=7)
+    s = Study("slider_crank", vary={"dt": [5e-324, 4.17e-5]}, fixed={"clearance_at": "crank_pin"}, **kw)
+    dts = s.inputs()["dt"].to_numpy(float)
+    assert (dts == 5e-324).any() and (dts > 1e-300).any()
+    # each kept sample: 2 channels of (t_end / dt) // 7 + 2 values, 8 bytes each
+    finite = dts[dts > 1e-300]
+    expected = sum((round(2.59e-4 / d) // 7 + 2) * 2 * 8 for d in finite)
+    assert s.memory_estimate() == expected
+    res = s.run(progress=False)
+    status = dict(zip(res.frame["dt"], res.frame["status"]))
+    assert all(st == ("invalid" if d == 5e-324 else "ok") for d, st in status.items())

@@ -1173,7 +1173,9 @@ class Study:
         # a sample with a step or length out of range runs as "invalid" and keeps nothing
         valid = (dt > 0) & (t_end > 0) & np.isfinite(dt) & np.isfinite(t_end)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            steps = np.maximum(np.round(t_end[valid] / dt[valid]), 1)
+            steps = np.round(t_end[valid] / dt[valid])
+        # so does one whose step divides t_end into no finite number of steps (dt = 5e-324)
+        steps = np.maximum(steps[np.isfinite(steps)], 1)
         channels = 4 if self.orbit else 2
         total = float(np.sum(steps // self.history_every + 2)) * channels * len(self.joints) * 8
         return int(min(total, 2**63 - 1))
