@@ -362,3 +362,36 @@ def test_energies_of_a_translating_model_come_from_the_newton_stepper():
     assert np.all(np.isfinite(beam.kinetic)) and np.all(np.isfinite(beam.strain))
     with pytest.raises(fc.InvalidParameterError, match="record.energy"):
         m.simulate(0.01, 1e-5, record=Record(energy=True), stepper="constant")
+
+
+def _spinning_beam_without_stiffening():
+    # a link turning at a constant rate without geometric terms: the constant-rate stepper
+    m = fc.Model()
+    frame = fc.Frame.rotating(fc.Rotation.constant(10.0))
+    m.add_link(
+        "L", length=0.5, elements=4, youngs_modulus=2e11, density=7800, area=1e-4, inertia=1e-9,
+        frame=frame, geometric=False,
+    )  # fmt: skip
+    m.add_support("L", 0)
+    return m
+
+
+def test_the_engine_follows_the_planned_stepper():
+    # Model.engine reads the core's `translates` (the model's translating form alone) instead of
+    # compiling a plan for `stepper` at every simulate call (0.25 ms of a short slider-crank
+    # run); the two agree: the plan runs a model on the constant stepper exactly when it
+    # translates
+    models = [
+        fc.scenes.slider_yoke(),
+        fc.scenes.slider_yoke_stiff(),
+        fc.scenes.slider_crank(),
+        fc.scenes.slider_crank(clearance_at="crank_pin"),
+        fc.scenes.four_bar(clearance_at="rocker_pin"),
+        fc.scenes.flores_slider_crank(),
+        fc.scenes.spin_up(),
+        _spinning_beam_without_stiffening(),
+    ]
+    kinds = [(m._core.translates, m._core.stepper) for m in models]
+    assert all(t == (s == "constant") for t, s in kinds)
+    assert {s for _, s in kinds} >= {"constant", "newton", "constant-rate"}
+    assert [m.engine for m in models[:3]] == ["translating", "translating", "moving-frame"]

@@ -404,7 +404,7 @@ class Model:
 
     @property
     def _kind(self) -> str:
-        return TRANSLATING if self._core.stepper == "constant" else MOVING
+        return TRANSLATING if self._core.translates else MOVING
 
     @property
     def link_names(self) -> list[str]:
