@@ -272,6 +272,16 @@ pub(crate) struct LocalError {
     pub y_max: f64,
 }
 
+impl LocalError {
+    /// The error of a trial step whose iterations did not converge: infinite, so the step is
+    /// rejected (and shortened by two levels) unless it is at the floor.
+    pub(crate) const NOT_CONVERGED: LocalError = LocalError {
+        ratio: f64::INFINITY,
+        abs: f64::INFINITY,
+        y_max: 0.0,
+    };
+}
+
 /// The Zienkiewicz-Xie estimate of the local displacement error of a step of length `h` (s),
 /// `c |a_(n+1) - a_n| h^2` with `c = |beta - 1/6|` (at least 1/24), over the tolerance
 /// `atol + rtol |y|`, largest over the unknowns given as `(a_(n+1), a_n, y)` (infinite when not

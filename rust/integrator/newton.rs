@@ -3136,7 +3136,7 @@ impl<'a> NewtonRun<'a> {
             return;
         }
         let rec = &self.settings.record;
-        let samples = ((steps / rec.every.max(1) as u64) as usize + 2).min(crate::record::INITIAL_SAMPLES);
+        let samples = crate::record::initial_samples(steps, rec.every);
         self.hist_time.reserve(samples);
         let ch = rec.links;
         for (li, hist) in self.hist_links.iter_mut().enumerate() {
@@ -3620,11 +3620,7 @@ impl<'a> NewtonRun<'a> {
                     if at_floor {
                         return Err(e);
                     }
-                    adaptive::LocalError {
-                        ratio: f64::INFINITY,
-                        abs: f64::INFINITY,
-                        y_max: 0.0,
-                    }
+                    adaptive::LocalError::NOT_CONVERGED
                 }
                 Err(e) => return Err(e),
             };
@@ -3645,13 +3641,8 @@ impl<'a> NewtonRun<'a> {
                         // a cut try whose iterations do not converge (a trial step far too long
                         // converged to a state whose crossing no shorter step reproduces: the
                         // first step of a run whose output step is its whole length): the step
-                        // is rejected, as one that does not converge itself
-                        Err(Error::NotConverged { .. }) if !at_floor => {
-                            self.restore_adaptive(ad, t);
-                            self.stats.rejected_steps += 1;
-                            ad.levels.reject(f64::INFINITY);
-                            continue;
-                        }
+                        // is rejected below, as one that does not converge itself
+                        Err(Error::NotConverged { .. }) if !at_floor => err = adaptive::LocalError::NOT_CONVERGED,
                         Err(e) => return Err(e),
                     }
                 } else if !at_floor && self.passes_through_a_circle(h, ad) {

@@ -664,6 +664,12 @@ pub struct Recorder {
 /// (amortized doubling) as the run records them.
 pub const INITIAL_SAMPLES: usize = 1 << 16;
 
+/// The samples reserved up front for the histories of a run of `steps` grid steps recorded every
+/// `every`-th step (with the first and the last): at most [`INITIAL_SAMPLES`].
+pub(crate) fn initial_samples(steps: u64, every: usize) -> usize {
+    ((steps / every.max(1) as u64) as usize + 2).min(INITIAL_SAMPLES)
+}
+
 impl Recorder {
     /// A recorder for `spec`; `node_dof(link, node)` gives a node's first global DOF; `steps` sets
     /// the expected number of samples, of which at most [`INITIAL_SAMPLES`] are reserved up front
@@ -671,11 +677,10 @@ impl Recorder {
     pub fn new(spec: &RecordSpec, joints: usize, node_dof: impl Fn(usize, usize) -> usize, steps: u64) -> Self {
         let js: Vec<usize> = spec.joints.clone().unwrap_or_else(|| (0..joints).collect());
         let samples = if spec.histories {
-            (steps / spec.every as u64 + 2) as usize
+            initial_samples(steps, spec.every)
         } else {
             0
         };
-        let samples = samples.min(INITIAL_SAMPLES);
         let cap = |on: bool| if on { Vec::with_capacity(samples) } else { Vec::new() };
         Recorder {
             time: cap(spec.histories),
