@@ -36,7 +36,7 @@ pub(crate) fn floor_error(t: f64, step: u64, h: f64) -> Error {
 /// Accepted steps per block of an adaptive run's crawl test ([`Levels::count_crawl`]): a block
 /// whose steps average less than [`CRAWL_RATIO`] times the output step stops the run
 /// ([`crawl_error`]). Such steps are within the tolerance and above the floor, but the model asks
-/// for steps no run can afford: a fuzz case's contact of 1e20 N/m took steps of 3e-14 to 1.3e-12
+/// for steps no run can afford: a fuzz case's contact of 1e20 N/m took steps of 2.4e-14 to 1.5e-12
 /// s against an output step of 1.1e-6 s, 3.3 million a microsecond of simulated time (minutes
 /// for its 2e-5 s). No validated run comes near: their shortest steps are isolated event cuts,
 /// their contact phases at 1e-4 of the output step or more.
