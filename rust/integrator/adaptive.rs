@@ -38,8 +38,9 @@ pub(crate) fn floor_error(t: f64, step: u64, h: f64) -> Error {
 /// ([`crawl_error`]). Such steps are within the tolerance and above the floor, but the model asks
 /// for steps no run can afford: a fuzz case's contact of 1e20 N/m took steps of 2.4e-14 to 1.5e-12
 /// s against an output step of 1.1e-6 s, 3.3 million a microsecond of simulated time (minutes
-/// for its 2e-5 s). No validated run comes near: their shortest steps are isolated event cuts,
-/// their contact phases at 1e-4 of the output step or more.
+/// for its 2e-5 s). Real models stay far above it: the crank-pin slider-crank at `tol=1e-8`
+/// (1.08 million steps in 2 ms) averages 9e-4 of its output step; their shortest steps are
+/// isolated event cuts.
 pub(crate) const CRAWL_BLOCK: u32 = 1_000_000;
 
 /// The average step of a [`CRAWL_BLOCK`], as a fraction of the output step, below which the run
