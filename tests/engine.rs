@@ -640,3 +640,20 @@ fn general_damping_path_matches_proportional_path_link_by_link() {
         }
     }
 }
+
+#[test]
+fn the_truncation_fraction_is_refused_outside_zero_to_one() {
+    for f in [-0.1, 1.0, f64::NAN, f64::INFINITY] {
+        let mut s = Settings::new(0.01, 1e-4);
+        s.newton.truncation_fraction = f;
+        match s.validate_run() {
+            Err(Error::InvalidParameter { name, allowed, .. }) => {
+                assert_eq!((name.as_str(), allowed.as_str()), ("truncation_fraction", "in [0, 1)"))
+            }
+            other => panic!("{f}: {other:?}"),
+        }
+    }
+    let mut s = Settings::new(0.01, 1e-4);
+    s.newton.truncation_fraction = 0.0;
+    s.validate_run().unwrap();
+}

@@ -358,3 +358,34 @@ def test_slider_acceleration_noise_after_impacts_drops_on_the_newton_stepper():
         fb, fr = base.joint("crank_pin").max_force, res.joint("crank_pin").max_force
         assert abs(fr - fb) < 0.05 * fb
         assert res.slider("slider").max_acceleration <= base.slider("slider").max_acceleration
+
+
+@pytest.mark.parametrize("clearance_at", [None, "crank_pin"])
+def test_default_iterations_stop_at_a_fraction_of_the_steps_truncation_error(clearance_at):
+    # At a fixed step the default Newton stop (iter_tol=None) also accepts an iterate once the
+    # error it leaves is within 1 % of the step's own truncation error (the Zienkiewicz-Xie
+    # estimate, up to 1e-6 of the displacement scale). The answer must then move by far less
+    # than the step's discretization error, estimated here by the strict run at dt/2 (the dt
+    # run's own error is about 4/3 of that difference). Measured over 0.02 s of Simeon's
+    # slider-crank: the midspan moved by 0.6 % (ideal pins) and 6e-5 (crank-pin clearance) of
+    # that difference, in 1.09 instead of 1.99 and 1.73 instead of 2.35 iterations a step; the
+    # bounds allow 5x and 100x that.
+    model = scenes.slider_crank(clearance_at=clearance_at) if clearance_at else scenes.slider_crank()
+    loose = model.simulate(0.02, 1e-5, record=Record(midspan=True))
+    strict = model.simulate(0.02, 1e-5, record=Record(midspan=True), iter_tol=1e-8)
+    half = model.simulate(0.02, 5e-6, record=Record(midspan=True, every=2), iter_tol=1e-8)
+    assert loose.stats["truncation_fraction"] == fc._core.TRUNCATION_FRACTION == 0.01
+    assert strict.stats["truncation_fraction"] == 0.0  # an iter_tol given is met as given
+    midspan = [np.asarray(r.link("rod").midspan) for r in (loose, strict, half)]
+    discretization = np.abs(midspan[1] - midspan[2]).max()
+    moved = np.abs(midspan[0] - midspan[1]).max()
+    assert 0 < moved < 0.03 * discretization
+    assert loose.stats["iterations"] < 0.8 * strict.stats["iterations"]
+
+
+def test_translating_runs_and_tolerance_runs_do_not_relax_their_iterations():
+    # the constant stepper's contact iteration and the adaptive steps (whose Newton tolerance
+    # follows their own) keep theirs
+    assert scenes.slider_yoke().simulate(0.002, 1e-5).stats["truncation_fraction"] == 0.0
+    run = scenes.slider_crank(clearance_at="crank_pin").simulate(0.002, tol=1e-2)
+    assert run.stats["truncation_fraction"] == 0.0

@@ -29,12 +29,16 @@ __all__ = [
     "CoulombFriction",
     "LuGreFriction",
     "RETRY_MIN_STEP_RATIO",
+    "TRUNCATION_FRACTION",
     "__version__",
 ]
 
 __version__: str
 #: Retries of a diverged sample stop before the step falls below this fraction of its own.
 RETRY_MIN_STEP_RATIO: float
+#: Default fraction of a fixed step's local truncation error at which its Newton iterations stop
+#: (where it is above their tolerance).
+TRUNCATION_FRACTION: float
 
 @final
 class Motion:
@@ -254,6 +258,7 @@ class Mechanism:
         adaptive: Optional[tuple[float, float, float, float]] = ...,
         sliders: bool = ...,
         slider_reference: Optional[SliderReference] = ...,
+        truncation_fraction: float = ...,
     ) -> RunOutput:
         """Runs the model; returns its output (what `flexclear.Result` reads). A failed run raises
         the matching `flexclear` exception with what it recorded as `exc.partial` (a

@@ -589,6 +589,23 @@ fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64
     )
 }
 
+/// `max |a_i - b_i|` over two slices of one length, four running maxima (no chain through
+/// every entry; the maximum is exact, so the order does not matter).
+fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut m = [0.0f64; 4];
+    for c in 0..n / 4 {
+        for k in 0..4 {
+            m[k] = m[k].max((a[4 * c + k] - b[4 * c + k]).abs());
+        }
+    }
+    for i in n / 4 * 4..n {
+        m[i % 4] = m[i % 4].max((a[i] - b[i]).abs());
+    }
+    m[0].max(m[1]).max(m[2].max(m[3]))
+}
+
 /// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
 /// 2 acceleration) from the local states of its two nodes (see [`NewtonRun::local`]).
 #[inline]
@@ -877,6 +894,9 @@ pub struct NewtonRun<'a> {
     /// The contraction rate of the Newton iterations, carried across steps
     /// ([`RATE_CARRY_DOWN`]): 1 until measured at a step's second iteration.
     iter_rate: f64,
+    /// The truncation fraction of the last accepted step's local error, relative to the
+    /// displacement scale (0 before the first: [`crate::run::NewtonSettings::truncation_fraction`]).
+    truncation_last: f64,
     /// The length of the frame part of the Jacobian's signature ([`Self::frame_signature`]).
     frame_sig_len: usize,
     /// Some clearance joint has friction (evaluated at every iterate, its tangent in the
@@ -1216,6 +1236,7 @@ impl<'a> NewtonRun<'a> {
             reuse_ok: false,
             step_end: None,
             iter_rate: 1.0,
+            truncation_last: 0.0,
             frame_sig_len: 0,
             friction: mech.joints.iter().any(|j| j.friction.is_some()),
             fric: vec![JointFrictionState::default(); nj],
@@ -2798,6 +2819,15 @@ impl<'a> NewtonRun<'a> {
                 .is_some_and(|r| r.fixed_step.is_none_or(|hh| hh == h))
             && self.joints_turn_together();
         let scale_floor = 1e-9 * self.limit / 10.0;
+        // the iterations' tolerance may grow to a fraction of the step's own truncation error
+        // (fixed steps only: NewtonSettings::truncation_fraction)
+        let truncation = if self.settings.adaptive.is_none() {
+            self.settings.newton.truncation_fraction * (nm.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h
+        } else {
+            0.0
+        };
+        // the truncation fraction of the step's error at the last iterate
+        let mut truncation_now = 0.0;
         let mut iters = 0usize;
         let mut last_res = f64::NAN;
         let mut last_corr;
@@ -2905,12 +2935,27 @@ impl<'a> NewtonRun<'a> {
             if carried && iters >= 2 {
                 self.iter_rate = (last_corr / prev_corr[1]).max(RATE_CARRY_DOWN * self.iter_rate);
             }
-            if linear || last_corr <= self.settings.newton.tol {
+            // the tolerance of this iterate: `tol`, or the truncation fraction of the step's
+            // Zienkiewicz-Xie error at this iterate where that is larger (both relative to the
+            // displacement scale), not above the last accepted step's (an iterate far from the
+            // solution has accelerations, and an estimate, far from the step's) nor above
+            // TRUNCATION_TOL_MAX (unresolved stiff modes inflate the estimate)
+            let tol = if truncation > 0.0 {
+                let da = max_abs_difference(&self.ydd[..n], &self.ydd0[..n]);
+                truncation_now = truncation * da / ymax.max(scale_floor);
+                let relaxed = truncation_now
+                    .min(self.truncation_last)
+                    .min(crate::run::TRUNCATION_TOL_MAX);
+                self.settings.newton.tol.max(relaxed)
+            } else {
+                self.settings.newton.tol
+            };
+            if linear || last_corr <= tol {
                 break true;
             }
             if carried && self.iter_rate < CONTRACTION_STOP {
                 if let Some(margin) = self.carried_rate_margin() {
-                    if self.iter_rate * last_corr <= margin * self.settings.newton.tol {
+                    if self.iter_rate * last_corr <= margin * tol {
                         break true;
                     }
                 }
@@ -2920,7 +2965,7 @@ impl<'a> NewtonRun<'a> {
                 // two (`prev_corr[1]` is the one before; the first correction, which takes out
                 // the predictor's error, says nothing of the iteration's rate)
                 let rho = last_corr / prev_corr[1];
-                if rho < CONTRACTION_STOP && rho / (1.0 - rho) * last_corr <= self.settings.newton.tol {
+                if rho < CONTRACTION_STOP && rho / (1.0 - rho) * last_corr <= tol {
                     break true;
                 }
             }
@@ -2948,6 +2993,7 @@ impl<'a> NewtonRun<'a> {
         self.reuse_ok = converged && iters <= JACOBIAN_REUSE_ITERATIONS;
         self.reusing = false;
         if converged {
+            self.truncation_last = truncation_now;
             if nm.is_alpha() {
                 // aa_{n+1} = b + (1 - alpha_f)/(1 - alpha_m) a_{n+1}
                 let k2 = nm.alpha_constants()[2];

@@ -576,7 +576,7 @@ impl PyMechanism {
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
                         nodes=Vec::new(), contact_modes=false, adaptive=None, sliders=false,
-                        slider_reference=None))]
+                        slider_reference=None, truncation_fraction=crate::run::TRUNCATION_FRACTION))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -614,6 +614,7 @@ impl PyMechanism {
         adaptive: Option<(f64, f64, f64, f64)>,
         sliders: bool,
         slider_reference: Option<PyRef<'py, super::output::PySliderReference>>,
+        truncation_fraction: f64,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -657,6 +658,7 @@ impl PyMechanism {
                 tol,
                 max_iter,
                 step_halving,
+                truncation_fraction,
                 ..NewtonSettings::default()
             },
             record: RecordSpec {

@@ -108,6 +108,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;
     contact::register(m)?;
     m.add("RETRY_MIN_STEP_RATIO", crate::batch::RETRY_MIN_STEP_RATIO)?;
+    m.add("TRUNCATION_FRACTION", crate::run::TRUNCATION_FRACTION)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
