@@ -312,9 +312,19 @@ fn joint_spec(record: &RecordSpec) -> RecordSpec {
 fn max_abs_or_inf(r: &[f64]) -> f64 {
     let mut m = [0.0f64; 4];
     let mut finite = true;
-    for (i, v) in r.iter().enumerate() {
+    // `if a > m` rather than f64::max (whose NaN rule keeps the loop from vectorizing); a NaN
+    // makes `finite` false either way
+    for c in r.chunks_exact(4) {
+        for k in 0..4 {
+            finite &= c[k].is_finite();
+            let a = c[k].abs();
+            m[k] = if a > m[k] { a } else { m[k] };
+        }
+    }
+    for (i, v) in r.iter().enumerate().skip(r.len() / 4 * 4) {
         finite &= v.is_finite();
-        m[i % 4] = m[i % 4].max(v.abs());
+        let a = v.abs();
+        m[i % 4] = if a > m[i % 4] { a } else { m[i % 4] };
     }
     if finite {
         m[0].max(m[1]).max(m[2].max(m[3]))
@@ -571,8 +581,11 @@ fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64
         yddv[i] = av[i];
         yv[i] = ypv[i] + bh2 * av[i];
         ydv[i] = vpv[i] + gh * av[i];
-        dm[k] = dm[k].max((bh2 * da).abs());
-        ym[k] = ym[k].max(yv[i].abs());
+        // `if d > m`: f64::max's NaN rule keeps the loop from vectorizing; NaN is skipped alike
+        let d = (bh2 * da).abs();
+        dm[k] = if d > dm[k] { d } else { dm[k] };
+        let y = yv[i].abs();
+        ym[k] = if y > ym[k] { y } else { ym[k] };
     };
     // unknown i into maximum i % 4, four at a time
     for c in 0..n / 4 {
@@ -595,13 +608,16 @@ fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut m = [0.0f64; 4];
-    for c in 0..n / 4 {
+    // `if d > m` (not f64::max, whose NaN rule keeps it from vectorizing): skips NaN alike
+    for (ca, cb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
         for k in 0..4 {
-            m[k] = m[k].max((a[4 * c + k] - b[4 * c + k]).abs());
+            let d = (ca[k] - cb[k]).abs();
+            m[k] = if d > m[k] { d } else { m[k] };
         }
     }
     for i in n / 4 * 4..n {
-        m[i % 4] = m[i % 4].max((a[i] - b[i]).abs());
+        let d = (a[i] - b[i]).abs();
+        m[i % 4] = if d > m[i % 4] { d } else { m[i % 4] };
     }
     m[0].max(m[1]).max(m[2].max(m[3]))
 }
