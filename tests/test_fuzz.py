@@ -421,6 +421,19 @@ def test_fuzz_lugre_subnormal_sigma0_is_refused() -> None:
     assert fc.contact.LuGre(0.02, 0.03, sigma0=0.03).sigma0 == 0.03
 
 
+def test_fuzz_lugre_subnormal_mu_is_refused() -> None:
+    """fuzz 40:99286: ``LuGre(mu=5e-324, mu_static=5e-324, sigma0=41176)`` on a joint: the
+    bristle rate ``sigma0 |v| / g`` overflowed and 253 of the friction history's 1542 values were
+    NaN. The microslip ``mu / sigma0`` is now at least 1e-15 m, the error naming ``sigma0`` and
+    its upper bound."""
+    with pytest.raises(fc.InvalidParameterError, match=r"sigma0.*<= mu / 1e-15 m"):
+        fc.contact.LuGre(5e-324, 5e-324, sigma0=41176.0)
+    with pytest.raises(fc.InvalidParameterError, match="sigma0"):
+        fc.contact.LuGre(1e-6, 1e-6, sigma0=1.1e9)
+    # a femtometre of microslip is a law (a stiff one), and runs as before
+    assert fc.contact.LuGre(1e-6, 1e-6, sigma0=9e8).sigma0 == 9e8
+
+
 @pytest.mark.parametrize("method", [3, None, "bogus"])
 def test_fuzz_study_method_checked_at_study(method) -> None:
     """``Study(method=3)`` passed and raised TypeError from the batch engine in ``run()``."""

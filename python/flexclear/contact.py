@@ -500,9 +500,10 @@ class LuGre:
     stribeck_speed : float
         m/s (> 0).
     sigma0 : float
-        Bristle stiffness per unit normal force, 1/m (at least ``mu_static / 1 m``: a microslip
-        ``mu_static / sigma0`` of at most 1 m; default 1e5, a microslip ``mu / sigma0`` of 1
-        micrometre at mu = 0.1).
+        Bristle stiffness per unit normal force, 1/m (at least ``mu_static / 1 m`` and at most
+        ``mu / 1e-15 m``: a microslip ``mu_static / sigma0`` of at most 1 m and ``mu / sigma0``
+        of at least a femtometre; default 1e5, a microslip ``mu / sigma0`` of 1 micrometre at
+        mu = 0.1).
     sigma1 : float
         Bristle damping per unit normal force, s/m (>= 0; default 0).
     sigma2 : float

@@ -10,6 +10,12 @@ use crate::error::{check_non_negative, check_positive, Error, Result};
 /// finite.
 pub const MAX_MICROSLIP: f64 = 1.0;
 
+/// The smallest microslip `mu / sigma0` (m) a LuGre law may have: a femtometre, far below any
+/// bristle deflection that means something, and it keeps the bristle rate `sigma0 |v| / g(v)`
+/// finite (at most 1e15 |v| 1/s): at mu = 5e-324 that rate overflowed and the run's friction
+/// history came out NaN (`inf * 0` in the tangent).
+pub const MIN_MICROSLIP: f64 = 1e-15;
+
 /// LuGre friction with the coefficients scaled by the normal force `F_N`, so that a joint whose
 /// load varies keeps a friction coefficient (Canudas de Wit et al. 1995, "A new model for control
 /// of systems with friction", IEEE Trans. Autom. Control 40:419-425, with `F_c = mu F_N`,
@@ -143,6 +149,16 @@ impl LuGre {
                 format!(
                     ">= mu_static / {MAX_MICROSLIP} m = {} 1/m (a microslip mu_static / sigma0 of at most {MAX_MICROSLIP} m)",
                     self.mu_static / MAX_MICROSLIP
+                ),
+            ));
+        }
+        if self.mu / self.sigma0 < MIN_MICROSLIP {
+            return Err(Error::param(
+                pname(name, "sigma0"),
+                self.sigma0,
+                format!(
+                    "<= mu / {MIN_MICROSLIP:e} m = {:e} 1/m (a microslip mu / sigma0 of at least {MIN_MICROSLIP:e} m)",
+                    self.mu / MIN_MICROSLIP
                 ),
             ));
         }
