@@ -2735,19 +2735,27 @@ impl<'a> NewtonRun<'a> {
     /// contact status (closed or open) there must be the one its contact terms were evaluated at
     /// ([`Self::evaluate_contacts`]); with every joint open, or in a tolerance-driven run (whose
     /// error test judges the step), the margin is 1; in contact in a fixed-step run it is
-    /// [`CONTACT_RATE_MARGIN`] where the step iterates on a factor kept from an earlier step
-    /// (a modified Newton, whose contraction is linear), and there is no stop where the
-    /// iterations are a full Newton's (a factor made this step or the constant-rate stepper's
-    /// exact one, the contact's tangent at every iterate: quadratic, a carried rate understates
-    /// the next step's error).
+    /// [`CONTACT_RATE_MARGIN`] where the step iterates on the Woodbury solver of a run that keeps
+    /// its factors (a modified Newton, whose contraction is linear: the carried rate is a kept
+    /// factor's, and a step on a factor made in it converges faster still), and there is no
+    /// stop where every step's iterations are a full Newton's (a factor made every step, the
+    /// refactorizing solver or the constant-rate stepper's exact factor, the contact's tangent
+    /// at every iterate: quadratic, a carried rate understates the next step's error). Letting
+    /// the steps on a new factor stop too (they did not before): crank-pin slider-crank at dt
+    /// 1e-5 s, 0.1 s, 12028 -> 11337 iterations; slider-pin clearance, 0.02 s, 2.12 -> 1.50
+    /// iterations a step and 3655 -> 2350 factorizations; the midspan against iterations to
+    /// 1e-12 within 1.1e-6 and 7.4e-7 of its scale (1.1e-6 and 1.0e-4 before), the discretization
+    /// error (against dt/8) 1.8e-2 and 0.12.
     fn carried_rate_margin(&self) -> Option<f64> {
         let adaptive = self.settings.adaptive.is_some();
         let mut margin = 1.0;
         for j in 0..self.mech.joints.len() {
             let was = self.contact[j].active();
             if was && !adaptive {
+                // a run that keeps its factors (jacobian_age > 1) carries a kept factor's rate,
+                // which a step on a factor made in it (converging faster) only beats
                 let kept = self.settings.solver == SolverMode::Woodbury
-                    && self.factor_made < self.steps_begun
+                    && (self.factor_made < self.steps_begun || self.settings.newton.jacobian_age > 1)
                     && self.rate.as_ref().is_some_and(|r| r.fixed_step.is_none());
                 if !kept {
                     return None;
