@@ -1835,6 +1835,24 @@ impl<'a> NewtonRun<'a> {
         w
     }
 
+    /// Local displacement (u, v, th) of a node from global unknowns: [`Self::local`]'s first
+    /// row alone (the same operations).
+    #[inline]
+    fn local_displacement(nt: &NodeT, y: &[f64]) -> [f64; 3] {
+        let g = |i: usize| if i == NONE { 0.0 } else { y[i] };
+        let q = [g(nt.idx[0]), g(nt.idx[1]), g(nt.idx[2])];
+        if nt.plain {
+            return q;
+        }
+        let mut w = [0.0; 3];
+        for r in 0..3 {
+            for c in 0..3 {
+                w[r] += nt.t[r][c] * q[c];
+            }
+        }
+        w
+    }
+
     /// Adds `T^T f` (f: local generalized force of a node) into `r`.
     #[inline]
     fn project(nt: &NodeT, f: [f64; 3], r: &mut [f64]) {
@@ -3272,7 +3290,7 @@ impl<'a> NewtonRun<'a> {
                         Some(i) => hist.displacements.extend_from_slice(&self.y[i..i + 3]),
                         None => hist
                             .displacements
-                            .extend_from_slice(&Self::local(nt, &self.y, &self.yd, &self.ydd)[0]),
+                            .extend_from_slice(&Self::local_displacement(nt, &self.y)),
                     }
                 }
             } else if need_w {
