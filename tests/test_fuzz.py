@@ -421,6 +421,20 @@ def test_fuzz_lugre_subnormal_sigma0_is_refused() -> None:
     assert fc.contact.LuGre(0.02, 0.03, sigma0=0.03).sigma0 == 0.03
 
 
+def test_fuzz_a_link_whose_element_length_underflows_is_refused() -> None:
+    """fuzz 42:88194: a link of length 5e-324 m (5 elements) in a four-bar frame: its element
+    length underflowed, ``EI / Le^3`` was infinite, and ``natural_frequencies`` never returned
+    (LAPACK's least squares in ``static_state`` on non-finite entries). The link is refused naming
+    ``length``; the spectral analyses refuse non-finite matrices before LAPACK sees them."""
+    m = fc.Model()
+    steel = dict(elements=5, youngs_modulus=2e11, density=7800.0, area=1e-4, inertia=1e-9)
+    with pytest.raises(fc.InvalidParameterError, match=r"length.*element length"):
+        m.add_link("L", length=5e-324, **steel)
+    # a short link with finite matrices is a link
+    m.add_link("L", length=1e-3, **steel)
+    assert m.link_names == ["L"]
+
+
 def test_fuzz_lugre_subnormal_mu_is_refused() -> None:
     """fuzz 40:99286: ``LuGre(mu=5e-324, mu_static=5e-324, sigma0=41176)`` on a joint: the
     bristle rate ``sigma0 |v| / g`` overflowed and 253 of the friction history's 1542 values were

@@ -889,6 +889,10 @@ class Model:
             y = np.zeros(n)
             for _ in range(max_iter):
                 _, _, k, r = core.linearize(float(t), y, contacts=contacts)
+                if not (np.all(np.isfinite(k)) and np.all(np.isfinite(r))):
+                    # LAPACK's least squares may never return on non-finite entries
+                    msg = f"static_state: the secant stiffness or load at t = {t:g} s is not finite"
+                    raise _singular("stiffness", msg)
                 try:
                     dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
                 except np.linalg.LinAlgError as e:  # SVD did not converge: non-finite entries
@@ -921,6 +925,10 @@ class Model:
         core = self._core
         y = self.static_state(t, contacts=False)
         m, c, k, _ = core.linearize(float(t), y, contacts=False)
+        for name, x in (("mass", m), ("damping", c), ("stiffness", k)):
+            if not np.all(np.isfinite(x)):
+                # LAPACK's eigensolvers may never return on non-finite entries
+                raise _singular(name, f"natural_frequencies: the {name} matrix at t = {t:g} s is not finite")
         try:
             return self._frequencies(m, c, k, int(count), coriolis)
         except np.linalg.LinAlgError as e:

@@ -89,7 +89,24 @@ impl BeamSection {
         check_positive(&p("density"), self.density, "kg/m^3")?;
         check_non_negative(&p("damping"), self.damping, "Pa s")?;
         check_positive(&p("area"), self.area, "m^2")?;
-        check_positive(&p("inertia"), self.inertia, "m^4")
+        check_positive(&p("inertia"), self.inertia, "m^4")?;
+        // the element matrices must be finite: an element length that underflows (a link of
+        // 5e-324 m) made EI / Le^3 infinite, and LAPACK hung on the matrices (fuzz 42:88194)
+        let le = self.length / self.elements as f64;
+        let ei = self.youngs_modulus * self.inertia;
+        let ea = self.youngs_modulus * self.area;
+        if !(le.is_normal() && (ei / (le * le * le)).is_finite() && (ea / le).is_finite()) {
+            return Err(Error::param(
+                p("length"),
+                self.length,
+                format!(
+                    "an element length length / elements = {le:e} m whose element stiffness is finite (EI / Le^3 = {:e} N/m, EA / Le = {:e} N/m)",
+                    ei / (le * le * le),
+                    ea / le
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Checks the optional initial elastic displacement and velocity: `3 (N + 1)` finite values
