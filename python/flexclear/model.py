@@ -895,7 +895,7 @@ class Model:
                     raise _singular("stiffness", msg)
                 try:
                     dy = np.linalg.lstsq(k, -r, rcond=rcond)[0]
-                except np.linalg.LinAlgError as e:  # SVD did not converge: non-finite entries
+                except np.linalg.LinAlgError as e:  # SVD did not converge
                     msg = f"static_state: the secant stiffness at t = {t:g} s cannot be solved ({e})"
                     raise _singular("stiffness", msg) from None
                 y = y + dy

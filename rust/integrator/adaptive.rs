@@ -283,8 +283,15 @@ impl LocalError {
     };
 }
 
+/// The coefficient `c` of the Zienkiewicz-Xie estimate `c h^2 |a_(n+1) - a_n|` of a Newmark
+/// step's local displacement error: `|beta - 1/6|`, at least 1/24 (where `beta = 1/6` leaves
+/// the next order).
+pub(crate) fn zx_coefficient(beta: f64) -> f64 {
+    (beta - 1.0 / 6.0).abs().max(1.0 / 24.0)
+}
+
 /// The Zienkiewicz-Xie estimate of the local displacement error of a step of length `h` (s),
-/// `c |a_(n+1) - a_n| h^2` with `c = |beta - 1/6|` (at least 1/24), over the tolerance
+/// `c |a_(n+1) - a_n| h^2` with `c = |beta - 1/6|` (at least 1/24, [`zx_coefficient`]), over the tolerance
 /// `atol + rtol |y|`, largest over the unknowns given as `(a_(n+1), a_n, y)` (infinite when not
 /// finite); with the largest absolute error and the largest `|y|` (the bookkeeping of the
 /// run's achieved-accuracy estimate, [`count_step`]).
@@ -294,7 +301,7 @@ pub(crate) fn local_error(
     unknowns: impl Iterator<Item = (f64, f64, f64)>,
     tol: &Adaptive,
 ) -> LocalError {
-    let c = (beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h;
+    let c = zx_coefficient(beta) * h * h;
     // plain comparisons (one `maxsd` each, where `f64::max`'s NaN rule costs more): the
     // largest ratio, and the sum of the ratios, NaN when any is (they are >= 0)
     let (mut e, mut sum) = (0.0f64, 0.0f64);
@@ -434,7 +441,7 @@ impl ForceErrors {
     /// and `|a''|` (m/s^4) where the second difference with the last step gives it (see
     /// [`Self::add_joint`]).
     fn local(&self, j: usize, da: [f64; 2], h: f64, beta: f64) -> (f64, f64, Option<f64>) {
-        let c = (beta - 1.0 / 6.0).abs().max(1.0 / 24.0);
+        let c = zx_coefficient(beta);
         let n = norm2(da);
         let (p, hp) = (self.prev_da[j], self.prev_h[j]);
         let h3 = h * h * h;

@@ -2864,7 +2864,7 @@ impl<'a> NewtonRun<'a> {
         // the iterations' tolerance may grow to a fraction of the step's own truncation error
         // (fixed steps only: NewtonSettings::truncation_fraction)
         let truncation = if self.settings.adaptive.is_none() {
-            self.settings.newton.truncation_fraction * (nm.beta - 1.0 / 6.0).abs().max(1.0 / 24.0) * h * h
+            self.settings.newton.truncation_fraction * adaptive::zx_coefficient(nm.beta) * h * h
         } else {
             0.0
         };
