@@ -1731,8 +1731,6 @@ impl<'a> NewtonRun<'a> {
         self.y.copy_from_slice(y);
         self.yd.copy_from_slice(yd);
         self.ydd.fill(0.0);
-        self.y_pred.copy_from_slice(y);
-        self.v_pred.copy_from_slice(yd);
         self.evaluate_contacts(true);
         if !contacts {
             self.contact.fill(ContactTerms::default());
@@ -2702,21 +2700,22 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// The contact terms of every joint for the step ([`crate::contact::evaluation`]): with
-    /// `from_start`, at the state of the step's start (`y_pred`, `v_pred` hold it when called:
-    /// lagged kappa, the force method, and the status the implicit contact starts from), else
-    /// at the current iterate (implicit contact: spring and damping at the iterate, the spring
-    /// by its tangent in the Jacobian, the dashpot left out after repeated status switches).
+    /// `from_start`, at the state of the step's start (`y`, `yd` hold it when called, before
+    /// the predictors: lagged kappa, the force method, and the status the implicit contact
+    /// starts from), else at the current iterate (implicit contact: spring and damping at the
+    /// iterate, the spring by its tangent in the Jacobian, the dashpot left out after repeated
+    /// status switches).
     fn evaluate_contacts(&mut self, from_start: bool) {
         if self.cont.is_some() {
             self.continuous_terms(from_start);
             return;
         }
-        if from_start {
-            self.switches.fill(0);
-        }
         for j in 0..self.mech.joints.len() {
             let (mut q, qd) = if from_start {
-                self.joint_state(j, &self.y_pred, &self.v_pred)
+                // the status switches of the step begun start at none (set here, joint by
+                // joint: a `fill` is a `memset` call per step)
+                self.switches[j] = 0;
+                self.joint_state(j, &self.y, &self.yd)
             } else {
                 let st = self.joint_state(j, &self.y, &self.yd);
                 self.jstate[j] = st;
@@ -2814,12 +2813,10 @@ impl<'a> NewtonRun<'a> {
         self.jstate_fresh = false;
         let nm = self.settings.newmark;
         let (bh2, gh) = nm.coefficients(h);
-        // State at the start (kept for contact terms and for a retry).
         let n = self.n;
-        self.y_pred[..n].copy_from_slice(&self.y[..n]);
-        self.v_pred[..n].copy_from_slice(&self.yd[..n]);
         // Contact terms from the start-of-step state (lagged kappa, force method).
         self.evaluate_contacts(true);
+        // State at the start (kept for a retry).
         self.y0.copy_from_slice(&self.y);
         self.yd0.copy_from_slice(&self.yd);
         self.ydd0.copy_from_slice(&self.ydd);
@@ -3150,14 +3147,6 @@ impl<'a> NewtonRun<'a> {
             self.continuous_start()?;
         }
         Ok(())
-    }
-
-    fn evaluate_contacts_at_state(&mut self) {
-        for i in 0..self.n {
-            self.y_pred[i] = self.y[i];
-            self.v_pred[i] = self.yd[i];
-        }
-        self.evaluate_contacts(true);
     }
 
     /// The Jacobian at h = 0: the mass matrix (with the transforms), for the initial
@@ -3532,7 +3521,7 @@ impl<'a> NewtonRun<'a> {
 
     fn restart_accelerations(&mut self, t: f64) -> Result<()> {
         self.update_frames(t);
-        self.evaluate_contacts_at_state();
+        self.evaluate_contacts(true);
         self.ydd.fill(0.0);
         self.factorize_mass()?;
         self.mass_accelerations(t);
