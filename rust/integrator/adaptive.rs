@@ -283,6 +283,15 @@ impl LocalError {
     };
 }
 
+/// The length (m) by which the local error of adaptive steps weighs a beam node's rotation
+/// unknown (rad), for an element of length `le` (m): the largest transverse displacement a unit
+/// nodal rotation makes within the element, `(4/27) le` (the cubic Hermite shape function
+/// `le xi (1 - xi)^2` at `xi = 1/3`). A rotation then counts as the displacement it makes; a
+/// rigid link's rotation counts by its length instead (it moves the far end by that much).
+pub(crate) fn rotation_lever(le: f64) -> f64 {
+    le * (4.0 / 27.0)
+}
+
 /// The coefficient `c` of the Zienkiewicz-Xie estimate `c h^2 |a_(n+1) - a_n|` of a Newmark
 /// step's local displacement error: `|beta - 1/6|`, at least 1/24 (where `beta = 1/6` leaves
 /// the next order).

@@ -76,6 +76,7 @@ use super::{norm2, same_instant};
 use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
 use crate::error::{Error, Result};
 use crate::linalg::{capacitance_solve, subtract_ws, Analysis, AnalysisCache, Cholesky, LowRankBlocks};
+use crate::model::NODE_DOFS;
 use crate::plan::assembly::{shares_factor, Frames, Pattern, System};
 use crate::plan::translating::Model;
 use crate::record::Recorder;
@@ -722,6 +723,24 @@ struct AdaptiveSteps {
     forces: adaptive::ForceErrors,
     /// Accepted steps since the last divergence check.
     accepted: divergence::AcceptedSteps,
+    /// Per unknown, the length (m) its error is measured in: 1 for a displacement,
+    /// [`adaptive::rotation_lever`] of its link's element length for a rotation (as the Newton
+    /// stepper's error norm).
+    err_scale: Vec<f64>,
+}
+
+/// Per unknown of `sys` (`n` of them), the length (m) by which the adaptive steps' error norm
+/// weighs it: 1 for a displacement, [`adaptive::rotation_lever`] of the link's element length for
+/// a node's rotation (every third unknown of a link: `u`, `v`, `theta` per node).
+fn rotation_scales(model: &Model, sys: &System, n: usize) -> Vec<f64> {
+    let mut scale = vec![1.0; n];
+    for (link, plan) in model.links.iter().zip(&sys.links) {
+        let lever = adaptive::rotation_lever(link.element_length());
+        for k in (NODE_DOFS - 1..plan.ndof).step_by(NODE_DOFS) {
+            scale[plan.offset + k] = lever;
+        }
+    }
+    scale
 }
 
 /// Scratch of event-aware stepping (one-lane runs): the start-of-step snapshot.
@@ -1614,6 +1633,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                 control: Default::default(),
                 forces: adaptive::ForceErrors::new(nj),
                 accepted: Default::default(),
+                err_scale: rotation_scales(self.lanes[0].model, &self.sh.sys, n),
             }
         });
         let events = (L == 1 && settings.events && adaptive.is_none()).then(Events::default);
@@ -2069,13 +2089,16 @@ impl<'m, const L: usize> Lockstep<'m, L> {
     /// over the unknowns (infinite when not finite): as the Newton stepper's (`NewtonRun`'s
     /// `local_error`), `c |a_(n+1) - a_n| h^2 / (atol + rtol |u|)` with `c = |beta - 1/6|` (at
     /// least 1/24); with the absolute error and the largest `|u|` ([`adaptive::LocalError`]).
-    fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> adaptive::LocalError {
+    /// Each unknown counts as a displacement, a rotation times its `scale` (m,
+    /// [`rotation_scales`]).
+    fn local_error(&self, h: f64, a0: &[f64], scale: &[f64], tol: &crate::run::Adaptive) -> adaptive::LocalError {
         let unknowns = self
             .a
             .iter()
             .zip(a0)
             .zip(&self.u)
-            .map(|((a1, &a0), u)| (a1[0], a0, u[0]));
+            .zip(scale)
+            .map(|(((a1, &a0), u), &s)| (a1[0] * s, a0 * s, u[0] * s));
         adaptive::local_error(self.lanes[0].settings.newmark.beta, h, unknowns, tol)
     }
 
@@ -2136,7 +2159,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
             if !self.adaptive_step(t, h) {
                 return;
             }
-            let mut err = self.local_error(h, &ad.snap.a, &tol);
+            let mut err = self.local_error(h, &ad.snap.a, &ad.err_scale, &tol);
             let mut taken = h;
             let mut cut = false;
             if let Some((mut theta, jstar)) = earliest_crossing(&ad.p0, &self.lanes[0].pen) {
@@ -2166,7 +2189,7 @@ impl<'m, const L: usize> Lockstep<'m, L> {
                     }
                 }
                 self.lanes[0].frozen.clear();
-                err = self.local_error(taken, &ad.snap.a, &tol);
+                err = self.local_error(taken, &ad.snap.a, &ad.err_scale, &tol);
                 cut = true;
             } else if !at_floor && self.passes_through_a_circle(h, &ad.snap) {
                 // a contact within the step, open at both ends: shorter steps locate it

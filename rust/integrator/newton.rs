@@ -863,9 +863,10 @@ pub struct NewtonRun<'a> {
     /// Per unknown: whether it is a displacement in metres (nodal translations, slider travel),
     /// checked against the divergence limit; rotations are checked for finiteness only.
     translational: Vec<bool>,
-    /// Per unknown, the length (m) its error is measured in: 1 for a displacement, the element
-    /// length of its link for a rotation (its error as the displacement it makes over an
-    /// element), for the adaptive steps' error norm.
+    /// Per unknown, the length (m) its error is measured in: 1 for a displacement,
+    /// [`adaptive::rotation_lever`] of its element length for a beam node's rotation (its error
+    /// as the largest displacement it makes within an element), the link's length for a rigid
+    /// link's rotation, for the adaptive steps' error norm.
     err_scale: Vec<f64>,
     /// Per joint: its running extremes and whether its histories are kept.
     track: Vec<JointTrack>,
@@ -1262,10 +1263,17 @@ impl<'a> NewtonRun<'a> {
             cont: None,
         };
         for (li, ld) in run.links.iter().enumerate() {
-            let le = run.mech.links[li].element_length();
+            let link = &run.mech.links[li];
+            // a beam node's rotation by the largest displacement it makes within an element, a
+            // rigid link's by the link's length
+            let lever = if link.rigid.is_some() {
+                link.element_length()
+            } else {
+                adaptive::rotation_lever(link.element_length())
+            };
             for m in &ld.nodes {
                 if m.rot != NONE {
-                    run.err_scale[m.rot] = le;
+                    run.err_scale[m.rot] = lever;
                 }
             }
         }
@@ -3612,8 +3620,8 @@ impl<'a> NewtonRun<'a> {
     /// (s) just taken from accelerations `a0`, `c |a_(n+1) - a_n| h^2` with `c = |beta - 1/6|`
     /// (at least 1/24), over the tolerance `atol + rtol |y|`, largest over the unknowns
     /// (infinite when not finite); with the absolute error and the largest `|y|`
-    /// ([`adaptive::LocalError`]). A rotation counts as the displacement it makes over an
-    /// element of its link (rad x element length, m: [`Self::err_scale`]).
+    /// ([`adaptive::LocalError`]). A rotation counts as the displacement it makes (rad x
+    /// [`Self::err_scale`], m).
     fn local_error(&self, h: f64, a0: &[f64], tol: &crate::run::Adaptive) -> adaptive::LocalError {
         let unknowns = (0..self.n).map(|i| {
             let s = self.err_scale[i];
