@@ -582,6 +582,35 @@ mod tests {
     }
 
     #[test]
+    fn the_rotation_lever_is_the_largest_displacement_a_unit_nodal_rotation_makes_in_a_beam_element() {
+        // the beam element's own shape functions: a unit rotation at either node, every other
+        // nodal value zero, sampled finely over the element
+        let le = 0.0375;
+        let section = crate::model::BeamSection {
+            length: 8.0 * le,
+            elements: 8,
+            youngs_modulus: 2e11,
+            density: 7800.0,
+            damping: 0.0,
+            area: 1e-4,
+            inertia: 1e-9,
+        };
+        let element = section.element(false);
+        for node in [2, 5] {
+            let mut q = crate::element::Vec6::zeros();
+            q[node] = 1.0;
+            let largest = (0..=3000)
+                .map(|k| element.transverse_at(k as f64 / 3000.0, &q).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                (largest - rotation_lever(le)).abs() <= 1e-9 * le,
+                "{largest} against {}",
+                rotation_lever(le)
+            );
+        }
+    }
+
+    #[test]
     fn hermite_points_follow_a_cubic_exactly() {
         // q(t) = t^3 - t on [0.5, 0.5 + h] is its own cubic Hermite interpolant
         let (t0, h) = (0.5, 0.25);
