@@ -413,10 +413,12 @@ def _history(model: Model, t_end: float, dt: float, kw: dict):
 
 
 def _contact_summary(ref) -> str:
-    return (
-        f"{ref[3]:.4g} N peak force, {(ref[5] if len(ref) > 5 else ref[1].max()):.4g} m peak penetration, "
-        f"{len(ref[4].time) if len(ref) > 4 else _impact_peaks(ref[1], ref[2]).size} contacts"
-    )
+    # the running largest penetration and the impact log where the history has them (index 5
+    # and 4, as errors_against reads them), else the recorded samples
+    logged = len(ref) > 5 and isinstance(ref[4], ImpactLog)
+    deepest = ref[5] if logged else ref[1].max()
+    contacts = len(ref[4].time) if logged else _impact_peaks(ref[1], ref[2]).size
+    return f"{ref[3]:.4g} N peak force, {deepest:.4g} m peak penetration, {contacts} contacts"
 
 
 def yoke_scene(
