@@ -1184,9 +1184,11 @@ class Model:
             stepper; ``stepper="newton"`` forces Newton), each step's
             local error (the Zienkiewicz-Xie estimate ``|beta - 1/6| h^2 |a_(n+1) - a_n|``) kept
             within ``(tol / 10) ** 1.5`` relative to the displacement (absolute: that times the
-            smallest clearance, m), every contact entry and exit located (a step that crosses
-            one is cut there), steps doubling after an easy step and shrinking by what the
-            estimate asks after a rejected one. On an impact oscillator with an exact solution
+            smallest clearance, m; a beam node's rotation counts as the largest displacement it
+            makes within an element, ``(4/27) l_e theta``), every contact entry and exit located
+            (a step that crosses one is cut there), steps doubling after an easy step and
+            shrinking by what the estimate asks after a rejected one. On an impact oscillator
+            with an exact solution
             the trajectory error at 2 s is about half of ``tol`` of the largest displacement
             (``tests/test_adaptive.py``). ``stats`` gains ``tol``, ``rtol``, ``atol``,
             ``h_min``, ``h_max`` (s), ``adaptive_steps``, ``rejected_steps``, ``floor_steps`` (accepted at the
