@@ -92,17 +92,15 @@ impl BeamSection {
         check_positive(&p("inertia"), self.inertia, "m^4")?;
         // the element matrices must be finite: an element length that underflows (a link of
         // 5e-324 m) made EI / Le^3 infinite, and LAPACK hung on the matrices (fuzz 42:88194)
-        let le = self.length / self.elements as f64;
-        let ei = self.youngs_modulus * self.inertia;
-        let ea = self.youngs_modulus * self.area;
-        if !(le.is_normal() && (ei / (le * le * le)).is_finite() && (ea / le).is_finite()) {
+        let le = self.element_length();
+        let bending = self.youngs_modulus * self.inertia / (le * le * le);
+        let axial = self.youngs_modulus * self.area / le;
+        if !(le.is_normal() && bending.is_finite() && axial.is_finite()) {
             return Err(Error::param(
                 p("length"),
                 self.length,
                 format!(
-                    "an element length length / elements = {le:e} m whose element stiffness is finite (EI / Le^3 = {:e} N/m, EA / Le = {:e} N/m)",
-                    ei / (le * le * le),
-                    ea / le
+                    "an element length length / elements = {le:e} m whose element stiffness is finite (EI / Le^3 = {bending:e} N/m, EA / Le = {axial:e} N/m)"
                 ),
             ));
         }
