@@ -77,10 +77,12 @@ fn main() {
         .first()
         .map_or((0.0, 0), |x| (x.max_force, x.impacts));
     println!(
-        "{case}: {} steps, {:.3} us/step, stepper {}, factorizations {}, iterations {}, woodbury steps {}, max force {:.6e} N, impacts {}",
+        "{case}: {} steps, {:.3} us/step, stepper {}, {} unknowns, half-bandwidth {}, factorizations {}, iterations {}, woodbury steps {}, max force {:.6e} N, impacts {}",
         st.steps,
         el / st.steps as f64 * 1e6,
         st.stepper,
+        st.unknowns,
+        st.bandwidth,
         st.factorizations,
         st.iterations,
         st.woodbury_steps,

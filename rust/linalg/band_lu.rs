@@ -315,16 +315,28 @@ impl BandLu {
             win[B - 1] = next;
             xj = out[0];
         }
-        // backward: U[j-B+t, j] from `ucols` down to column B, from `a` below it
+        // backward: U[j-B+t, j] from `ucols` down to column B, from `a` below it; the window
+        // holds x[j-B..j] (rows above the pivot) and `cur` the pivot's row, in registers, so
+        // the chain from one column to the next does not go through memory
         let ucols = &self.ucols[..n * B];
+        let mut win = [0.0; B];
+        win.copy_from_slice(&x[n - 1 - B..n - 1]);
+        let mut cur = x[n - 1];
         for j in (B..n).rev() {
-            let xj = x[j] * self.inv_diag[j];
+            let xj = cur * self.inv_diag[j];
             x[j] = xj;
             // U[j-B+t, j], contiguous
             let u: &[f64; B] = ucols[j * B..j * B + B].try_into().expect("band column");
-            let xs: &mut [f64; B] = (&mut x[j - B..j]).try_into().expect("band window");
+            let mut out = [0.0; B];
             for t in 0..B {
-                xs[t] -= u[t] * xj;
+                out[t] = win[t] - u[t] * xj;
+            }
+            cur = out[B - 1];
+            if j > B {
+                win[1..].copy_from_slice(&out[..B - 1]);
+                win[0] = x[j - 1 - B];
+            } else {
+                x[..B].copy_from_slice(&out);
             }
         }
         for j in (0..B).rev() {
