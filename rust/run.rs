@@ -209,15 +209,16 @@ pub const TRUNCATION_FRACTION: f64 = 0.01;
 /// bound, and runs at any fixed tolerance from 1e-8 to 1e-5.
 pub const TRUNCATION_TOL_MAX: f64 = 1e-6;
 
-/// The Jacobian age limit of a tolerance-driven run on the Newton stepper, in steps (of any
-/// size), when [`NewtonSettings::jacobian_age`] is shorter (and above 1): the bound of SUNDIALS'
-/// CVODE between two setups of its Newton matrix. Such a run watches the contraction of its
-/// iterations (`integrator::newton::RATE_CARRY_DOWN`), and a step that takes more than
-/// [`JACOBIAN_REUSE_ITERATIONS`] on an old factor refactorizes as before. Its steps are of
-/// varying length, so an age in steps bounds the frames' motion since the factor less than at a
-/// fixed step. Crank pin at `tol` 3e-2 (one crank turn): factorizations 1404 -> 1106; at 1e-2
-/// 2373 -> 1793, instructions -7 %.
-pub const ADAPTIVE_JACOBIAN_AGE: u32 = 20;
+/// The default [`NewtonSettings::jacobian_age`], in steps (of any size): the bound of SUNDIALS'
+/// CVODE between two setups of its Newton matrix. A step that takes more than
+/// [`JACOBIAN_REUSE_ITERATIONS`] iterations on an old factor refactorizes at once, so the bound
+/// only caps how far the frames and axial forces move from the factor's. Measured on Simeon's
+/// slider-crank at dt 1e-5 s, 0.1 s (`examples/profile_newton`, iterated to 1e-10), against an
+/// age of 8: ideal pins 1251 -> 501 factorizations, 1.040 -> 1.097 iterations a step, 125.3 ->
+/// 115.4 M instructions; clearance at the crank pin 1275 -> 526, 1.134 -> 1.181, 188.0 -> 172.0 M.
+/// Tolerance-driven runs: crank pin at `tol` 3e-2 (one crank turn) factorizations 1404 -> 1106
+/// against 8, at 1e-2 2373 -> 1793, instructions -7 %.
+pub const JACOBIAN_AGE: u32 = 20;
 
 /// The iterations a step may take on a reused Jacobian factor ([`NewtonSettings::jacobian_age`])
 /// before it is refactorized at the current iterate (and the next step starts on a new one).
@@ -225,13 +226,13 @@ pub const JACOBIAN_REUSE_ITERATIONS: usize = 3;
 
 impl Default for NewtonSettings {
     /// Tolerance 1e-8 (or 1 % of a fixed step's truncation error, [`TRUNCATION_FRACTION`]), 25
-    /// iterations, no halving, a Jacobian factor kept for up to 8 steps.
+    /// iterations, no halving, a Jacobian factor kept for up to [`JACOBIAN_AGE`] steps.
     fn default() -> Self {
         NewtonSettings {
             tol: 1e-8,
             max_iter: 25,
             step_halving: 0,
-            jacobian_age: 8,
+            jacobian_age: JACOBIAN_AGE,
             truncation_fraction: TRUNCATION_FRACTION,
         }
     }

@@ -91,8 +91,8 @@ use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
 use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
+use crate::run::JACOBIAN_REUSE_ITERATIONS;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
-use crate::run::{ADAPTIVE_JACOBIAN_AGE, JACOBIAN_REUSE_ITERATIONS};
 
 use crate::plan::dofs::{self, DofMap, LinkTerms, NodeMap, Trans, NONE};
 
@@ -130,8 +130,8 @@ pub const CONTRACTION_STOP: f64 = 0.5;
 /// correction, the predictor's error, is about 3 times the local error
 /// `(beta - 1/6) h^2 (a1 - a0)` the step's error test bounds), and a fixed step of the ideal
 /// slider-crank a third (its rate is 1e-4, its second correction 1e-7). Measured: the
-/// crank-pin slider-crank at `tol` 3e-2 (one crank turn) 9776 -> 6075 iterations (with
-/// [`ADAPTIVE_JACOBIAN_AGE`]); the ideal slider-crank at dt 1e-5 2.87 -> 1.81 iterations a
+/// crank-pin slider-crank at `tol` 3e-2 (one crank turn) 9776 -> 6075 iterations (Jacobian
+/// age 20); the ideal slider-crank at dt 1e-5 2.87 -> 1.81 iterations a
 /// step; with clearance, whose steps are mostly in contact, 1.84 -> 1.35 with the margin in
 /// contact (without it, 1.15 a step, the rattling contact force of `tests/constant_rate.rs`
 /// drifted by 2.1e-3 of its scale from the refactorizing solver's, 5.7e-7 before).
@@ -2376,19 +2376,7 @@ impl<'a> NewtonRun<'a> {
         same_step
             && !self.direct
             && self.reuse_ok
-            && self.steps_begun - self.factor_made < u64::from(self.jacobian_age())
-    }
-
-    /// The Jacobian age limit in steps:
-    /// [`NewtonSettings::jacobian_age`](crate::run::NewtonSettings::jacobian_age), raised to
-    /// [`ADAPTIVE_JACOBIAN_AGE`] in a tolerance-driven run that reuses factors at all.
-    fn jacobian_age(&self) -> u32 {
-        let age = self.settings.newton.jacobian_age;
-        if self.settings.adaptive.is_some() && age > 1 {
-            age.max(ADAPTIVE_JACOBIAN_AGE)
-        } else {
-            age
-        }
+            && self.steps_begun - self.factor_made < u64::from(self.settings.newton.jacobian_age)
     }
 
     /// The part of the Jacobian's signature that does not depend on the contact (the step `h`,
