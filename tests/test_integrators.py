@@ -383,6 +383,19 @@ def test_default_iterations_stop_at_a_fraction_of_the_steps_truncation_error(cle
     assert loose.stats["iterations"] < 0.8 * strict.stats["iterations"]
 
 
+def test_the_core_api_relaxes_only_its_default_iteration_tolerance():
+    # the rule of Model.simulate and of the batch path: a tolerance given is met as given (the
+    # truncation fraction off), the default stops at the fraction; the fraction given wins
+    core = scenes.slider_crank()._core
+    runs = [
+        core.simulate(0.005, 1e-5),
+        core.simulate(0.005, 1e-5, tol=1e-8),
+        core.simulate(0.005, 1e-5, tol=1e-8, truncation_fraction=fc._core.TRUNCATION_FRACTION),
+    ]
+    default, given, both = (r.stats["iterations"] for r in runs)
+    assert default == both < 0.8 * given
+
+
 def test_translating_runs_and_tolerance_runs_do_not_relax_their_iterations():
     # the constant stepper's contact iteration and the adaptive steps (whose Newton tolerance
     # follows their own) keep theirs

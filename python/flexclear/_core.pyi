@@ -229,7 +229,7 @@ class Mechanism:
         dt: float,
         method: str = ...,
         iterate: bool = ...,
-        tol: float = ...,
+        tol: Optional[float] = ...,
         max_iter: int = ...,
         step_halving: int = ...,
         beta: float = ...,
@@ -258,11 +258,13 @@ class Mechanism:
         adaptive: Optional[tuple[float, float, float, float]] = ...,
         sliders: bool = ...,
         slider_reference: Optional[SliderReference] = ...,
-        truncation_fraction: float = ...,
+        truncation_fraction: Optional[float] = ...,
     ) -> RunOutput:
         """Runs the model; returns its output (what `flexclear.Result` reads). A failed run raises
         the matching `flexclear` exception with what it recorded as `exc.partial` (a
-        `RunOutput`)."""
+        `RunOutput`). `tol` (default 1e-8) is the within-step iteration's tolerance; left at its
+        default, a fixed Newton step also stops at `truncation_fraction` (default
+        `TRUNCATION_FRACTION`) of its truncation error, given, it is met as given (fraction 0)."""
 
 @final
 class JointExtremes:

@@ -570,13 +570,13 @@ impl PyMechanism {
     }
 
     /// Runs the mechanism; returns a dict of histories (see `flexclear.Mechanism.simulate`).
-    #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=1e-8, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
+    #[pyo3(signature = (t_end, dt, method="modified", iterate=false, tol=None, max_iter=25, step_halving=0, beta=0.25, gamma=0.5,
                         alpha_m=0.0, alpha_f=0.0,
                         divergence_limit=None, every=1, displacements=true, axial_force=false, midspan=false, energy=false,
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
                         nodes=Vec::new(), contact_modes=false, adaptive=None, sliders=false,
-                        slider_reference=None, truncation_fraction=crate::run::TRUNCATION_FRACTION))]
+                        slider_reference=None, truncation_fraction=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -585,7 +585,7 @@ impl PyMechanism {
         dt: f64,
         method: &str,
         iterate: bool,
-        tol: f64,
+        tol: Option<f64>,
         max_iter: i64,
         step_halving: i64,
         beta: f64,
@@ -614,8 +614,17 @@ impl PyMechanism {
         adaptive: Option<(f64, f64, f64, f64)>,
         sliders: bool,
         slider_reference: Option<PyRef<'py, super::output::PySliderReference>>,
-        truncation_fraction: f64,
+        truncation_fraction: Option<f64>,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
+        // an iteration tolerance asked for is met as asked; left at its default (1e-8) a fixed
+        // step's iterations also stop at its truncation fraction, the rule of Model.simulate and
+        // of the batch path
+        let truncation_fraction = truncation_fraction.unwrap_or(if tol.is_some() {
+            0.0
+        } else {
+            crate::run::TRUNCATION_FRACTION
+        });
+        let tol = tol.unwrap_or(1e-8);
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
             None => None,
