@@ -96,48 +96,51 @@ mod avx2 {
     }
 
     /// `a v` for the lanes' vectors with [`super::mul6`]'s operations for pattern `s`
-    /// (nalgebra's column-by-column order for a full matrix).
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn mul(a: &Mat6, s: Sparsity, split: &SplitMat, v: &V) -> V {
-        let b = _mm256_set1_pd;
-        let mut y = [_mm256_setzero_pd(); 6];
-        match s {
-            Sparsity::Zero => {}
-            Sparsity::Full => {
-                for i in 0..6 {
-                    y[i] = _mm256_mul_pd(b(a[(i, 0)]), v[0]);
-                }
-                for j in 1..6 {
+    /// (nalgebra's column-by-column order for a full matrix). A macro so that it is inlined
+    /// into [`forces`] (`#[inline(always)]` is not allowed with `#[target_feature]`, and a call
+    /// passes its six registers through memory).
+    macro_rules! mul {
+        ($a:expr, $s:expr, $split:expr, $v:expr) => {{
+            let (a, split, v): (&Mat6, &SplitMat, &V) = ($a, $split, $v);
+            let b = |x: f64| _mm256_set1_pd(x);
+            let mut y = [_mm256_setzero_pd(); 6];
+            match $s {
+                Sparsity::Zero => {}
+                Sparsity::Full => {
                     for i in 0..6 {
-                        y[i] = _mm256_add_pd(y[i], _mm256_mul_pd(b(a[(i, j)]), v[j]));
+                        y[i] = _mm256_mul_pd(b(a[(i, 0)]), v[0]);
+                    }
+                    for j in 1..6 {
+                        for i in 0..6 {
+                            y[i] = _mm256_add_pd(y[i], _mm256_mul_pd(b(a[(i, j)]), v[j]));
+                        }
+                    }
+                }
+                Sparsity::Split => {
+                    for (r, i) in [0, 3].into_iter().enumerate() {
+                        y[i] = _mm256_add_pd(
+                            _mm256_mul_pd(b(split.ax3[r]), v[3]),
+                            _mm256_mul_pd(b(split.ax0[r]), v[0]),
+                        );
+                    }
+                    let c = &split.bend;
+                    for (r, i) in SplitMat::BEND.into_iter().enumerate() {
+                        let mut x = _mm256_mul_pd(b(c[0][r]), v[1]);
+                        x = _mm256_add_pd(x, _mm256_mul_pd(b(c[1][r]), v[2]));
+                        x = _mm256_add_pd(x, _mm256_mul_pd(b(c[2][r]), v[4]));
+                        y[i] = _mm256_add_pd(x, _mm256_mul_pd(b(c[3][r]), v[5]));
+                    }
+                }
+                Sparsity::Node0 => {
+                    for i in 0..3 {
+                        let mut x = _mm256_mul_pd(b(a[(i, 0)]), v[0]);
+                        x = _mm256_add_pd(x, _mm256_mul_pd(b(a[(i, 1)]), v[1]));
+                        y[i] = _mm256_add_pd(_mm256_mul_pd(b(a[(i, 2)]), v[2]), x);
                     }
                 }
             }
-            Sparsity::Split => {
-                for (r, i) in [0, 3].into_iter().enumerate() {
-                    y[i] = _mm256_add_pd(
-                        _mm256_mul_pd(b(split.ax3[r]), v[3]),
-                        _mm256_mul_pd(b(split.ax0[r]), v[0]),
-                    );
-                }
-                let c = &split.bend;
-                for (r, i) in SplitMat::BEND.into_iter().enumerate() {
-                    let mut x = _mm256_mul_pd(b(c[0][r]), v[1]);
-                    x = _mm256_add_pd(x, _mm256_mul_pd(b(c[1][r]), v[2]));
-                    x = _mm256_add_pd(x, _mm256_mul_pd(b(c[2][r]), v[4]));
-                    y[i] = _mm256_add_pd(x, _mm256_mul_pd(b(c[3][r]), v[5]));
-                }
-            }
-            Sparsity::Node0 => {
-                for i in 0..3 {
-                    let mut x = _mm256_mul_pd(b(a[(i, 0)]), v[0]);
-                    x = _mm256_add_pd(x, _mm256_mul_pd(b(a[(i, 1)]), v[1]));
-                    y[i] = _mm256_add_pd(_mm256_mul_pd(b(a[(i, 2)]), v[2]), x);
-                }
-            }
-        }
-        y
+            y
+        }};
     }
 
     /// The forces of elements `e .. e + 4` of a beam link (lanes past the link's last element
@@ -159,14 +162,14 @@ mod avx2 {
         let (c0, k0) = lf.ck;
         let none = SplitMat::default();
         let (q, qd, qdd) = (load(q), load(qd), load(qdd));
-        let mut f = mul(&ld.m, ld.m_sparsity, &ld.m_split, &qdd);
-        add(&mut f, &mul(c0, Sparsity::Full, &none, &qd));
-        add(&mut f, &mul(k0, Sparsity::Full, &none, &q));
+        let mut f = mul!(&ld.m, ld.m_sparsity, &ld.m_split, &qdd);
+        add(&mut f, &mul!(c0, Sparsity::Full, &none, &qd));
+        add(&mut f, &mul!(k0, Sparsity::Full, &none, &q));
         if ld.active.geometric {
             let fax = _mm256_mul_pd(_mm256_set1_pd(ld.ea_l), _mm256_sub_pd(q[3], q[0]));
-            let mut g = mul(&ld.k23, ld.k23_sparsity, &ld.k23_split, &q);
+            let mut g = mul!(&ld.k23, ld.k23_sparsity, &ld.k23_split, &q);
             if ld.d2_sparsity != Sparsity::Zero {
-                add(&mut g, &mul(&ld.d2, ld.d2_sparsity, &ld.d2_split, &qd));
+                add(&mut g, &mul!(&ld.d2, ld.d2_sparsity, &ld.d2_split, &qd));
             }
             for i in 0..6 {
                 f[i] = _mm256_add_pd(f[i], _mm256_mul_pd(g[i], fax));
