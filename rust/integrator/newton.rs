@@ -250,14 +250,26 @@ impl Extrapolation {
         if let Some(w) = self.pending.take() {
             let n = a1.len();
             let (a0, xp) = (&a0[..n], &self.a0[..n]);
-            let (mut e_start, mut e_extrapolated) = (0.0f64, 0.0f64);
-            for i in 0..n {
+            // four running maxima each (no chain through every unknown; maxima are exact, so
+            // the result is that of one running maximum), `if d > m` as in max_abs_difference
+            let (mut ms, mut me) = ([0.0f64; 4], [0.0f64; 4]);
+            let chunks = a1.chunks_exact(4).zip(a0.chunks_exact(4)).zip(xp.chunks_exact(4));
+            for ((c1, c0), cp) in chunks {
+                for k in 0..4 {
+                    let d = (c1[k] - c0[k]).abs();
+                    let e = (c1[k] - (c0[k] + w * (c0[k] - cp[k]))).abs();
+                    ms[k] = if d > ms[k] { d } else { ms[k] };
+                    me[k] = if e > me[k] { e } else { me[k] };
+                }
+            }
+            for i in n / 4 * 4..n {
                 let d = (a1[i] - a0[i]).abs();
                 let e = (a1[i] - (a0[i] + w * (a0[i] - xp[i]))).abs();
-                e_start = if d > e_start { d } else { e_start };
-                e_extrapolated = if e > e_extrapolated { e } else { e_extrapolated };
+                ms[i % 4] = if d > ms[i % 4] { d } else { ms[i % 4] };
+                me[i % 4] = if e > me[i % 4] { e } else { me[i % 4] };
             }
-            self.better = e_extrapolated < EXTRAPOLATION_MARGIN * e_start;
+            let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
+            self.better = max4(me) < EXTRAPOLATION_MARGIN * max4(ms);
             // `a0` is the last step's end, bitwise (`applicable`)
             std::mem::swap(&mut self.a0, &mut self.a1);
         } else if ACCELERATION_EXTRAPOLATION {
