@@ -4321,13 +4321,14 @@ mod tests {
         // the AVX2 residual (beam elements four at a time in the lanes of element_lanes) against
         // the baseline's element by element, at random states: the crank-pin slider-crank (8
         // rod elements: two full groups, transformed end nodes), with material damping (the
-        // geometric damping D2) and 7 elements (a group of three), and a four-bar with a
-        // flexible coupler and rocker (5 and 3 elements, a clearance joint at the rocker pin)
+        // geometric damping D2) and 7 elements (a group of three), a four-bar with a flexible
+        // coupler and rocker (5 and 3 elements, a clearance joint at the rocker pin), and rods of
+        // 1 to 9 elements with and without the geometric terms
         use crate::scenes::{FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin};
         if !crate::linalg::avx2_fma_available() {
             return;
         }
-        let mechs = [
+        let mut mechs = vec![
             FlexibleSliderCrank {
                 clearance_at: Some(SliderCrankPin::CrankPin),
                 ..Default::default()
@@ -4349,6 +4350,20 @@ mod tests {
             }
             .build(),
         ];
+        // every remainder of a group of four, with and without the geometric terms
+        for elements in 1..=9 {
+            for geometric in [Some(true), Some(false)] {
+                mechs.push(
+                    FlexibleSliderCrank {
+                        elements,
+                        geometric,
+                        clearance_at: Some(SliderCrankPin::SliderPin),
+                        ..Default::default()
+                    }
+                    .build(),
+                );
+            }
+        }
         for (k, mech) in mechs.into_iter().enumerate() {
             let mech = mech.expect("scene");
             let settings = crate::Settings::new(0.01, 1e-5);
