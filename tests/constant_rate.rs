@@ -184,9 +184,9 @@ fn newton_puts_contact_changes_on_the_step_factor() {
     assert_eq!(a.record.extremes[0].impacts, b.record.extremes[0].impacts);
     let (du, df) = difference(&a, &b);
     assert!(du < 1e-7 && df < 2e-6, "displacements {du:e}, force {df:e}");
-    // the default keeps a factor for up to 8 steps: fewer factorizations, a few more iterations,
-    // the same answer within the iteration tolerance
-    s.newton.jacobian_age = 8;
+    // the default keeps a factor for up to JACOBIAN_AGE (20) steps: fewer factorizations, a few
+    // more iterations, the same answer within the iteration tolerance
+    s.newton.jacobian_age = flexclear::run::JACOBIAN_AGE;
     let c = simulate_any(&mech, &s, &mut |_| true).unwrap();
     assert!(3 * c.stats.factorizations < c.stats.steps, "{}", c.stats.factorizations);
     assert!(
@@ -202,7 +202,7 @@ fn newton_puts_contact_changes_on_the_step_factor() {
         "reused factors: displacements {du:e}, force {df:e}"
     );
     eprintln!(
-        "age 1: {} factorizations, {} iterations; age 8: {} factorizations, {} iterations, differences {du:e} {df:e}",
+        "age 1: {} factorizations, {} iterations; age 20: {} factorizations, {} iterations, differences {du:e} {df:e}",
         a.stats.factorizations, a.stats.iterations, c.stats.factorizations, c.stats.iterations
     );
 }
