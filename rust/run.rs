@@ -213,9 +213,10 @@ pub const TRUNCATION_TOL_MAX: f64 = 1e-6;
 /// CVODE between two setups of its Newton matrix. A step that takes more than
 /// [`JACOBIAN_REUSE_ITERATIONS`] iterations on an old factor refactorizes at once, so the bound
 /// only caps how far the frames and axial forces move from the factor's. Measured on Simeon's
-/// slider-crank at dt 1e-5 s, 0.1 s (`examples/profile_newton`, iterated to 1e-10), against an
-/// age of 8: ideal pins 1251 -> 501 factorizations, 1.040 -> 1.097 iterations a step, 125.3 ->
-/// 115.4 M instructions; clearance at the crank pin 1275 -> 526, 1.134 -> 1.181, 188.0 -> 172.0 M.
+/// slider-crank at dt 1e-5 s, 0.1 s (`examples/profile_newton`, iterated to 1e-10, callgrind),
+/// against an age of 8: ideal pins 1251 -> 501 factorizations, 1.040 -> 1.070 iterations a step,
+/// 125.3 -> 112.8 M instructions; clearance at the crank pin 1275 -> 531, 1.134 -> 1.178, 188.0 ->
+/// 172.5 M.
 /// Tolerance-driven runs: crank pin at `tol` 3e-2 (one crank turn) factorizations 1404 -> 1106
 /// against 8, at 1e-2 2373 -> 1793, instructions -7 %.
 pub const JACOBIAN_AGE: u32 = 20;
