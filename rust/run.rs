@@ -240,6 +240,21 @@ impl Default for NewtonSettings {
 }
 
 impl NewtonSettings {
+    /// The defaults with the iteration tolerance `tol` where one is given, met as given (no
+    /// [`Self::truncation_fraction`]); without one, the default tolerance, at which a fixed step
+    /// also stops at [`TRUNCATION_FRACTION`] of its truncation error. The rule of
+    /// `Model.simulate`, of the batch path and of `_core.Mechanism.simulate`.
+    pub fn with_tol(tol: Option<f64>) -> Self {
+        match tol {
+            Some(tol) => NewtonSettings {
+                tol,
+                truncation_fraction: 0.0,
+                ..NewtonSettings::default()
+            },
+            None => NewtonSettings::default(),
+        }
+    }
+
     fn validate(&self) -> Result<()> {
         check_positive("tol", self.tol, "(relative)")?;
         if self.max_iter < 1 {

@@ -80,17 +80,9 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
         record: c.record.clone(),
         events: c.events,
         newton: NewtonSettings {
-            tol: c.tol.unwrap_or(1e-8),
             max_iter: c.max_iter.unwrap_or(25),
             step_halving: c.step_halving,
-            // an iteration tolerance asked for is met as asked; the default also stops at the
-            // step's truncation fraction (Model.simulate alike)
-            truncation_fraction: if c.tol.is_some() {
-                0.0
-            } else {
-                crate::run::TRUNCATION_FRACTION
-            },
-            ..NewtonSettings::default()
+            ..NewtonSettings::with_tol(c.tol)
         },
         stepper: None,
         ..Settings::new(t_end, dt)

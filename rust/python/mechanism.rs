@@ -616,15 +616,6 @@ impl PyMechanism {
         slider_reference: Option<PyRef<'py, super::output::PySliderReference>>,
         truncation_fraction: Option<f64>,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
-        // an iteration tolerance asked for is met as asked; left at its default (1e-8) a fixed
-        // step's iterations also stop at its truncation fraction, the rule of Model.simulate and
-        // of the batch path
-        let truncation_fraction = truncation_fraction.unwrap_or(if tol.is_some() {
-            0.0
-        } else {
-            crate::run::TRUNCATION_FRACTION
-        });
-        let tol = tol.unwrap_or(1e-8);
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
             None => None,
@@ -652,6 +643,16 @@ impl PyMechanism {
         // the constant stepper's defaults, 1e-10 and 50); the gap element is the constant
         // stepper's: a model planned for Newton refuses it
         let coupling = parse_coupling(py, method, iterate, 1e-10, 50, gap_stiffness, gap_damping)?;
+        // a tolerance given is met as given, the default also stops at the truncation fraction
+        // (NewtonSettings::with_tol), unless a fraction is given
+        let base = NewtonSettings::with_tol(tol);
+        let newton = NewtonSettings {
+            max_iter,
+            step_halving,
+            truncation_fraction: truncation_fraction.unwrap_or(base.truncation_fraction),
+            ..base
+        };
+        let tol = newton.tol;
         let mut settings = Settings {
             newmark: Newmark {
                 beta,
@@ -663,13 +664,7 @@ impl PyMechanism {
             solver,
             divergence_limit,
             events,
-            newton: NewtonSettings {
-                tol,
-                max_iter,
-                step_halving,
-                truncation_fraction,
-                ..NewtonSettings::default()
-            },
+            newton,
             record: RecordSpec {
                 every,
                 links: LinkChannels {
