@@ -2009,9 +2009,9 @@ impl<'a> NewtonRun<'a> {
                         let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
                         wprev = Some(wn);
                         for (c, qc) in qs.iter_mut().enumerate() {
-                            for j in 0..3 {
-                                qc[j][l] = w0[c][j];
-                                qc[j + 3][l] = wn[c][j];
+                            let v = element_vec(&w0, &wn, c);
+                            for j in 0..6 {
+                                qc[j][l] = v[j];
                             }
                         }
                     }
