@@ -1949,7 +1949,7 @@ impl<'a> NewtonRun<'a> {
     /// baseline's. The same operations in the same order (Rust does not contract a multiply and
     /// an add into an FMA), so bitwise the baseline's result
     /// (`the_avx2_residual_equals_the_baseline_one_bitwise`). The ideal slider-crank's residual
-    /// 3788 -> 3170 instructions with the lanes (`examples/profile_newton`).
+    /// 3788 -> 2936 instructions a call with the lanes (`examples/profile_newton ideal 0.1`).
     ///
     /// # Safety
     /// The CPU must support AVX2 and FMA.
