@@ -285,12 +285,16 @@ impl FourBar {
         let lo = (self.coupler - self.rocker).abs();
         let hi = self.coupler + self.rocker;
         let tol = DEAD_CENTRE_TOL * hi;
-        let prefix = if name.is_empty() {
-            String::new()
-        } else {
-            format!("{name}: ")
+        // made for an error only (this runs at thousands of angles per check)
+        let prefix = || {
+            if name.is_empty() {
+                String::new()
+            } else {
+                format!("{name}: ")
+            }
         };
         if d < lo - tol || d > hi + tol {
+            let prefix = prefix();
             return Err(Error::InvalidModel {
                 message: format!(
                     "{prefix}the four-bar does not close at crank angle {theta2} rad (t = {t} s): \
@@ -305,6 +309,7 @@ impl FourBar {
             } else {
                 (hi, "coupler + rocker")
             };
+            let prefix = prefix();
             return Err(Error::InvalidModel {
                 message: format!(
                     "{prefix}the four-bar reaches a dead-centre position at crank angle {theta2} rad (t = {t} s): \
