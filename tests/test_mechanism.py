@@ -446,3 +446,15 @@ def test_fixed_steps_stop_their_iterations_on_the_carried_contraction_rate():
     # at most 1e-8 of the displacement scale left per step, over 2000 steps: 2e-5 of the
     # deflection's amplitude (1.6 mm; measured 2.7e-6, and 1.6e-9 at iter_tol 1e-9)
     assert np.abs(a - b).max() <= 2e-5 * scale
+
+
+@pytest.mark.parametrize("clearance_at", [None, "crank_pin", "rocker_pin"])
+def test_a_flexible_rocker_is_numbered_next_to_the_coupler(clearance_at):
+    """The rocker of the four-bar is held at ground by its first node and attached to the coupler
+    by its last: numbered from its last node, its unknowns follow the coupler's end and the half
+    band stays that of one element's two nodes (6), not the coupler's whole length (19 and 20
+    when numbered from its first node)."""
+    m = scenes.four_bar(flexible_rocker=True, clearance_at=clearance_at)
+    stats = m.simulate(2e-4, 1e-5).stats
+    assert stats["unknowns"] in (36, 38)
+    assert stats["bandwidth"] <= 6
