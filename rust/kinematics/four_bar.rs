@@ -39,6 +39,10 @@ pub struct FourBar {
     driver: Rotation,
     /// The last pose solved ([`PoseMemo`]).
     last: PoseMemo<FourBarPose>,
+    /// The last `t_end` (s) for which [`FourBar::check`] passed ([`PoseMemo`]'s rules: a clone
+    /// starts empty, memos compare equal): a run validates its mechanism several times, and the
+    /// coupler's and rocker's frames share this four-bar.
+    checked: PoseMemo<()>,
 }
 
 /// Solved configuration of a four-bar at one instant: angles, rates, accelerations of crank (2),
@@ -80,6 +84,7 @@ impl FourBar {
             branch,
             driver,
             last: PoseMemo::default(),
+            checked: PoseMemo::default(),
         })
     }
 
@@ -227,6 +232,17 @@ impl FourBar {
     pub fn check(&self, name: &str, t_end: f64) -> Result<()> {
         check_non_negative("t_end", t_end, "s")?;
         self.driver.covers(&field(name, "driver"), t_end)?;
+        if self.checked.holds(t_end) {
+            // passed at this very t_end (the outcome does not depend on `name`)
+            return Ok(());
+        }
+        self.check_closure(name, t_end)?;
+        self.checked.get(t_end, |_| ());
+        Ok(())
+    }
+
+    /// [`FourBar::check`]'s loop-closure test over `[0, t_end]` (s), not memoized.
+    fn check_closure(&self, name: &str, t_end: f64) -> Result<()> {
         let mut prev: Option<(f64, f64)> = None;
         for t in self.check_times(t_end) {
             let th = self.driver.at(t).0;

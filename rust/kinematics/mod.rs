@@ -570,6 +570,15 @@ impl<P: Copy> PoseMemo<P> {
     }
 }
 
+impl<P> PoseMemo<P> {
+    /// Whether the kept value is that of `t` (a poisoned lock: no).
+    pub(crate) fn holds(&self, t: f64) -> bool {
+        self.0
+            .lock()
+            .is_ok_and(|last| last.as_ref().is_some_and(|(k, _)| *k == t.to_bits()))
+    }
+}
+
 impl<P> Default for PoseMemo<P> {
     fn default() -> Self {
         PoseMemo(std::sync::Mutex::new(None))

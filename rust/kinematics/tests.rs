@@ -533,6 +533,9 @@ fn four_bar_check_reports_failures() {
     let msg = err_message(fb.check("fb", 4.0).unwrap_err());
     assert!(msg.contains("dead-centre") && msg.contains("change-point"), "{msg}");
     assert!(msg.contains(&format!("crank angle {PI} rad")), "{msg}");
+    // the memo of a passed check holds for its own t_end only: the longer window fails again
+    fb.check("fb", 1.0).unwrap();
+    assert!(err_message(fb.check("fb", 4.0).unwrap_err()).contains("dead-centre"));
     // A harmonic driver just past the limit (2.43027 rad) is caught at its peak, which is
     // among the sampled times.
     let peak = |amplitude: f64| Rotation::Harmonic {
