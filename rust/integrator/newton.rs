@@ -717,8 +717,43 @@ struct JointRows {
     /// unknown of the joint on a frame that does not rotate).
     axes: Vec<Option<usize>>,
     /// Per joint: the rate (rad/s) of its unknowns' frames; the velocity of `q` has the position
-    /// dependence `rate S dq/dy`.
+    /// dependence `rate S dq/dy`. 0 for a joint whose sides turn at different rates (`split`).
     rate: Vec<f64>,
+    /// Per joint: whether its two sides' unknowns turn at different rates (a slider pin on a
+    /// turning rod, the pin between a four-bar's coupler and rocker): the velocity of `q` then
+    /// depends on the positions through `vel`, not through a multiple of the rows.
+    split: Vec<bool>,
+    /// Per joint, per slot of `cols`: `d qd / d y` at fixed velocities, in the same axes (the
+    /// frames' rotation; zeros unless `split`).
+    vel: Vec<[[f64; 2]; 6]>,
+}
+
+/// The velocity rows of [`JointRows`] (`V`, the right factor of the Woodbury update's second
+/// term: [`Woodbury::solve_with`]) on the same unknowns as its rows.
+struct VelocityRows<'a>(&'a JointRows);
+
+impl LowRankBlocks for VelocityRows<'_> {
+    fn blocks(&self) -> usize {
+        self.0.cols.len()
+    }
+    fn scatter(&self, b: usize, r: usize, col: &mut [f64]) {
+        for (&(i, _), v) in self.0.cols[b].iter().zip(&self.0.vel[b]) {
+            if i != NONE {
+                col[i] += v[r];
+            }
+        }
+    }
+    #[inline]
+    fn project(&self, b: usize, x: &[f64]) -> [f64; 2] {
+        let mut p = [0.0; 2];
+        for (&(i, _), v) in self.0.cols[b].iter().zip(&self.0.vel[b]) {
+            if i != NONE {
+                p[0] += v[0] * x[i];
+                p[1] += v[1] * x[i];
+            }
+        }
+        p
+    }
 }
 
 impl LowRankBlocks for JointRows {
@@ -769,6 +804,13 @@ struct RateSolver {
     wb: Woodbury,
     /// `G`, per joint, in its reference axes.
     g: Vec<Mat2>,
+    /// `H`, per joint, in its reference axes: `beta h^2 C` of a joint whose sides turn at
+    /// different rates ([`JointRows::split`]), else zero.
+    hv: Vec<Mat2>,
+    /// `V Z` of the velocity rows ([`Woodbury::project_z`]) when some joint is split.
+    wv: Vec<f64>,
+    /// Whether some block of `H` is non-zero in this iteration.
+    any_split: bool,
     /// Whether some block of `G` is non-zero in this iteration.
     any: bool,
     scratch: WoodburyScratch,
@@ -845,6 +887,11 @@ pub struct NewtonRun<'a> {
     /// The contact force is implicit in the step: evaluated at the current iterate, with its
     /// tangent in the Jacobian (Newton on the contact terms).
     implicit_contact: bool,
+    /// [`Self::woodbury_fits`], fixed for the run.
+    woodbury_fits: bool,
+    /// Whether some clearance joint has its two sides' unknowns on different frames (a link's
+    /// and another link's or fixed axes): only such a joint can be [`JointRows::split`].
+    split_joints: bool,
     /// Contact status switches of each joint within the current step's iteration (implicit
     /// contact: [`evaluation::iterated_terms`]).
     switches: Vec<u8>,
@@ -1233,6 +1280,8 @@ impl<'a> NewtonRun<'a> {
                 settings.coupling,
                 Coupling::Modified { iterate: true, .. } | Coupling::Continuous
             ) && !mech.joints.is_empty(),
+            woodbury_fits: false,
+            split_joints: false,
             contact_was: vec![false; mech.joints.len()],
             status_hint: vec![f64::NAN; mech.joints.len()],
             episode: vec![None; mech.joints.len()],
@@ -1346,6 +1395,14 @@ impl<'a> NewtonRun<'a> {
             run.rate = Some(run.contact_free_solver(None));
             run.rate_kept = (0..RATE_FACTORS_KEPT).map(|_| *run.contact_free_solver(None)).collect();
         }
+        run.woodbury_fits = run.woodbury_fits();
+        run.split_joints =
+            run.mech.joints.iter().any(
+                |j| match (run.endpoint_turn(&j.journal), run.endpoint_turn(&j.bearing)) {
+                    (Some((_, a)), Some((_, b))) => a != b,
+                    _ => false,
+                },
+            );
         Ok(run)
     }
 
@@ -1370,12 +1427,14 @@ impl<'a> NewtonRun<'a> {
         }
     }
 
-    /// Whether the contact terms can go on the contact-free factor by Woodbury at the current
-    /// frames: with the force method there is nothing to put; else the unknowns of both sides
-    /// of every clearance joint turn at one rate (then the velocity's position dependence is
-    /// `rate S P` and the contact block is `P^T G P`).
-    fn joints_turn_together(&self) -> bool {
-        // node 1 of a rigid link whose node 0 has fixed axes: part turns with the link, part not
+    /// Whether the contact terms can go on the contact-free factor by Woodbury: with the force
+    /// method there is nothing to put; else no side of a clearance joint is node 1 of a rigid
+    /// link whose node 0 has fixed axes (part of its unknowns turns with the link, part not).
+    /// Each side's unknowns then turn at one rate: where both sides turn at the same rate the
+    /// velocity's position dependence is `rate S P` and the contact block is `P^T G P`; where
+    /// they turn at different rates ([`JointRows::split`]) it is `P^T (G P + H V)`
+    /// ([`Woodbury::solve_with`]).
+    fn woodbury_fits(&self) -> bool {
         let mixed = |e: &Endpoint| match e {
             Endpoint::Node { link, node } => {
                 let m = self.links[*link].nodes[*node];
@@ -1384,13 +1443,7 @@ impl<'a> NewtonRun<'a> {
             _ => false,
         };
         matches!(self.settings.coupling, Coupling::Force)
-            || (!self.mech.joints.iter().any(|j| mixed(&j.journal) || mixed(&j.bearing))
-                && self.mech.joints.iter().all(|j| {
-                    match (self.endpoint_turn(&j.journal), self.endpoint_turn(&j.bearing)) {
-                        (Some((a, _)), Some((b, _))) => a == b,
-                        _ => true,
-                    }
-                }))
+            || !self.mech.joints.iter().any(|j| mixed(&j.journal) || mixed(&j.bearing))
     }
 
     /// Why the constant-rate stepper cannot run this model with these settings (`None`: it can).
@@ -1468,6 +1521,8 @@ impl<'a> NewtonRun<'a> {
             cols: vec![[(NONE, [0.0; 2]); 6]; nj],
             axes: vec![None; nj],
             rate: vec![0.0; nj],
+            split: vec![false; nj],
+            vel: vec![[[0.0; 2]; 6]; nj],
         };
         Box::new(RateSolver {
             fixed_step,
@@ -1479,6 +1534,9 @@ impl<'a> NewtonRun<'a> {
             rows,
             wb: Woodbury::default(),
             g: vec![[[0.0; 2]; 2]; nj],
+            hv: vec![[[0.0; 2]; 2]; nj],
+            wv: Vec::new(),
+            any_split: false,
             any: false,
             scratch: WoodburyScratch::for_rank(2 * nj),
             rhs: vec![0.0; self.n],
@@ -1507,17 +1565,21 @@ impl<'a> NewtonRun<'a> {
     /// The rows of `P` in each joint's reference axes at the current frames (see
     /// [`JointRows`]), into `rows` (sized for the joints; nothing allocated). A node with local
     /// unknowns on the reference link gets the exact unit columns, so the rows of a joint that
-    /// turns with its link are bitwise the same at every step.
-    fn fill_joint_rows(&self, rows: &mut JointRows) {
+    /// turns with its link are bitwise the same at every step. With `SPLIT` (the run has
+    /// [`Self::split_joints`]), also which joints are split and their velocity rows.
+    fn fill_joint_rows<const SPLIT: bool>(&self, rows: &mut JointRows) {
         for j in 0..rows.cols.len() {
             let jt = &self.mech.joints[j];
-            let (rate, axes) = match (self.endpoint_turn(&jt.journal), self.endpoint_turn(&jt.bearing)) {
+            let turns = (self.endpoint_turn(&jt.journal), self.endpoint_turn(&jt.bearing));
+            let (rate, axes) = match turns {
                 (Some((r, Some(l))), _) if r != 0.0 => (r, Some(l)),
                 (_, Some((r, Some(l)))) if r != 0.0 => (r, Some(l)),
                 _ => (0.0, None),
             };
+            let split = SPLIT && matches!(turns, (Some((a, _)), Some((b, _))) if a != b);
             let rt = axes.map(|l| self.rots[l]);
             let mut cols = [(NONE, [0.0; 2]); 6];
+            let mut vel = [[0.0; 2]; 6];
             for (slot, e, sgn) in [(0, &jt.journal, 1.0), (3, &jt.bearing, -1.0)] {
                 let on_axes = match e {
                     Endpoint::Node { link, node } => {
@@ -1525,7 +1587,14 @@ impl<'a> NewtonRun<'a> {
                     }
                     _ => false,
                 };
-                for (k, (i, g, _)) in self.endpoint_jac(e).into_iter().enumerate() {
+                for (k, (i, g, v)) in self.endpoint_jac(e).into_iter().enumerate() {
+                    if split {
+                        // the frame rotation's velocity term, in the same axes
+                        let v = rt.map_or(v, |r| {
+                            [r[0][0] * v[0] + r[1][0] * v[1], r[0][1] * v[0] + r[1][1] * v[1]]
+                        });
+                        vel[slot + k] = [sgn * v[0], sgn * v[1]];
+                    }
                     let g = if on_axes && k < 2 {
                         // R^T R e_k = e_k exactly
                         if k == 0 {
@@ -1544,7 +1613,13 @@ impl<'a> NewtonRun<'a> {
             }
             rows.cols[j] = cols;
             rows.axes[j] = axes;
-            rows.rate[j] = rate;
+            if SPLIT {
+                rows.rate[j] = if split { 0.0 } else { rate };
+                rows.split[j] = split;
+                rows.vel[j] = vel;
+            } else {
+                rows.rate[j] = rate;
+            }
         }
     }
 
@@ -1597,7 +1672,11 @@ impl<'a> NewtonRun<'a> {
                 .map_err(|e| self.name_pivot(e));
         }
         if res.is_ok() {
-            self.fill_joint_rows(&mut rs.rows_new);
+            if self.split_joints {
+                self.fill_joint_rows::<true>(&mut rs.rows_new);
+            } else {
+                self.fill_joint_rows::<false>(&mut rs.rows_new);
+            }
             if refactor || rs.rows_new.cols != rs.rows.cols {
                 std::mem::swap(&mut rs.rows, &mut rs.rows_new);
                 let RateSolver { lu0, rows, wb, .. } = &mut *rs;
@@ -1606,6 +1685,15 @@ impl<'a> NewtonRun<'a> {
                 // same columns; the axes' angle and the rate for this step
                 rs.rows.axes.clone_from_slice(&rs.rows_new.axes);
                 rs.rows.rate.clone_from_slice(&rs.rows_new.rate);
+                if self.split_joints {
+                    rs.rows.split.clone_from_slice(&rs.rows_new.split);
+                    rs.rows.vel.clone_from_slice(&rs.rows_new.vel);
+                }
+            }
+            if self.split_joints && rs.rows.split.contains(&true) {
+                // the velocity rows move with the rates: V Z at every step
+                let RateSolver { rows, wb, wv, .. } = &mut *rs;
+                wb.project_z(&VelocityRows(rows), wv);
             }
             rs.ready = true;
         }
@@ -1622,9 +1710,30 @@ impl<'a> NewtonRun<'a> {
             return;
         };
         rs.any = false;
+        rs.any_split = false;
         if matches!(self.settings.coupling, Coupling::Force) {
             return;
         }
+        // R^T A R for the joint's reference axes (the identity without)
+        let turn = |a: Mat2, axes: Option<usize>| {
+            let Some(l) = axes else {
+                return a;
+            };
+            let r = self.rots[l];
+            let mut ar = [[0.0; 2]; 2];
+            for p in 0..2 {
+                for q in 0..2 {
+                    ar[p][q] = a[p][0] * r[0][q] + a[p][1] * r[1][q];
+                }
+            }
+            let mut out = [[0.0; 2]; 2];
+            for p in 0..2 {
+                for q in 0..2 {
+                    out[p][q] = r[0][p] * ar[0][q] + r[1][p] * ar[1][q];
+                }
+            }
+            out
+        };
         for j in 0..self.mech.joints.len() {
             let (k, c) = if self.implicit_contact {
                 self.contact_tan[j]
@@ -1635,9 +1744,26 @@ impl<'a> NewtonRun<'a> {
             };
             if k == [[0.0; 2]; 2] && c == [[0.0; 2]; 2] {
                 rs.g[j] = [[0.0; 2]; 2];
+                rs.hv[j] = [[0.0; 2]; 2];
                 continue;
             }
             rs.any = true;
+            let axes = rs.rows.axes[j];
+            if self.split_joints && rs.rows.split[j] {
+                // G = bh2 k + gh c on the rows, H = bh2 c on the velocity rows
+                let mut g = [[0.0; 2]; 2];
+                let mut hv = [[0.0; 2]; 2];
+                for p in 0..2 {
+                    for q in 0..2 {
+                        g[p][q] = bh2 * k[p][q] + gh * c[p][q];
+                        hv[p][q] = bh2 * c[p][q];
+                    }
+                }
+                rs.g[j] = turn(g, axes);
+                rs.hv[j] = turn(hv, axes);
+                rs.any_split = true;
+                continue;
+            }
             let w = rs.rows.rate[j] * bh2;
             // c S, S = [[0, -1], [1, 0]]
             let mut g = [[0.0; 2]; 2];
@@ -1647,22 +1773,8 @@ impl<'a> NewtonRun<'a> {
                     g[p][q] = bh2 * k[p][q] + gh * c[p][q] + w * cs[q];
                 }
             }
-            if let Some(l) = rs.rows.axes[j] {
-                // R^T G R
-                let r = self.rots[l];
-                let mut gr = [[0.0; 2]; 2];
-                for p in 0..2 {
-                    for q in 0..2 {
-                        gr[p][q] = g[p][0] * r[0][q] + g[p][1] * r[1][q];
-                    }
-                }
-                for p in 0..2 {
-                    for q in 0..2 {
-                        g[p][q] = r[0][p] * gr[0][q] + r[1][p] * gr[1][q];
-                    }
-                }
-            }
-            rs.g[j] = g;
+            rs.g[j] = turn(g, axes);
+            rs.hv[j] = [[0.0; 2]; 2];
         }
     }
 
@@ -1682,10 +1794,17 @@ impl<'a> NewtonRun<'a> {
             rows,
             wb,
             g,
+            hv,
+            wv,
+            any_split,
             scratch,
             ..
         } = &mut *rs;
-        let rcond = wb.solve(lu0, rows, g, dx, scratch);
+        let rcond = if *any_split {
+            wb.solve_with(lu0, rows, &VelocityRows(rows), g, hv, wv, dx, scratch)
+        } else {
+            wb.solve(lu0, rows, g, dx, scratch)
+        };
         let fallback = rcond.is_nan() || rcond < WOODBURY_RCOND;
         if fallback {
             dx.copy_from_slice(&rs.rhs);
@@ -2898,7 +3017,7 @@ impl<'a> NewtonRun<'a> {
                 .rate
                 .as_ref()
                 .is_some_and(|r| r.fixed_step.is_none_or(|hh| hh == h))
-            && self.joints_turn_together();
+            && self.woodbury_fits;
         let scale_floor = 1e-9 * self.limit / 10.0;
         // the iterations' tolerance may grow to a fraction of the step's own truncation error
         // (fixed steps only: NewtonSettings::truncation_fraction)
@@ -4313,6 +4432,85 @@ mod tests {
             .build()
             .expect("slider-crank scene")
         })
+    }
+
+    /// The Woodbury solve on the contact-free factor (`rate_solve`) equals the solve with the
+    /// whole Jacobian assembled and factorized (`assemble` with the contact terms) to rounding,
+    /// with contact stiffness and damping in every joint: a joint whose sides turn together (the
+    /// crank pin, `P^T G P`) and joints whose sides turn at different rates (the slider pin: a
+    /// turning rod on a fixed guide; the four-bar's rocker pin: coupler and rocker, both
+    /// flexible), whose damping term goes through the velocity rows (`P^T H V`). Dropping `H V`
+    /// leaves errors of 4e-4 of the solution (the slider pin; checked when this test was
+    /// written).
+    #[test]
+    fn the_woodbury_solve_equals_the_whole_jacobians() {
+        use crate::linalg::BandLu;
+        use crate::scenes::{FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin};
+        let mechs = [
+            (
+                FlexibleSliderCrank {
+                    clearance_at: Some(SliderCrankPin::CrankPin),
+                    ..Default::default()
+                }
+                .build(),
+                false,
+            ),
+            (
+                FlexibleSliderCrank {
+                    clearance_at: Some(SliderCrankPin::SliderPin),
+                    ..Default::default()
+                }
+                .build(),
+                true,
+            ),
+            (
+                FlexibleFourBar {
+                    flexible_rocker: true,
+                    clearance_at: Some(FourBarPin::RockerPin),
+                    ..Default::default()
+                }
+                .build(),
+                true,
+            ),
+        ];
+        for (k, (mech, split)) in mechs.into_iter().enumerate() {
+            let mech = mech.expect("scene");
+            let settings = crate::Settings::new(0.01, 1e-5);
+            let mut run = super::NewtonRun::new(&mech, &settings).expect("a Newton run");
+            let h = 1e-5;
+            let (bh2, gh) = settings.newmark.coefficients(h);
+            run.update_frames(3.3e-3);
+            // a contact stiffness and damping (N/m, N s/m) in every joint, not symmetric, as the
+            // implicit contact's tangent
+            run.implicit_contact = true;
+            for t in run.contact_tan.iter_mut() {
+                *t = ([[2.0e8, 3.0e6], [-1.0e6, 5.0e7]], [[4.0e3, 500.0], [-200.0, 1.5e3]]);
+            }
+            run.rate_prepare(h, true).expect("contact-free factor");
+            run.rate_blocks(bh2, gh);
+            let rs = run.rate.as_ref().expect("the Woodbury solver");
+            assert!(rs.any, "case {k}: contact terms");
+            assert_eq!(rs.rows.split.contains(&true), split, "case {k}: split joints");
+            assert_eq!(rs.any_split, split, "case {k}");
+            let rhs: Vec<f64> = (0..run.n).map(|i| (i as f64 * 0.71 + k as f64).sin()).collect();
+            let mut x = rhs.clone();
+            run.rate_solve(h, &mut x).expect("Woodbury solve");
+            assert_eq!(run.stats.woodbury_fallbacks, 0, "case {k}");
+            let mut lu = BandLu::new(run.n, run.lu.bandwidth());
+            run.assemble(bh2, gh, &mut lu, true, true);
+            lu.factorize("whole Jacobian").expect("factorizes");
+            let mut x_direct = rhs.clone();
+            lu.solve_in_place(&mut x_direct);
+            let scale = x_direct.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+            for i in 0..run.n {
+                assert!(
+                    (x[i] - x_direct[i]).abs() <= 1e-9 * scale,
+                    "case {k}, unknown {i}: {} against {}",
+                    x[i],
+                    x_direct[i]
+                );
+            }
+        }
     }
 
     #[test]
