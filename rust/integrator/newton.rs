@@ -809,6 +809,13 @@ struct RateSolver {
     hv: Vec<Mat2>,
     /// `V Z` of the velocity rows ([`Woodbury::project_z`]) when some joint is split.
     wv: Vec<f64>,
+    /// With split joints ([`NewtonRun::split_joints`]), whose rows turn against their axes at
+    /// every step: `A0^-1 e_i` for the unknown `i` of each slot of [`JointRows::cols`] (`n` values
+    /// per slot, joint by joint, zeros for an unused slot), made with `lu0`; the Woodbury
+    /// columns are their combinations ([`Woodbury::rebuild_with`]).
+    basis: Vec<f64>,
+    /// Whether `basis` was made with the current `lu0`.
+    basis_ready: bool,
     /// Whether some block of `H` is non-zero in this iteration.
     any_split: bool,
     /// Whether some block of `G` is non-zero in this iteration.
@@ -1536,6 +1543,8 @@ impl<'a> NewtonRun<'a> {
             g: vec![[[0.0; 2]; 2]; nj],
             hv: vec![[[0.0; 2]; 2]; nj],
             wv: Vec::new(),
+            basis: Vec::new(),
+            basis_ready: false,
             any_split: false,
             any: false,
             scratch: WoodburyScratch::for_rank(2 * nj),
@@ -1677,10 +1686,47 @@ impl<'a> NewtonRun<'a> {
             } else {
                 self.fill_joint_rows::<false>(&mut rs.rows_new);
             }
+            if refactor {
+                rs.basis_ready = false;
+            }
             if refactor || rs.rows_new.cols != rs.rows.cols {
                 std::mem::swap(&mut rs.rows, &mut rs.rows_new);
-                let RateSolver { lu0, rows, wb, .. } = &mut *rs;
-                wb.rebuild(lu0, rows);
+                let RateSolver {
+                    lu0,
+                    rows,
+                    wb,
+                    basis,
+                    basis_ready,
+                    ..
+                } = &mut *rs;
+                if self.split_joints {
+                    let n = self.n;
+                    if !*basis_ready {
+                        // one solve per slot's unknown (the unknowns of a joint are fixed)
+                        basis.clear();
+                        basis.resize(rows.cols.len() * 6 * n, 0.0);
+                        for (slot, col) in rows.cols.iter().flatten().zip(basis.chunks_exact_mut(n)) {
+                            if slot.0 != NONE {
+                                col[slot.0] = 1.0;
+                                lu0.solve_in_place(col);
+                            }
+                        }
+                        *basis_ready = true;
+                    }
+                    wb.rebuild_with(n, rows, |c, z| {
+                        let (b, r) = (c / 2, c % 2);
+                        for (k, &(i, g)) in rows.cols[b].iter().enumerate() {
+                            if i != NONE {
+                                let e = &basis[(6 * b + k) * n..(6 * b + k + 1) * n];
+                                for (zi, ei) in z.iter_mut().zip(e) {
+                                    *zi += g[r] * ei;
+                                }
+                            }
+                        }
+                    });
+                } else {
+                    wb.rebuild(lu0, rows);
+                }
             } else {
                 // same columns; the axes' angle and the rate for this step
                 rs.rows.axes.clone_from_slice(&rs.rows_new.axes);

@@ -63,6 +63,34 @@ impl Woodbury {
             p.scatter(b, 1, c1);
             factor.solve_pair_in_place(c0, c1);
         }
+        self.fill_w(p);
+    }
+
+    /// Rebuilds `Z` and `W` as [`Self::rebuild`] does, with the columns of `Z` given: `column(c,
+    /// z_c)` writes column `c` of `A0^-1 P^T` into `z_c` (zeroed, length `n`). For an operator
+    /// whose rows move in the span of a few fixed unit vectors (the rows of a joint turning
+    /// against its reference axes), the columns are combinations of those vectors' solves, kept
+    /// while the factor is (one solve each per factorization instead of two per rebuild).
+    pub fn rebuild_with<P: LowRankBlocks + ?Sized>(
+        &mut self,
+        n: usize,
+        p: &P,
+        mut column: impl FnMut(usize, &mut [f64]),
+    ) {
+        let m = 2 * p.blocks();
+        self.n = n;
+        self.m = m;
+        self.z.clear();
+        self.z.resize(n * m, 0.0);
+        for (c, z) in self.z.chunks_exact_mut(n).enumerate() {
+            column(c, z);
+        }
+        self.fill_w(p);
+    }
+
+    /// `W = P Z` from the current `Z`.
+    fn fill_w<P: LowRankBlocks + ?Sized>(&mut self, p: &P) {
+        let (n, m) = (self.n, self.m);
         self.w.clear();
         self.w.resize(m * m, 0.0);
         for b in 0..p.blocks() {
