@@ -325,7 +325,7 @@ pub fn subtract_ws(w: &[f64], m: usize, s: &[f64], y: &mut [f64]) {
 
 #[cfg(test)]
 mod woodbury_tests {
-    use super::{LowRankBlocks, Woodbury, WoodburyScratch};
+    use super::{LowRankBlocks, Mat2, Woodbury, WoodburyScratch};
     use crate::linalg::BandLu;
 
     /// Two joints: (dofs, coefficients of the two rows).
@@ -352,24 +352,9 @@ mod woodbury_tests {
         }
     }
 
-    /// The update on a nonsymmetric band LU reproduces a direct factorization of
-    /// `A0 + P^T G P` (an independent computation) to rounding; the joints' DOFs lie within the
-    /// band so the updated matrix is banded too.
-    #[test]
-    fn woodbury_on_band_lu_is_the_direct_solve() {
-        let (n, bw) = (30, 3);
-        let entry = |i: usize, j: usize| {
-            if i == j {
-                8.0 + i as f64 * 0.2
-            } else {
-                ((i * 5 + j * 3) % 7) as f64 * 0.2 - 0.5 + (j as f64 - i as f64) * 0.07
-            }
-        };
-        let p = Joints(vec![
-            (vec![4, 6], [vec![1.0, -1.0], vec![0.3, 0.8]]),
-            (vec![20, 21, 22], [vec![0.5, 0.0, -0.5], vec![0.0, 1.0, 0.2]]),
-        ]);
-        let g = [[[3.0, 0.4], [-0.2, 2.5]], [[40.0, 1.0], [1.0, 15.0]]];
+    /// `A0` (n x n, half-bandwidth `bw`, entries `entry(i, j)`) twice: one to factorize as it is,
+    /// one to add the update to and factorize directly (the independent computation).
+    fn band_pair(n: usize, bw: usize, entry: impl Fn(usize, usize) -> f64) -> (BandLu, BandLu) {
         let mut a0 = BandLu::new(n, bw);
         let mut full = BandLu::new(n, bw);
         for i in 0..n {
@@ -378,21 +363,57 @@ mod woodbury_tests {
                 full.add(i, j, entry(i, j));
             }
         }
-        // P^T G P, block by block
-        for (b, gb) in g.iter().enumerate() {
+        (a0, full)
+    }
+
+    /// Adds `P^T (G P + H V)` (joint by joint; `H V` left out without `hv`) to `full`.
+    fn add_update(full: &mut BandLu, p: &Joints, g: &[Mat2], hv: Option<(&Joints, &[Mat2])>) {
+        for b in 0..p.0.len() {
             let (d, c) = &p.0[b];
             for (ki, &i) in d.iter().enumerate() {
                 for (kj, &j) in d.iter().enumerate() {
-                    let mut v = 0.0;
+                    let mut x = 0.0;
                     for r in 0..2 {
                         for s in 0..2 {
-                            v += c[r][ki] * gb[r][s] * c[s][kj];
+                            x += c[r][ki] * g[b][r][s] * c[s][kj];
+                            if let Some((v, h)) = hv {
+                                x += c[r][ki] * h[b][r][s] * v.0[b].1[s][kj];
+                            }
                         }
                     }
-                    full.add(i, j, v);
+                    full.add(i, j, x);
                 }
             }
         }
+    }
+
+    /// `x` equals `x_direct` within 1e-13 of its largest entry (rounding of two factorizations).
+    fn assert_direct(x: &[f64], x_direct: &[f64]) {
+        let scale = x_direct.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        for (i, (a, b)) in x.iter().zip(x_direct).enumerate() {
+            assert!((a - b).abs() < 1e-13 * scale, "{i}: {a} vs {b}");
+        }
+    }
+
+    /// The update on a nonsymmetric band LU reproduces a direct factorization of
+    /// `A0 + P^T G P` (an independent computation) to rounding; the joints' DOFs lie within the
+    /// band so the updated matrix is banded too.
+    #[test]
+    fn woodbury_on_band_lu_is_the_direct_solve() {
+        let n = 30;
+        let (mut a0, mut full) = band_pair(n, 3, |i, j| {
+            if i == j {
+                8.0 + i as f64 * 0.2
+            } else {
+                ((i * 5 + j * 3) % 7) as f64 * 0.2 - 0.5 + (j as f64 - i as f64) * 0.07
+            }
+        });
+        let p = Joints(vec![
+            (vec![4, 6], [vec![1.0, -1.0], vec![0.3, 0.8]]),
+            (vec![20, 21, 22], [vec![0.5, 0.0, -0.5], vec![0.0, 1.0, 0.2]]),
+        ]);
+        let g = [[[3.0, 0.4], [-0.2, 2.5]], [[40.0, 1.0], [1.0, 15.0]]];
+        add_update(&mut full, &p, &g, None);
         a0.factorize("A0").unwrap();
         full.factorize("A").unwrap();
         let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.61).cos()).collect();
@@ -403,28 +424,22 @@ mod woodbury_tests {
         let mut x = rhs.clone();
         let rcond = wb.solve(&mut a0, &p, &g, &mut x, &mut WoodburyScratch::default());
         assert!(rcond > 1e-3, "{rcond}");
-        let scale = x_direct.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-        for i in 0..n {
-            assert!(
-                (x[i] - x_direct[i]).abs() < 1e-13 * scale,
-                "{i}: {} vs {}",
-                x[i],
-                x_direct[i]
-            );
-        }
+        assert_direct(&x, &x_direct);
     }
+
     /// The update with a second term `P^T H V` (`V` another operator on the same unknowns)
-    /// reproduces a direct factorization of the nonsymmetric `A0 + P^T (G P + H V)` to rounding.
+    /// reproduces a direct factorization of the nonsymmetric `A0 + P^T (G P + H V)` to rounding,
+    /// and the plain update is another matrix's solve (the test tells them apart).
     #[test]
     fn the_second_term_reproduces_the_direct_solve() {
-        let (n, bw) = (24, 3);
-        let entry = |i: usize, j: usize| {
+        let n = 24;
+        let (mut a0, mut full) = band_pair(n, 3, |i, j| {
             if i == j {
                 9.0 + i as f64 * 0.1
             } else {
                 ((i * 3 + j * 5) % 7) as f64 * 0.15 - 0.4
             }
-        };
+        });
         let p = Joints(vec![
             (vec![3, 5], [vec![1.0, -1.0], vec![0.2, 0.7]]),
             (vec![14, 15, 16], [vec![0.6, 0.0, -0.4], vec![0.0, 1.0, 0.3]]),
@@ -436,29 +451,7 @@ mod woodbury_tests {
         ]);
         let g = [[[3.0, 0.4], [-0.2, 2.5]], [[30.0, 1.0], [1.0, 12.0]]];
         let h = [[[0.8, 0.1], [0.0, 0.6]], [[2.0, -0.3], [0.2, 1.5]]];
-        let mut a0 = BandLu::new(n, bw);
-        let mut full = BandLu::new(n, bw);
-        for i in 0..n {
-            for j in i.saturating_sub(bw)..=(i + bw).min(n - 1) {
-                a0.add(i, j, entry(i, j));
-                full.add(i, j, entry(i, j));
-            }
-        }
-        // P^T (G P + H V), block by block
-        for b in 0..2 {
-            let ((d, c), (_, cv)) = (&p.0[b], &v.0[b]);
-            for (ki, &i) in d.iter().enumerate() {
-                for (kj, &j) in d.iter().enumerate() {
-                    let mut x = 0.0;
-                    for r in 0..2 {
-                        for s in 0..2 {
-                            x += c[r][ki] * (g[b][r][s] * c[s][kj] + h[b][r][s] * cv[s][kj]);
-                        }
-                    }
-                    full.add(i, j, x);
-                }
-            }
-        }
+        add_update(&mut full, &p, &g, Some((&v, &h)));
         a0.factorize("A0").unwrap();
         full.factorize("A").unwrap();
         let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() + 0.2).collect();
@@ -470,18 +463,10 @@ mod woodbury_tests {
         let mut x = rhs.clone();
         let rcond = wb.solve_with(&mut a0, &p, &v, &g, &h, &wv, &mut x, &mut WoodburyScratch::default());
         assert!(rcond > 1e-3, "{rcond}");
-        let scale = x_direct.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-        for i in 0..n {
-            assert!(
-                (x[i] - x_direct[i]).abs() < 1e-13 * scale,
-                "{i}: {} vs {}",
-                x[i],
-                x_direct[i]
-            );
-        }
-        // without the second term the result is another matrix's: the test can tell
+        assert_direct(&x, &x_direct);
         let mut x0 = rhs.clone();
         wb.solve(&mut a0, &p, &g, &mut x0, &mut WoodburyScratch::default());
-        assert!((0..n).any(|i| (x0[i] - x_direct[i]).abs() > 1e-6 * scale));
+        let scale = x_direct.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        assert!(x0.iter().zip(&x_direct).any(|(a, b)| (a - b).abs() > 1e-6 * scale));
     }
 }
