@@ -90,16 +90,9 @@ impl Woodbury {
 
     /// `W = P Z` from the current `Z`.
     fn fill_w<P: LowRankBlocks + ?Sized>(&mut self, p: &P) {
-        let (n, m) = (self.n, self.m);
-        self.w.clear();
-        self.w.resize(m * m, 0.0);
-        for b in 0..p.blocks() {
-            for c in 0..m {
-                let pz = p.project(b, &self.z[c * n..(c + 1) * n]);
-                self.w[(2 * b) * m + c] = pz[0];
-                self.w[(2 * b + 1) * m + c] = pz[1];
-            }
-        }
+        let mut w = std::mem::take(&mut self.w);
+        self.project_z(p, &mut w);
+        self.w = w;
     }
 
     /// The rank `m` (2 per joint).
@@ -155,27 +148,45 @@ impl Woodbury {
         scratch: &mut WoodburyScratch,
     ) -> f64 {
         let m = self.m;
-        scratch.resize(m);
+        self.solve_and_project(factor, p, x, scratch);
+        scratch.h.fill(0.0);
+        let WoodburyScratch { yb, h, y, cap, s } = scratch;
+        let rcond = capacitance_solve(&self.w, m, g, yb, h, y, cap, s);
+        self.subtract_columns(s, x);
+        rcond
+    }
+
+    /// The first half of a solve: `x = A0^-1 x` and `P x` into `scratch.yb` (sized for this
+    /// update's rank).
+    #[inline]
+    fn solve_and_project<F: Factor, P: LowRankBlocks + ?Sized>(
+        &self,
+        factor: &mut F,
+        p: &P,
+        x: &mut [f64],
+        scratch: &mut WoodburyScratch,
+    ) {
+        scratch.resize(self.m);
         factor.solve_in_place(x);
         for b in 0..p.blocks() {
             let pz = p.project(b, x);
             scratch.yb[2 * b] = pz[0];
             scratch.yb[2 * b + 1] = pz[1];
         }
-        scratch.h.fill(0.0);
-        let WoodburyScratch { yb, h, y, cap, s } = scratch;
-        let rcond = capacitance_solve(&self.w, m, g, yb, h, y, cap, s);
+    }
+
+    /// The last: `x -= Z s` (`s` negated in place, then added as [`Self::add_columns`]).
+    #[inline]
+    fn subtract_columns(&self, s: &mut [f64], x: &mut [f64]) {
         for v in s.iter_mut() {
             *v = -*v;
         }
         self.add_columns(s, x);
-        rcond
     }
-}
 
-impl Woodbury {
     /// `V Z` (m x m, row major) into `out`, for an operator `V` of `P`'s shape (2-row blocks,
-    /// one per joint): the right factor of [`Self::solve_with`]'s second term.
+    /// one per joint): the right factor of [`Self::solve_with`]'s second term (and, for `V =
+    /// P`, `W`).
     pub fn project_z<V: LowRankBlocks + ?Sized>(&self, v: &V, out: &mut Vec<f64>) {
         let (n, m) = (self.n, self.m);
         out.clear();
@@ -213,13 +224,10 @@ impl Woodbury {
         scratch: &mut WoodburyScratch,
     ) -> f64 {
         let m = self.m;
-        scratch.resize(m);
-        factor.solve_in_place(x);
+        self.solve_and_project(factor, p, x, scratch);
         let WoodburyScratch { yb, h: yv, cap, s, .. } = scratch;
-        for b in 0..p.blocks() {
-            let pz = p.project(b, x);
+        for b in 0..v.blocks() {
             let vz = v.project(b, x);
-            (yb[2 * b], yb[2 * b + 1]) = (pz[0], pz[1]);
             (yv[2 * b], yv[2 * b + 1]) = (vz[0], vz[1]);
         }
         let w = &self.w;
@@ -239,10 +247,7 @@ impl Woodbury {
             }
         }
         let rcond = solve_dense_in_place(cap, s, m);
-        for v in s.iter_mut() {
-            *v = -*v;
-        }
-        self.add_columns(s, x);
+        self.subtract_columns(s, x);
         rcond
     }
 }
