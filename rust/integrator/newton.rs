@@ -827,6 +827,50 @@ struct RateSolver {
     made: u64,
 }
 
+impl RateSolver {
+    /// The Woodbury columns for `lu0` and `rows`: solved anew ([`Woodbury::rebuild`]), or with
+    /// `split_joints` ([`NewtonRun::split_joints`]: rows that turn against their axes at every
+    /// step) as combinations of `basis`, made first where `lu0` is new.
+    fn rebuild_columns(&mut self, split_joints: bool) {
+        let RateSolver {
+            lu0,
+            rows,
+            wb,
+            basis,
+            basis_ready,
+            ..
+        } = self;
+        if !split_joints {
+            wb.rebuild(lu0, rows);
+            return;
+        }
+        let n = lu0.n();
+        if !*basis_ready {
+            // one solve per slot's unknown (the unknowns of a joint are fixed)
+            basis.clear();
+            basis.resize(rows.cols.len() * 6 * n, 0.0);
+            for (slot, col) in rows.cols.iter().flatten().zip(basis.chunks_exact_mut(n)) {
+                if slot.0 != NONE {
+                    col[slot.0] = 1.0;
+                    lu0.solve_in_place(col);
+                }
+            }
+            *basis_ready = true;
+        }
+        wb.rebuild_with(n, rows, |c, z| {
+            let (b, r) = (c / 2, c % 2);
+            for (k, &(i, g)) in rows.cols[b].iter().enumerate() {
+                if i != NONE {
+                    let e = &basis[(6 * b + k) * n..(6 * b + k + 1) * n];
+                    for (zi, ei) in z.iter_mut().zip(e) {
+                        *zi += g[r] * ei;
+                    }
+                }
+            }
+        });
+    }
+}
+
 /// Contact-free factors of other step sizes that the Newton stepper keeps besides the one in use
 /// (adaptive steps and event cuts change the step; [`NewtonRun::rate_prepare`]): a step of a size
 /// that comes back within the Jacobian age limit
@@ -1691,42 +1735,7 @@ impl<'a> NewtonRun<'a> {
             }
             if refactor || rs.rows_new.cols != rs.rows.cols {
                 std::mem::swap(&mut rs.rows, &mut rs.rows_new);
-                let RateSolver {
-                    lu0,
-                    rows,
-                    wb,
-                    basis,
-                    basis_ready,
-                    ..
-                } = &mut *rs;
-                if self.split_joints {
-                    let n = self.n;
-                    if !*basis_ready {
-                        // one solve per slot's unknown (the unknowns of a joint are fixed)
-                        basis.clear();
-                        basis.resize(rows.cols.len() * 6 * n, 0.0);
-                        for (slot, col) in rows.cols.iter().flatten().zip(basis.chunks_exact_mut(n)) {
-                            if slot.0 != NONE {
-                                col[slot.0] = 1.0;
-                                lu0.solve_in_place(col);
-                            }
-                        }
-                        *basis_ready = true;
-                    }
-                    wb.rebuild_with(n, rows, |c, z| {
-                        let (b, r) = (c / 2, c % 2);
-                        for (k, &(i, g)) in rows.cols[b].iter().enumerate() {
-                            if i != NONE {
-                                let e = &basis[(6 * b + k) * n..(6 * b + k + 1) * n];
-                                for (zi, ei) in z.iter_mut().zip(e) {
-                                    *zi += g[r] * ei;
-                                }
-                            }
-                        }
-                    });
-                } else {
-                    wb.rebuild(lu0, rows);
-                }
+                rs.rebuild_columns(self.split_joints);
             } else {
                 // same columns; the axes' angle and the rate for this step
                 rs.rows.axes.clone_from_slice(&rs.rows_new.axes);
