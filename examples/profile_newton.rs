@@ -4,6 +4,7 @@
 //! ```text
 //! cargo run --release --example profile_newton -- crank-pin 0.1     # Simeon's slider-crank, clearance at the crank pin
 //! cargo run --release --example profile_newton -- ideal 0.1         # the same with ideal pins
+//! cargo run --release --example profile_newton -- slider-pin 0.1    # the clearance at the slider pin instead
 //! cargo run --release --example profile_newton -- spin-newton 0.02  # spinning beam in a bearing, Newton stepper
 //! cargo run --release --example profile_newton -- spin-rate 0.02    # the same on the constant-rate stepper
 //! ```
@@ -53,6 +54,12 @@ fn main() {
         }
         .build()
         .expect("slider-crank scene"),
+        "slider-pin" => FlexibleSliderCrank {
+            clearance_at: Some(SliderCrankPin::SliderPin),
+            ..Default::default()
+        }
+        .build()
+        .expect("slider-crank scene"),
         "ideal" => FlexibleSliderCrank {
             clearance_at: None,
             ..Default::default()
@@ -60,7 +67,7 @@ fn main() {
         .build()
         .expect("slider-crank scene"),
         "spin-newton" | "spin-rate" => spinning_beam_in_a_bearing(),
-        other => panic!("unknown case {other:?}: crank-pin, ideal, spin-newton or spin-rate"),
+        other => panic!("unknown case {other:?}: crank-pin, slider-pin, ideal, spin-newton or spin-rate"),
     };
     let t0 = Instant::now();
     let out = if case == "spin-rate" {
