@@ -910,8 +910,12 @@ pub struct NewtonRun<'a> {
     /// positions of its 36 entries (column-major, `NONE` for a held slot), fixed for the run.
     elem_pos: Vec<Vec<Option<Box<[usize; 36]>>>>,
     /// Per link, per element whose six unknowns are consecutive (both nodes plain, none held):
-    /// the first, else `NONE`; the residual reads and adds its element vectors as slices.
+    /// the first, else `NONE`; the residual reads and adds its element vectors as slices. In a
+    /// link numbered from its last node ([`Self::elem_swapped`]) the slice holds the element's
+    /// second node first.
     elem_first: Vec<Vec<usize>>,
+    /// Per link: whether [`Self::elem_first`]'s slices hold node `e + 1` before node `e`.
+    elem_swapped: Vec<bool>,
     /// Per slider, its guide's frame at [`Self::t_frames`] and `(cos, sin)` of the guide angle.
     slider_frames: Vec<FrameState>,
     slider_dir: Vec<[f64; 2]>,
@@ -1310,6 +1314,7 @@ impl<'a> NewtonRun<'a> {
             link_ck: Vec::new(),
             elem_pos: Vec::new(),
             elem_first: Vec::new(),
+            elem_swapped: Vec::new(),
             slider_frames: vec![FrameState::default(); mech.sliders.len()],
             slider_dir: mech.sliders.iter().map(|s| [s.angle.cos(), s.angle.sin()]).collect(),
             y: vec![0.0; n],
@@ -1420,12 +1425,22 @@ impl<'a> NewtonRun<'a> {
                     .collect()
             })
             .collect();
+        // a link numbered from its last node (dofs::number) has its elements' nodes swapped
+        run.elem_swapped = (0..run.links.len())
+            .map(|li| {
+                (0..run.mech.links[li].section.elements).any(|e| {
+                    matches!((run.nt(li, e).consecutive(), run.nt(li, e + 1).consecutive()),
+                        (Some(a), Some(b)) if a == b + 3)
+                })
+            })
+            .collect();
         run.elem_first = (0..run.links.len())
             .map(|li| {
                 (0..run.mech.links[li].section.elements)
                     .map(
                         |e| match (run.nt(li, e).consecutive(), run.nt(li, e + 1).consecutive()) {
-                            (Some(a), Some(b)) if b == a + 3 => a,
+                            (Some(a), Some(b)) if b == a + 3 && !run.elem_swapped[li] => a,
+                            (Some(a), Some(b)) if a == b + 3 && run.elem_swapped[li] => b,
                             _ => NONE,
                         },
                     )
@@ -2133,96 +2148,126 @@ impl<'a> NewtonRun<'a> {
         self.residual_body(h, t);
     }
 
+    /// The forces of link `li`'s beam elements added into `r` (the residual's element part):
+    /// four at a time in AVX2 lanes, element by element otherwise; `SWAPPED` for a link
+    /// numbered from its last node ([`Self::elem_swapped`]), whose element slices hold node
+    /// `e + 1`'s unknowns before node `e`'s.
+    #[inline(always)]
+    fn link_element_forces<const SWAPPED: bool>(&self, li: usize, r: &mut [f64]) {
+        let ld = &self.links[li];
+        let mut prev = self.nt(li, 0);
+        // the local state of `prev` where the last element computed it
+        let mut wprev = None;
+        // the nominal acceleration of the frame origin and the frame's rates: the same for
+        // every element of the link (one rotation per link, not per element)
+        let fr = self.frames[li];
+        let lf = element_lanes::LinkForces {
+            ld,
+            ck: &self.link_ck[li],
+            fs: if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] },
+            rate: fr.rate,
+            accel: fr.accel,
+        };
+        let first = &self.elem_first[li];
+        let elements = self.mech.links[li].section.elements;
+        // a beam link's elements four at a time, one per lane (AVX2)
+        let lanes = cfg!(target_arch = "x86_64") && self.avx2 && ld.rigid_moment.is_none();
+        let mut e = 0;
+        let mut qs = [[[0.0; 4]; 6]; 3];
+        while e < elements {
+            let width = if lanes { 4.min(elements - e) } else { 1 };
+            // each element's vectors and its nodes (lanes past `width` keep what an earlier
+            // group left: their forces are not read)
+            let mut ends = [(prev, prev); 4];
+            for l in 0..width {
+                let next = self.nt(li, e + l + 1);
+                ends[l] = (prev, next);
+                // an element on six consecutive unknowns reads its vectors as slices (the
+                // same values as through its nodes' local states, T = I)
+                let s0 = first[e + l];
+                if s0 != NONE {
+                    wprev = None;
+                    for (qc, v) in qs.iter_mut().zip([&self.y, &self.yd, &self.ydd]) {
+                        let v = &v[s0..s0 + 6];
+                        if SWAPPED {
+                            // node e + 1's unknowns first
+                            for j in 0..3 {
+                                qc[j][l] = v[j + 3];
+                                qc[j + 3][l] = v[j];
+                            }
+                        } else {
+                            for j in 0..6 {
+                                qc[j][l] = v[j];
+                            }
+                        }
+                    }
+                } else {
+                    let w0 = wprev.unwrap_or_else(|| Self::local(prev, &self.y, &self.yd, &self.ydd));
+                    let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
+                    wprev = Some(wn);
+                    for (c, qc) in qs.iter_mut().enumerate() {
+                        let v = element_vec(&w0, &wn, c);
+                        for j in 0..6 {
+                            qc[j][l] = v[j];
+                        }
+                    }
+                }
+                prev = next;
+            }
+            let f: element_lanes::Lanes = if lanes {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
+                    // (`linalg::avx2_fma_available`)
+                    unsafe { element_lanes::forces(&lf, e, &qs[0], &qs[1], &qs[2]) }
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                unreachable!("lanes are an AVX2 path")
+            } else {
+                let v = |c: usize| Vec6::from_fn(|j, _| qs[c][j][0]);
+                let (q, qd, qdd) = (v(0), v(1), v(2));
+                let mut f = element_lanes::element_force(&lf, e, &q, &qd, &qdd);
+                if let Some(mc) = ld.rigid_moment {
+                    f[2] -= mc * self.a_ref(li, 0.0)[0] * q[2];
+                }
+                std::array::from_fn(|j| [f[j], 0.0, 0.0, 0.0])
+            };
+            // added element by element, in order
+            for (l, &(p, nx)) in ends.iter().enumerate().take(width) {
+                let s0 = first[e + l];
+                if s0 != NONE {
+                    if SWAPPED {
+                        for (j, ri) in r[s0..s0 + 6].iter_mut().enumerate() {
+                            *ri += f[(j + 3) % 6][l];
+                        }
+                    } else {
+                        for (j, ri) in r[s0..s0 + 6].iter_mut().enumerate() {
+                            *ri += f[j][l];
+                        }
+                    }
+                } else {
+                    Self::project(p, [f[0][l], f[1][l], f[2][l]], r);
+                    Self::project(nx, [f[3][l], f[4][l], f[5][l]], r);
+                }
+            }
+            e += width;
+        }
+    }
+
     #[inline(always)]
     fn residual_body(&mut self, _h: f64, t: f64) {
         let mut r = std::mem::take(&mut self.r);
         r.fill(0.0);
         for li in 0..self.links.len() {
+            // the beam elements' forces; a link numbered from its last node (dofs::number)
+            // reads its elements' slices with the nodes swapped
+            if self.elem_swapped[li] {
+                self.link_element_forces::<true>(li, &mut r);
+            } else {
+                self.link_element_forces::<false>(li, &mut r);
+            }
             let ld = &self.links[li];
             let le = self.mech.links[li].element_length();
-            let mut prev = self.nt(li, 0);
-            // the local state of `prev` where the last element computed it
-            let mut wprev = None;
-            // the nominal acceleration of the frame origin and the frame's rates: the same for
-            // every element of the link (one rotation per link, not per element)
-            let fr = self.frames[li];
-            let lf = element_lanes::LinkForces {
-                ld,
-                ck: &self.link_ck[li],
-                fs: if ld.active.load { self.a_ref(li, 0.0) } else { [0.0; 2] },
-                rate: fr.rate,
-                accel: fr.accel,
-            };
-            let first = &self.elem_first[li];
-            let elements = self.mech.links[li].section.elements;
-            // a beam link's elements four at a time, one per lane (AVX2)
-            let lanes = cfg!(target_arch = "x86_64") && self.avx2 && ld.rigid_moment.is_none();
-            let mut e = 0;
-            let mut qs = [[[0.0; 4]; 6]; 3];
-            while e < elements {
-                let width = if lanes { 4.min(elements - e) } else { 1 };
-                // each element's vectors and its nodes (lanes past `width` keep what an earlier
-                // group left: their forces are not read)
-                let mut ends = [(prev, prev); 4];
-                for l in 0..width {
-                    let next = self.nt(li, e + l + 1);
-                    ends[l] = (prev, next);
-                    // an element on six consecutive unknowns reads its vectors as slices (the
-                    // same values as through its nodes' local states, T = I)
-                    let s0 = first[e + l];
-                    if s0 != NONE {
-                        wprev = None;
-                        for (qc, v) in qs.iter_mut().zip([&self.y, &self.yd, &self.ydd]) {
-                            let v = &v[s0..s0 + 6];
-                            for j in 0..6 {
-                                qc[j][l] = v[j];
-                            }
-                        }
-                    } else {
-                        let w0 = wprev.unwrap_or_else(|| Self::local(prev, &self.y, &self.yd, &self.ydd));
-                        let wn = Self::local(next, &self.y, &self.yd, &self.ydd);
-                        wprev = Some(wn);
-                        for (c, qc) in qs.iter_mut().enumerate() {
-                            let v = element_vec(&w0, &wn, c);
-                            for j in 0..6 {
-                                qc[j][l] = v[j];
-                            }
-                        }
-                    }
-                    prev = next;
-                }
-                let f: element_lanes::Lanes = if lanes {
-                    #[cfg(target_arch = "x86_64")]
-                    {
-                        // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
-                        // (`linalg::avx2_fma_available`)
-                        unsafe { element_lanes::forces(&lf, e, &qs[0], &qs[1], &qs[2]) }
-                    }
-                    #[cfg(not(target_arch = "x86_64"))]
-                    unreachable!("lanes are an AVX2 path")
-                } else {
-                    let v = |c: usize| Vec6::from_fn(|j, _| qs[c][j][0]);
-                    let (q, qd, qdd) = (v(0), v(1), v(2));
-                    let mut f = element_lanes::element_force(&lf, e, &q, &qd, &qdd);
-                    if let Some(mc) = ld.rigid_moment {
-                        f[2] -= mc * self.a_ref(li, 0.0)[0] * q[2];
-                    }
-                    std::array::from_fn(|j| [f[j], 0.0, 0.0, 0.0])
-                };
-                // added element by element, in order
-                for (l, &(p, nx)) in ends.iter().enumerate().take(width) {
-                    let s0 = first[e + l];
-                    if s0 != NONE {
-                        for (j, ri) in r[s0..s0 + 6].iter_mut().enumerate() {
-                            *ri += f[j][l];
-                        }
-                    } else {
-                        Self::project(p, [f[0][l], f[1][l], f[2][l]], &mut r);
-                        Self::project(nx, [f[3][l], f[4][l], f[5][l]], &mut r);
-                    }
-                }
-                e += width;
-            }
             // Point masses and nodal loads.
             for &nd in &ld.loaded_nodes {
                 let (m, fl) = (ld.point_mass[nd], ld.nodal_load[nd]);
