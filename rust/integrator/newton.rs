@@ -969,6 +969,11 @@ pub struct NewtonRun<'a> {
     jforce: Vec<[f64; 2]>,
     jq: Vec<[f64; 2]>,
     jqd: Vec<[f64; 2]>,
+    /// Whether `jq` and `jqd` are each joint's `(q, qd)` at the current state and frames: set by
+    /// a fixed step's tracking ([`Self::track_joints`]), cleared by [`Self::update_frames`] and
+    /// taken by the next step's start ([`Self::evaluate_contacts`]), which would compute the
+    /// same values again.
+    tracked_state: bool,
     /// Each joint's `(q, qd)` at the current iterate, as [`Self::evaluate_contacts`] found them,
     /// and whether they still hold (the residual that follows in the iteration takes them
     /// instead of evaluating them again; cleared when the residual has used them).
@@ -1348,6 +1353,7 @@ impl<'a> NewtonRun<'a> {
             jforce: vec![[0.0; 2]; nj],
             jq: vec![[0.0; 2]; nj],
             jqd: vec![[0.0; 2]; nj],
+            tracked_state: false,
             jstate: vec![([0.0; 2], [0.0; 2]); nj],
             jstate_fresh: false,
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
@@ -1975,6 +1981,7 @@ impl<'a> NewtonRun<'a> {
     }
 
     fn update_frames(&mut self, t: f64) {
+        self.tracked_state = false;
         self.t_frames = t;
         for (f, l) in self.frames.iter_mut().zip(&self.mech.links) {
             *f = l.frame.frame(t);
@@ -2971,12 +2978,17 @@ impl<'a> NewtonRun<'a> {
             self.continuous_terms(from_start);
             return;
         }
+        let tracked = std::mem::take(&mut self.tracked_state);
         for j in 0..self.mech.joints.len() {
             let (mut q, qd) = if from_start {
                 // the status switches of the step begun start at none (set here, joint by
                 // joint: a `fill` is a `memset` call per step)
                 self.switches[j] = 0;
-                self.joint_state(j, &self.y, &self.yd)
+                if tracked {
+                    (self.jq[j], self.jqd[j])
+                } else {
+                    self.joint_state(j, &self.y, &self.yd)
+                }
             } else {
                 let st = self.joint_state(j, &self.y, &self.yd);
                 self.jstate[j] = st;
@@ -4446,6 +4458,8 @@ impl Stepper for NewtonLoop<'_, '_> {
         }
         r.stats.steps = k;
         r.track_joints(t1, Some((k, h)));
+        // the next fixed step starts from this state and these frames
+        r.tracked_state = self.adaptive.is_none() && self.events.is_none() && r.cont.is_none();
         r.track_sliders(t1, k.is_multiple_of(r.settings.record.every as u64) || last);
         if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
             let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
