@@ -974,6 +974,12 @@ pub struct NewtonRun<'a> {
     /// taken by the next step's start ([`Self::evaluate_contacts`]), which would compute the
     /// same values again.
     tracked_state: bool,
+    /// Each joint's `(q, qd)` and law terms at the iterate [`Self::carried_rate_margin`] last
+    /// judged, and whether the step stopped there (set at that stop, cleared at each step's
+    /// start): the tracking that follows a fixed step ([`Self::track_joints`]) takes them
+    /// instead of evaluating the same state again.
+    margin_terms: Vec<([f64; 2], [f64; 2], ContactTerms)>,
+    margin_state: bool,
     /// Each joint's `(q, qd)` at the current iterate, as [`Self::evaluate_contacts`] found them,
     /// and whether they still hold (the residual that follows in the iteration takes them
     /// instead of evaluating them again; cleared when the residual has used them).
@@ -1354,6 +1360,8 @@ impl<'a> NewtonRun<'a> {
             jq: vec![[0.0; 2]; nj],
             jqd: vec![[0.0; 2]; nj],
             tracked_state: false,
+            margin_terms: vec![([0.0; 2], [0.0; 2], ContactTerms::default()); nj],
+            margin_state: false,
             jstate: vec![([0.0; 2], [0.0; 2]); nj],
             jstate_fresh: false,
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
@@ -3036,7 +3044,7 @@ impl<'a> NewtonRun<'a> {
     /// iterations a step and 3655 -> 2350 factorizations; the midspan against iterations to
     /// 1e-12 within 1.1e-6 and 7.4e-7 of its scale (1.1e-6 and 1.0e-4 before), the discretization
     /// error (against dt/8) 1.8e-2 and 0.12.
-    fn carried_rate_margin(&self) -> Option<f64> {
+    fn carried_rate_margin(&mut self) -> Option<f64> {
         let adaptive = self.settings.adaptive.is_some();
         let mut margin = 1.0;
         for j in 0..self.mech.joints.len() {
@@ -3053,7 +3061,9 @@ impl<'a> NewtonRun<'a> {
                 margin = CONTACT_RATE_MARGIN;
             }
             let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            if self.law_terms(j, q, qd).active() != was {
+            let terms = self.law_terms(j, q, qd);
+            self.margin_terms[j] = (q, qd, terms);
+            if terms.active() != was {
                 return None;
             }
         }
@@ -3084,6 +3094,7 @@ impl<'a> NewtonRun<'a> {
     #[inline(always)]
     fn step_body(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         self.jstate_fresh = false;
+        self.margin_state = false;
         let nm = self.settings.newmark;
         let (bh2, gh) = nm.coefficients(h);
         let n = self.n;
@@ -3268,6 +3279,8 @@ impl<'a> NewtonRun<'a> {
             if carried && self.iter_rate < CONTRACTION_STOP {
                 if let Some(margin) = self.carried_rate_margin() {
                     if self.iter_rate * last_corr <= margin * tol {
+                        // every joint's state and terms at this (final) iterate are at hand
+                        self.margin_state = true;
                         break true;
                     }
                 }
@@ -3666,12 +3679,18 @@ impl<'a> NewtonRun<'a> {
 
     /// Tracks the joints at the current state, time `t` (s): the running extremes, and the
     /// shared recorder, as step `step` of length `dt` (s) or, with `step = None`, at the cut of
-    /// an event step. Nothing before [`RecordSpec::start`] counts.
-    fn track_joints(&mut self, t: f64, step: Option<(u64, f64)>) {
+    /// an event step. Nothing before [`RecordSpec::start`] counts. With `margin`, each joint's
+    /// state and terms are those the step's carried-rate stop evaluated at this state
+    /// ([`Self::margin_terms`]).
+    fn track_joints(&mut self, t: f64, step: Option<(u64, f64)>, margin: bool) {
         let counts = t >= self.settings.record.start;
         for j in 0..self.mech.joints.len() {
-            let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-            let mut terms = self.law_terms(j, q, qd);
+            let (q, qd, mut terms) = if margin {
+                self.margin_terms[j]
+            } else {
+                let (q, qd) = self.joint_state(j, &self.y, &self.yd);
+                (q, qd, self.law_terms(j, q, qd))
+            };
             let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
             if let Some(c) = &self.cont {
                 // the continuous-contact model: its status and its normal force (no law)
@@ -3877,7 +3896,7 @@ impl<'a> NewtonRun<'a> {
             }
         }
         self.restart_accelerations(t0 + h1)?;
-        self.track_joints(t0 + h1, None);
+        self.track_joints(t0 + h1, None, false);
         self.step(t0 + h1, h - h1, k, 0)
     }
 
@@ -4070,7 +4089,7 @@ impl<'a> NewtonRun<'a> {
     /// that no output instant took: the extremes and the shared recorder (as an event), and the
     /// divergence limit on each joint's penetration.
     fn track_step_end(&mut self, t: f64, k: u64, check: bool) -> Result<()> {
-        self.track_joints(t, None);
+        self.track_joints(t, None, false);
         if let Some(j) = self.jpen.iter().position(|&p| p.is_nan() || p > self.limit) {
             let name = &self.mech.joints[j].name;
             return Err(super::divergence::joint_diverged(name, self.jpen[j], self.limit, t, k));
@@ -4266,7 +4285,7 @@ impl<'a> NewtonRun<'a> {
                 return Err(self.fail(e, 0.0));
             }
         }
-        self.track_joints(0.0, Some((0, h)));
+        self.track_joints(0.0, Some((0, h)), false);
         self.hist_sliders = (self.mech.sliders.iter())
             .map(|s| SliderHistory {
                 name: s.name.clone(),
@@ -4457,9 +4476,13 @@ impl Stepper for NewtonLoop<'_, '_> {
             return;
         }
         r.stats.steps = k;
-        r.track_joints(t1, Some((k, h)));
+        // a fixed step (no events, no continuous contact) ends where it stopped: at the state
+        // its carried-rate stop evaluated, if it stopped so
+        let fixed = self.adaptive.is_none() && self.events.is_none() && r.cont.is_none();
+        let margin = fixed && std::mem::take(&mut r.margin_state);
+        r.track_joints(t1, Some((k, h)), margin);
         // the next fixed step starts from this state and these frames
-        r.tracked_state = self.adaptive.is_none() && self.events.is_none() && r.cont.is_none();
+        r.tracked_state = fixed;
         r.track_sliders(t1, k.is_multiple_of(r.settings.record.every as u64) || last);
         if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
             let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
