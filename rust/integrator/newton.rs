@@ -2194,7 +2194,18 @@ impl<'a> NewtonRun<'a> {
             // each element's vectors and its nodes (lanes past `width` keep what an earlier
             // group left: their forces are not read)
             let mut ends = [(prev, prev); 4];
-            for l in 0..width {
+            // four elements on consecutive unknowns, node after node: their vectors in one go
+            // (their nodes are not read: each adds its force to its slice)
+            let s0 = first[e];
+            let run = !SWAPPED && width == 4 && s0 != NONE && (1..4).all(|l| first[e + l] == s0 + 3 * l);
+            #[cfg(target_arch = "x86_64")]
+            if run {
+                // SAFETY: `lanes` (width 4) is set only where the CPU has AVX2 and FMA
+                unsafe { element_lanes::gather_run([&self.y, &self.yd, &self.ydd], s0, &mut qs) };
+                prev = self.nt(li, e + 4);
+                wprev = None;
+            }
+            for l in 0..if run { 0 } else { width } {
                 let next = self.nt(li, e + l + 1);
                 ends[l] = (prev, next);
                 // an element on six consecutive unknowns reads its vectors as slices (the

@@ -70,7 +70,7 @@ pub(super) fn element_force(lf: &LinkForces, e: usize, q: &Vec6, qd: &Vec6, qdd:
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(super) use avx2::forces;
+pub(super) use avx2::{forces, gather_run};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
@@ -141,6 +141,25 @@ mod avx2 {
             }
             y
         }};
+    }
+
+    /// The lanes of four elements whose six unknowns start at `s`, `s + 3`, `s + 6` and `s + 9`
+    /// (a run of elements numbered node after node), from each of `vs` (displacements,
+    /// velocities, accelerations) into `out`: entry `j` of lane `l` is `v[s + 3 l + j]`, as
+    /// the element-by-element gather writes it, but each entry's four lanes are written as one
+    /// vector (which [`forces`] reads back as one, without waiting on four scalar stores).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(in crate::integrator::newton) unsafe fn gather_run(vs: [&[f64]; 3], s: usize, out: &mut [Lanes; 3]) {
+        for (o, v) in out.iter_mut().zip(vs) {
+            let v: &[f64; 15] = v[s..s + 15].try_into().expect("four elements' unknowns");
+            for j in 0..6 {
+                _mm256_storeu_pd(o[j].as_mut_ptr(), _mm256_set_pd(v[j + 9], v[j + 6], v[j + 3], v[j]));
+            }
+        }
     }
 
     /// The forces of elements `e .. e + 4` of a beam link (lanes past the link's last element
