@@ -578,6 +578,20 @@ fn predict(state: [&mut [f64]; 3], pred: [&mut [f64]; 3], a_prev: &[f64], c: [f6
 /// are known not to overlap.
 #[inline(always)]
 fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
+    correct_from(state, pred, bh2, gh, 0, [[0.0; 4]; 2])
+}
+
+/// [`correct`] from unknown `start` (a multiple of 4) on, the four running maxima of the
+/// corrections and of `|y|` starting at `maxima`.
+#[inline(always)]
+fn correct_from(
+    state: [&mut [f64]; 4],
+    pred: [&[f64]; 3],
+    bh2: f64,
+    gh: f64,
+    start: usize,
+    maxima: [[f64; 4]; 2],
+) -> (f64, f64) {
     let [av, yddv, yv, ydv] = state;
     let [ypv, vpv, dxv] = pred;
     let n = av.len();
@@ -589,8 +603,7 @@ fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64
         &vpv[..n],
         &dxv[..n],
     );
-    let mut dm = [0.0f64; 4];
-    let mut ym = [0.0f64; 4];
+    let [mut dm, mut ym] = maxima;
     let mut one = |i: usize, k: usize| {
         let da = -dxv[i];
         av[i] += da;
@@ -604,12 +617,12 @@ fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64
         ym[k] = if y > ym[k] { y } else { ym[k] };
     };
     // unknown i into maximum i % 4, four at a time
-    for c in 0..n / 4 {
+    for c in start / 4..n / 4 {
         for k in 0..4 {
             one(4 * c + k, k);
         }
     }
-    for i in n / 4 * 4..n {
+    for i in (n / 4 * 4).max(start)..n {
         one(i, i % 4);
     }
     (
@@ -618,12 +631,56 @@ fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64
     )
 }
 
+/// [`correct`] four unknowns at a time in AVX2 registers (the compiler keeps the scalar form's
+/// loop scalar): each entry's operations are the scalar form's (a sign flip, then separate
+/// multiplies and adds), and `_mm256_max_pd(d, m)` is `if d > m { d } else { m }` lane by lane,
+/// unknown `i` in lane `i % 4` as there: the same values.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
+    use std::arch::x86_64::*;
+    let [av, yddv, yv, ydv] = state;
+    let [ypv, vpv, dxv] = pred;
+    let n = av.len();
+    let whole = n / 4 * 4;
+    let (b, g, sign) = (_mm256_set1_pd(bh2), _mm256_set1_pd(gh), _mm256_set1_pd(-0.0));
+    let (mut dm, mut ym) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+    for i in (0..whole).step_by(4) {
+        let at = i..i + 4;
+        let da = _mm256_xor_pd(_mm256_loadu_pd(dxv[at.clone()].as_ptr()), sign);
+        let a = _mm256_add_pd(_mm256_loadu_pd(av[at.clone()].as_ptr()), da);
+        _mm256_storeu_pd(av[at.clone()].as_mut_ptr(), a);
+        _mm256_storeu_pd(yddv[at.clone()].as_mut_ptr(), a);
+        let y = _mm256_add_pd(_mm256_loadu_pd(ypv[at.clone()].as_ptr()), _mm256_mul_pd(b, a));
+        _mm256_storeu_pd(yv[at.clone()].as_mut_ptr(), y);
+        let yd = _mm256_add_pd(_mm256_loadu_pd(vpv[at.clone()].as_ptr()), _mm256_mul_pd(g, a));
+        _mm256_storeu_pd(ydv[at].as_mut_ptr(), yd);
+        dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
+        ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
+    }
+    let mut maxima = [[0.0; 4]; 2];
+    _mm256_storeu_pd(maxima[0].as_mut_ptr(), dm);
+    _mm256_storeu_pd(maxima[1].as_mut_ptr(), ym);
+    // the last `n % 4` unknowns as the scalar form takes them
+    correct_from([av, yddv, yv, ydv], [ypv, vpv, dxv], bh2, gh, whole, maxima)
+}
+
 /// `max |a_i - b_i|` over two slices of one length, four running maxima (no chain through
 /// every entry; the maximum is exact, so the order does not matter).
 fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
+    max_abs_difference_from(a, b, 0, [0.0; 4])
+}
+
+/// [`max_abs_difference`] from entry `start` (a multiple of 4) on, its four running maxima
+/// starting at `m`.
+#[inline(always)]
+fn max_abs_difference_from(a: &[f64], b: &[f64], start: usize, mut m: [f64; 4]) -> f64 {
     let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut m = [0.0f64; 4];
+    let (a, b) = (&a[start.min(n)..n], &b[start.min(n)..n]);
     // `if d > m` (not f64::max, whose NaN rule keeps it from vectorizing): skips NaN alike
     for (ca, cb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
         for k in 0..4 {
@@ -631,11 +688,37 @@ fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
             m[k] = if d > m[k] { d } else { m[k] };
         }
     }
-    for i in n / 4 * 4..n {
+    let whole = a.len() / 4 * 4;
+    for i in whole..a.len() {
         let d = (a[i] - b[i]).abs();
         m[i % 4] = if d > m[i % 4] { d } else { m[i % 4] };
     }
     m[0].max(m[1]).max(m[2].max(m[3]))
+}
+
+/// [`max_abs_difference`] four entries at a time in AVX2 registers, lane by lane the same
+/// operations (`_mm256_max_pd(d, m)` is `if d > m { d } else { m }`): the same value.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn max_abs_difference_avx2(a: &[f64], b: &[f64]) -> f64 {
+    use std::arch::x86_64::*;
+    let whole = a.len().min(b.len()) / 4 * 4;
+    let sign = _mm256_set1_pd(-0.0);
+    let mut m = _mm256_setzero_pd();
+    for i in (0..whole).step_by(4) {
+        let d = _mm256_sub_pd(
+            _mm256_loadu_pd(a[i..i + 4].as_ptr()),
+            _mm256_loadu_pd(b[i..i + 4].as_ptr()),
+        );
+        m = _mm256_max_pd(_mm256_andnot_pd(sign, d), m);
+    }
+    let mut lanes = [0.0; 4];
+    _mm256_storeu_pd(lanes.as_mut_ptr(), m);
+    max_abs_difference_from(a, b, whole, lanes)
 }
 
 /// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
@@ -702,6 +785,10 @@ fn node_t(map: &NodeMap, f: &FrameState, r: [[f64; 2]; 2], slider_dir: &[[f64; 2
         }
         Trans::Fixed => {}
     }
+    // the structure `NewtonRun::local` relies on: the rotation passes through unchanged, and
+    // the frame's rate enters the translations only
+    debug_assert!(nt.t[2] == [0.0, 0.0, 1.0] && nt.td[2] == [0.0; 3] && nt.tdd[2] == [0.0; 3]);
+    debug_assert!((0..2).all(|r| nt.td[r][2] == 0.0 && nt.tdd[r][2] == 0.0));
     nt
 }
 
@@ -2054,14 +2141,25 @@ impl<'a> NewtonRun<'a> {
             // T the identity on the node's own unknowns, Td = Tdd = 0
             return [q, qd, qdd];
         }
+        // `T`'s structure ([`node_t`]): row 2 is `[0, 0, 1]`, and `Td`, `Tdd` have neither row 2
+        // nor column 2, so only the translations' 2 x 2 blocks and `T`'s column 2 (a rigid link's
+        // lever) enter. The terms left out are exact zeros (finite unknowns) added to sums that
+        // start at +0: the same values as the whole 3 x 3 products.
         let mut w = [[0.0; 3]; 3];
-        for r in 0..3 {
-            for c in 0..3 {
+        for r in 0..2 {
+            for c in 0..2 {
                 w[0][r] += nt.t[r][c] * q[c];
                 w[1][r] += nt.t[r][c] * qd[c] + nt.td[r][c] * q[c];
                 w[2][r] += nt.t[r][c] * qdd[c] + 2.0 * nt.td[r][c] * qd[c] + nt.tdd[r][c] * q[c];
             }
+            let l = nt.t[r][2];
+            w[0][r] += l * q[2];
+            w[1][r] += l * qd[2];
+            w[2][r] += l * qdd[2];
         }
+        w[0][2] += q[2];
+        w[1][2] += qd[2];
+        w[2][2] += qdd[2];
         w
     }
 
@@ -2074,12 +2172,14 @@ impl<'a> NewtonRun<'a> {
         if nt.plain {
             return q;
         }
+        // as in `local`: `T`'s row 2 is `[0, 0, 1]`
         let mut w = [0.0; 3];
-        for r in 0..3 {
+        for r in 0..2 {
             for c in 0..3 {
                 w[r] += nt.t[r][c] * q[c];
             }
         }
+        w[2] += q[2];
         w
     }
 
@@ -3244,17 +3344,22 @@ impl<'a> NewtonRun<'a> {
             // the largest correction and displacement, four running maxima each (no chain
             // through every unknown; the maxima are exact, so the order does not matter)
             let n = self.n;
-            let (dmax, ymax) = correct(
-                [
-                    &mut self.a[..n],
-                    &mut self.ydd[..n],
-                    &mut self.y[..n],
-                    &mut self.yd[..n],
-                ],
-                [&self.y_pred[..n], &self.v_pred[..n], &dx[..n]],
-                bh2,
-                gh,
-            );
+            let state = [
+                &mut self.a[..n],
+                &mut self.ydd[..n],
+                &mut self.y[..n],
+                &mut self.yd[..n],
+            ];
+            let pred = [&self.y_pred[..n], &self.v_pred[..n], &dx[..n]];
+            #[cfg(target_arch = "x86_64")]
+            let (dmax, ymax) = if self.avx2 {
+                // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
+                unsafe { correct_avx2(state, pred, bh2, gh) }
+            } else {
+                correct(state, pred, bh2, gh)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let (dmax, ymax) = correct(state, pred, bh2, gh);
             // f64::max skips NaN: a non-finite correction is caught here, not by dmax
             let finite = dx.iter().all(|d| d.is_finite());
             self.r = dx;
@@ -3275,6 +3380,14 @@ impl<'a> NewtonRun<'a> {
             // solution has accelerations, and an estimate, far from the step's) nor above
             // TRUNCATION_TOL_MAX (unresolved stiff modes inflate the estimate)
             let tol = if truncation > 0.0 {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
+                let da = if self.avx2 {
+                    unsafe { max_abs_difference_avx2(&self.ydd[..n], &self.ydd0[..n]) }
+                } else {
+                    max_abs_difference(&self.ydd[..n], &self.ydd0[..n])
+                };
+                #[cfg(not(target_arch = "x86_64"))]
                 let da = max_abs_difference(&self.ydd[..n], &self.ydd0[..n]);
                 truncation_now = truncation * da / ymax.max(scale_floor);
                 let relaxed = truncation_now
