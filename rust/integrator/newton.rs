@@ -721,6 +721,25 @@ unsafe fn max_abs_difference_avx2(a: &[f64], b: &[f64]) -> f64 {
     max_abs_difference_from(a, b, whole, lanes)
 }
 
+/// A link's element matrices `(C, K)` at zero axial force for frame `f` into `out`:
+/// [`NewtonRun::element_ck`]`(li, 0.0)` entry by entry in one pass (`C = D1 + G (2 w)`, `K = K1 +
+/// (G al - Mt w^2)`, the same operations as its matrix expressions, without their temporaries).
+#[inline]
+fn frame_ck(ld: &LinkData, f: &FrameState, out: &mut (Mat6, Mat6)) {
+    let (c, k) = out;
+    let (two_w, al, w2) = (2.0 * f.rate, f.accel, f.rate * f.rate);
+    let (coriolis, coupling) = (ld.active.coriolis, ld.active.coupling);
+    let (d1, k1, g, mt) = (ld.d1.as_slice(), ld.k1.as_slice(), ld.g.as_slice(), ld.mt.as_slice());
+    for (i, (ci, ki)) in c.as_mut_slice().iter_mut().zip(k.as_mut_slice()).enumerate() {
+        *ci = if coriolis { d1[i] + g[i] * two_w } else { d1[i] };
+        *ki = if coupling {
+            k1[i] + (g[i] * al - mt[i] * w2)
+        } else {
+            k1[i]
+        };
+    }
+}
+
 /// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
 /// 2 acceleration) from the local states of its two nodes (see [`NewtonRun::local`]).
 #[inline]
@@ -2108,10 +2127,10 @@ impl<'a> NewtonRun<'a> {
                 }
             }
         }
-        let mut ck = std::mem::take(&mut self.link_ck);
-        ck.clear();
-        ck.extend((0..self.links.len()).map(|li| self.element_ck(li, 0.0)));
-        self.link_ck = ck;
+        self.link_ck.resize(self.links.len(), (Mat6::zeros(), Mat6::zeros()));
+        for ((ck, ld), f) in self.link_ck.iter_mut().zip(&self.links).zip(&self.frames) {
+            frame_ck(ld, f, ck);
+        }
         for (f, sl) in self.slider_frames.iter_mut().zip(&self.mech.sliders) {
             *f = sl.path.frame(self.t_frames);
         }
