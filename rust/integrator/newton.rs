@@ -577,58 +577,40 @@ fn predict(state: [&mut [f64]; 3], pred: [&mut [f64]; 3], a_prev: &[f64], c: [f6
 /// running maxima each, exact whatever the order). A function of its own so that the slices
 /// are known not to overlap.
 #[inline(always)]
-fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
-    correct_from(state, pred, bh2, gh, 0, [[0.0; 4]; 2])
+fn correct(mut state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
+    let mut maxima = [[0.0f64; 4]; 2];
+    // unknown i into maximum i % 4
+    for i in 0..state[0].len() {
+        correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
+    }
+    let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
+    (max4(maxima[0]), max4(maxima[1]))
 }
 
-/// [`correct`] from unknown `start` (a multiple of 4) on, the four running maxima of the
-/// corrections and of `|y|` starting at `maxima`.
+/// Unknown `i` of [`correct`], its maxima into `maxima[.][i % 4]`.
 #[inline(always)]
-fn correct_from(
-    state: [&mut [f64]; 4],
-    pred: [&[f64]; 3],
+fn correct_one(
+    state: &mut [&mut [f64]; 4],
+    pred: &[&[f64]; 3],
     bh2: f64,
     gh: f64,
-    start: usize,
-    maxima: [[f64; 4]; 2],
-) -> (f64, f64) {
+    i: usize,
+    maxima: &mut [[f64; 4]; 2],
+) {
     let [av, yddv, yv, ydv] = state;
     let [ypv, vpv, dxv] = pred;
-    let n = av.len();
-    let (yddv, yv, ydv, ypv, vpv, dxv) = (
-        &mut yddv[..n],
-        &mut yv[..n],
-        &mut ydv[..n],
-        &ypv[..n],
-        &vpv[..n],
-        &dxv[..n],
-    );
-    let [mut dm, mut ym] = maxima;
-    let mut one = |i: usize, k: usize| {
-        let da = -dxv[i];
-        av[i] += da;
-        yddv[i] = av[i];
-        yv[i] = ypv[i] + bh2 * av[i];
-        ydv[i] = vpv[i] + gh * av[i];
-        // `if d > m`: f64::max's NaN rule keeps the loop from vectorizing; NaN is skipped alike
-        let d = (bh2 * da).abs();
-        dm[k] = if d > dm[k] { d } else { dm[k] };
-        let y = yv[i].abs();
-        ym[k] = if y > ym[k] { y } else { ym[k] };
-    };
-    // unknown i into maximum i % 4, four at a time
-    for c in start / 4..n / 4 {
-        for k in 0..4 {
-            one(4 * c + k, k);
-        }
-    }
-    for i in (n / 4 * 4).max(start)..n {
-        one(i, i % 4);
-    }
-    (
-        dm[0].max(dm[1]).max(dm[2].max(dm[3])),
-        ym[0].max(ym[1]).max(ym[2].max(ym[3])),
-    )
+    let [dm, ym] = maxima;
+    let k = i % 4;
+    let da = -dxv[i];
+    av[i] += da;
+    yddv[i] = av[i];
+    yv[i] = ypv[i] + bh2 * av[i];
+    ydv[i] = vpv[i] + gh * av[i];
+    // `if d > m`: f64::max's NaN rule would not skip NaN alike (as _mm256_max_pd does)
+    let d = (bh2 * da).abs();
+    dm[k] = if d > dm[k] { d } else { dm[k] };
+    let y = yv[i].abs();
+    ym[k] = if y > ym[k] { y } else { ym[k] };
 }
 
 /// [`correct`] four unknowns at a time in AVX2 registers (the compiler keeps the scalar form's
@@ -649,16 +631,23 @@ unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: 
     let whole = n / 4 * 4;
     let (b, g, sign) = (_mm256_set1_pd(bh2), _mm256_set1_pd(gh), _mm256_set1_pd(-0.0));
     let (mut dm, mut ym) = (_mm256_setzero_pd(), _mm256_setzero_pd());
-    for i in (0..whole).step_by(4) {
-        let at = i..i + 4;
-        let da = _mm256_xor_pd(_mm256_loadu_pd(dxv[at.clone()].as_ptr()), sign);
-        let a = _mm256_add_pd(_mm256_loadu_pd(av[at.clone()].as_ptr()), da);
-        _mm256_storeu_pd(av[at.clone()].as_mut_ptr(), a);
-        _mm256_storeu_pd(yddv[at.clone()].as_mut_ptr(), a);
-        let y = _mm256_add_pd(_mm256_loadu_pd(ypv[at.clone()].as_ptr()), _mm256_mul_pd(b, a));
-        _mm256_storeu_pd(yv[at.clone()].as_mut_ptr(), y);
-        let yd = _mm256_add_pd(_mm256_loadu_pd(vpv[at.clone()].as_ptr()), _mm256_mul_pd(g, a));
-        _mm256_storeu_pd(ydv[at].as_mut_ptr(), yd);
+    let outs = av[..whole]
+        .chunks_exact_mut(4)
+        .zip(yddv[..whole].chunks_exact_mut(4))
+        .zip(yv[..whole].chunks_exact_mut(4).zip(ydv[..whole].chunks_exact_mut(4)));
+    let ins = ypv[..whole]
+        .chunks_exact(4)
+        .zip(vpv[..whole].chunks_exact(4))
+        .zip(dxv[..whole].chunks_exact(4));
+    for (((a4, ydd4), (y4, yd4)), ((yp4, vp4), dx4)) in outs.zip(ins) {
+        let da = _mm256_xor_pd(_mm256_loadu_pd(dx4.as_ptr()), sign);
+        let a = _mm256_add_pd(_mm256_loadu_pd(a4.as_ptr()), da);
+        _mm256_storeu_pd(a4.as_mut_ptr(), a);
+        _mm256_storeu_pd(ydd4.as_mut_ptr(), a);
+        let y = _mm256_add_pd(_mm256_loadu_pd(yp4.as_ptr()), _mm256_mul_pd(b, a));
+        _mm256_storeu_pd(y4.as_mut_ptr(), y);
+        let yd = _mm256_add_pd(_mm256_loadu_pd(vp4.as_ptr()), _mm256_mul_pd(g, a));
+        _mm256_storeu_pd(yd4.as_mut_ptr(), yd);
         dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
         ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
     }
@@ -666,7 +655,12 @@ unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: 
     _mm256_storeu_pd(maxima[0].as_mut_ptr(), dm);
     _mm256_storeu_pd(maxima[1].as_mut_ptr(), ym);
     // the last `n % 4` unknowns as the scalar form takes them
-    correct_from([av, yddv, yv, ydv], [ypv, vpv, dxv], bh2, gh, whole, maxima)
+    let (mut state, pred) = ([av, yddv, yv, ydv], [ypv, vpv, dxv]);
+    for i in whole..n {
+        correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
+    }
+    let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
+    (max4(maxima[0]), max4(maxima[1]))
 }
 
 /// `max |a_i - b_i|` over two slices of one length, four running maxima (no chain through
