@@ -2062,7 +2062,7 @@ impl<'a> NewtonRun<'a> {
         self.y.copy_from_slice(y);
         self.yd.copy_from_slice(yd);
         self.ydd.fill(0.0);
-        self.evaluate_contacts(true);
+        self.evaluate_contacts(true, true);
         if !contacts {
             self.contact.fill(ContactTerms::default());
             self.contact_tan.fill(([[0.0; 2]; 2], [[0.0; 2]; 2]));
@@ -3104,8 +3104,10 @@ impl<'a> NewtonRun<'a> {
     /// the predictors: lagged kappa, the force method, and the status the implicit contact
     /// starts from), else at the current iterate (implicit contact: spring and damping at the
     /// iterate, the spring by its tangent in the Jacobian, the dashpot left out after repeated
-    /// status switches).
-    fn evaluate_contacts(&mut self, from_start: bool) {
+    /// status switches). With `tangent`, the implicit contact's spring tangent too (a step's
+    /// start leaves it out: its first iteration evaluates the contact again, tangent included,
+    /// before anything reads it).
+    fn evaluate_contacts(&mut self, from_start: bool, tangent: bool) {
         if self.cont.is_some() {
             self.continuous_terms(from_start);
             return;
@@ -3140,8 +3142,10 @@ impl<'a> NewtonRun<'a> {
                     let was = self.contact[j].active();
                     (terms, _) = evaluation::iterated_terms(terms, was, &mut self.switches[j]);
                 }
-                let k = jt.law.spring_tangent(q, jt.clearance);
-                self.contact_tan[j] = (k, terms.c);
+                if tangent {
+                    let k = jt.law.spring_tangent(q, jt.clearance);
+                    self.contact_tan[j] = (k, terms.c);
+                }
             }
             if let Coupling::Force = self.settings.coupling {
                 // Explicit: the whole force, frozen for the step.
@@ -3222,8 +3226,9 @@ impl<'a> NewtonRun<'a> {
         let nm = self.settings.newmark;
         let (bh2, gh) = nm.coefficients(h);
         let n = self.n;
-        // Contact terms from the start-of-step state (lagged kappa, force method).
-        self.evaluate_contacts(true);
+        // Contact terms from the start-of-step state (lagged kappa, force method); the implicit
+        // contact's tangent is that of the first iterate (below)
+        self.evaluate_contacts(true, false);
         // State at the start (kept for a retry).
         self.y0.copy_from_slice(&self.y);
         self.yd0.copy_from_slice(&self.yd);
@@ -3290,7 +3295,7 @@ impl<'a> NewtonRun<'a> {
             }
             if iterate_contact {
                 // Implicit contact: the force and its tangent at the current iterate.
-                self.evaluate_contacts(false);
+                self.evaluate_contacts(false, true);
             }
             if iterate_friction {
                 self.evaluate_friction(h);
@@ -3950,7 +3955,7 @@ impl<'a> NewtonRun<'a> {
 
     fn restart_accelerations(&mut self, t: f64) -> Result<()> {
         self.update_frames(t);
-        self.evaluate_contacts(true);
+        self.evaluate_contacts(true, true);
         self.ydd.fill(0.0);
         self.factorize_mass()?;
         self.mass_accelerations(t);
