@@ -805,6 +805,10 @@ fn node_t(map: &NodeMap, f: &FrameState, r: [[f64; 2]; 2], slider_dir: &[[f64; 2
     nt
 }
 
+/// The columns of a joint endpoint's relative displacement over its unknowns, up to three:
+/// `(unknown, d q / d y, the velocity's position dependence)` ([`NewtonRun::endpoint_jac`]).
+type EndpointJac = [(usize, [f64; 2], [f64; 2]); 3];
+
 /// The rows of `P` for the constant-rate stepper's Woodbury update: per clearance joint, the
 /// derivative of the relative displacement `q` (journal minus bearing, global axes turned by
 /// `-angle` of the joint's reference frame) with respect to its up to four unknowns. Constant over
@@ -1080,6 +1084,10 @@ pub struct NewtonRun<'a> {
     /// instead of evaluating the same state again.
     margin_terms: Vec<([f64; 2], [f64; 2], ContactTerms)>,
     margin_state: bool,
+    /// Each joint's [`Self::endpoint_jac`] of its journal and its bearing for the current
+    /// frames (they depend on the frames alone): made by [`Self::refresh_transforms`], read by
+    /// the residual's joint forces and the Woodbury rows of each step.
+    joint_jacs: Vec<[EndpointJac; 2]>,
     /// Each joint's `(q, qd)` at the current iterate, as [`Self::evaluate_contacts`] found them,
     /// and whether they still hold (the residual that follows in the iteration takes them
     /// instead of evaluating them again; cleared when the residual has used them).
@@ -1462,6 +1470,7 @@ impl<'a> NewtonRun<'a> {
             tracked_state: false,
             margin_terms: vec![([0.0; 2], [0.0; 2], ContactTerms::default()); nj],
             margin_state: false,
+            joint_jacs: Vec::new(),
             jstate: vec![([0.0; 2], [0.0; 2]); nj],
             jstate_fresh: false,
             node_states: Vec::with_capacity(mech.links.iter().map(|l| l.nodes()).max().unwrap_or(0)),
@@ -1762,14 +1771,14 @@ impl<'a> NewtonRun<'a> {
             let rt = axes.map(|l| self.rots[l]);
             let mut cols = [(NONE, [0.0; 2]); 6];
             let mut vel = [[0.0; 2]; 6];
-            for (slot, e, sgn) in [(0, &jt.journal, 1.0), (3, &jt.bearing, -1.0)] {
+            for (side, (slot, e, sgn)) in [(0, &jt.journal, 1.0), (3, &jt.bearing, -1.0)].into_iter().enumerate() {
                 let on_axes = match e {
                     Endpoint::Node { link, node } => {
                         Some(*link) == axes && matches!(self.links[*link].nodes[*node].trans, Trans::Local(_))
                     }
                     _ => false,
                 };
-                for (k, (i, g, v)) in self.endpoint_jac(e).into_iter().enumerate() {
+                for (k, &(i, g, v)) in self.joint_jacs[j][side].iter().enumerate() {
                     if split {
                         // the frame rotation's velocity term, in the same axes
                         let v = rt.map_or(v, |r| {
@@ -2121,6 +2130,15 @@ impl<'a> NewtonRun<'a> {
                 }
             }
         }
+        let mut jacs = std::mem::take(&mut self.joint_jacs);
+        jacs.clear();
+        jacs.extend(
+            self.mech
+                .joints
+                .iter()
+                .map(|jt| [self.endpoint_jac(&jt.journal), self.endpoint_jac(&jt.bearing)]),
+        );
+        self.joint_jacs = jacs;
         self.link_ck.resize(self.links.len(), (Mat6::zeros(), Mat6::zeros()));
         for ((ck, ld), f) in self.link_ck.iter_mut().zip(&self.links).zip(&self.frames) {
             frame_ck(ld, f, ck);
@@ -2677,7 +2695,7 @@ impl<'a> NewtonRun<'a> {
 
     /// Derivative of an endpoint's global displacement with respect to its unknowns, as up to 2
     /// (unknown, column) pairs, and the extra velocity term `d qd/d y` (frame rotation).
-    fn endpoint_jac(&self, e: &Endpoint) -> [(usize, [f64; 2], [f64; 2]); 3] {
+    fn endpoint_jac(&self, e: &Endpoint) -> EndpointJac {
         let mut out = [(NONE, [0.0; 2], [0.0; 2]); 3];
         match e {
             Endpoint::Node { link, node } => {
@@ -2720,9 +2738,8 @@ impl<'a> NewtonRun<'a> {
 
     /// Adds a global force `f` acting on the journal (and `-f` on the bearing) to `r`.
     fn apply_joint_force(&self, j: usize, f: [f64; 2], r: &mut [f64]) {
-        let jt = &self.mech.joints[j];
-        for (e, sgn) in [(&jt.journal, 1.0), (&jt.bearing, -1.0)] {
-            for (i, col, _) in self.endpoint_jac(e) {
+        for (jac, sgn) in self.joint_jacs[j].iter().zip([1.0, -1.0]) {
+            for &(i, col, _) in jac {
                 if i != NONE {
                     r[i] += sgn * (col[0] * f[0] + col[1] * f[1]);
                 }
