@@ -1,0 +1,180 @@
+//! The Newmark state updates of a Newton step over all unknowns: the predictors and first
+//! iterate ([`predict`]), each correction with its largest entries ([`correct`]), and the
+//! truncation test's largest acceleration change ([`max_abs_difference`]). The loops that run
+//! at every iteration have an AVX2 form ([`correct_avx2`], [`max_abs_difference_avx2`]) that
+//! performs the scalar form's operations lane by lane, so both give the same values
+//! (`a_run_in_the_avx2_build_equals_the_baseline_run_bitwise` in `newton.rs`).
+
+/// The Newmark predictors of a step of `h` (s) from the state `[y, yd, ydd]` into `[y_pred,
+/// v_pred]`, and its first iterate `a = a_n + w (a_n - a_prev)` (`a_n` where `w = 0`) into `a`
+/// and the state; `c = [h, beta, gamma, beta h^2, gamma h, w]`. A function of its own so that the
+/// slices are known not to overlap (the loop runs in vector registers).
+#[inline(always)]
+pub(super) fn predict(state: [&mut [f64]; 3], pred: [&mut [f64]; 3], a_prev: &[f64], c: [f64; 6]) {
+    let [yv, ydv, yddv] = state;
+    let [yp, vp, av] = pred;
+    let [h, beta, gamma, bh2, gh, w] = c;
+    let n = yv.len();
+    let (ydv, yddv, yp, vp, av, a_prev) = (
+        &mut ydv[..n],
+        &mut yddv[..n],
+        &mut yp[..n],
+        &mut vp[..n],
+        &mut av[..n],
+        &a_prev[..n],
+    );
+    for i in 0..n {
+        let (y0, v0, a0) = (yv[i], ydv[i], yddv[i]);
+        yp[i] = y0 + h * v0 + (0.5 - beta) * h * h * a0;
+        vp[i] = v0 + (1.0 - gamma) * h * a0;
+        let a = if w > 0.0 { a0 + w * (a0 - a_prev[i]) } else { a0 };
+        av[i] = a;
+        yv[i] = yp[i] + bh2 * a;
+        ydv[i] = vp[i] + gh * a;
+        yddv[i] = a;
+    }
+}
+
+/// A Newton correction `dx` (the accelerations' `-dx`) into `[a, ydd, y, yd]` from the predictors
+/// `[y_pred, v_pred]` (`bh2 = beta h^2`, `gh = gamma h`); returns the largest displacement
+/// correction `bh2 |dx|` and the largest `|y|` (NaN entries skipped, as `f64::max` does; four
+/// running maxima each, exact whatever the order). A function of its own so that the slices
+/// are known not to overlap.
+#[inline(always)]
+pub(super) fn correct(mut state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
+    let mut maxima = [[0.0f64; 4]; 2];
+    // unknown i into maximum i % 4
+    for i in 0..state[0].len() {
+        correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
+    }
+    let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
+    (max4(maxima[0]), max4(maxima[1]))
+}
+
+/// Unknown `i` of [`correct`], its maxima into `maxima[.][i % 4]`.
+#[inline(always)]
+fn correct_one(
+    state: &mut [&mut [f64]; 4],
+    pred: &[&[f64]; 3],
+    bh2: f64,
+    gh: f64,
+    i: usize,
+    maxima: &mut [[f64; 4]; 2],
+) {
+    let [av, yddv, yv, ydv] = state;
+    let [ypv, vpv, dxv] = pred;
+    let [dm, ym] = maxima;
+    let k = i % 4;
+    let da = -dxv[i];
+    av[i] += da;
+    yddv[i] = av[i];
+    yv[i] = ypv[i] + bh2 * av[i];
+    ydv[i] = vpv[i] + gh * av[i];
+    // `if d > m`: f64::max's NaN rule would not skip NaN alike (as _mm256_max_pd does)
+    let d = (bh2 * da).abs();
+    dm[k] = if d > dm[k] { d } else { dm[k] };
+    let y = yv[i].abs();
+    ym[k] = if y > ym[k] { y } else { ym[k] };
+}
+
+/// [`correct`] four unknowns at a time in AVX2 registers (the compiler keeps the scalar form's
+/// loop scalar): each entry's operations are the scalar form's (a sign flip, then separate
+/// multiplies and adds), and `_mm256_max_pd(d, m)` is `if d > m { d } else { m }` lane by lane,
+/// unknown `i` in lane `i % 4` as there: the same values.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
+    use std::arch::x86_64::*;
+    let [av, yddv, yv, ydv] = state;
+    let [ypv, vpv, dxv] = pred;
+    let n = av.len();
+    let whole = n / 4 * 4;
+    let (b, g, sign) = (_mm256_set1_pd(bh2), _mm256_set1_pd(gh), _mm256_set1_pd(-0.0));
+    let (mut dm, mut ym) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+    let outs = av[..whole]
+        .chunks_exact_mut(4)
+        .zip(yddv[..whole].chunks_exact_mut(4))
+        .zip(yv[..whole].chunks_exact_mut(4).zip(ydv[..whole].chunks_exact_mut(4)));
+    let ins = ypv[..whole]
+        .chunks_exact(4)
+        .zip(vpv[..whole].chunks_exact(4))
+        .zip(dxv[..whole].chunks_exact(4));
+    for (((a4, ydd4), (y4, yd4)), ((yp4, vp4), dx4)) in outs.zip(ins) {
+        let da = _mm256_xor_pd(_mm256_loadu_pd(dx4.as_ptr()), sign);
+        let a = _mm256_add_pd(_mm256_loadu_pd(a4.as_ptr()), da);
+        _mm256_storeu_pd(a4.as_mut_ptr(), a);
+        _mm256_storeu_pd(ydd4.as_mut_ptr(), a);
+        let y = _mm256_add_pd(_mm256_loadu_pd(yp4.as_ptr()), _mm256_mul_pd(b, a));
+        _mm256_storeu_pd(y4.as_mut_ptr(), y);
+        let yd = _mm256_add_pd(_mm256_loadu_pd(vp4.as_ptr()), _mm256_mul_pd(g, a));
+        _mm256_storeu_pd(yd4.as_mut_ptr(), yd);
+        dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
+        ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
+    }
+    let mut maxima = [[0.0; 4]; 2];
+    _mm256_storeu_pd(maxima[0].as_mut_ptr(), dm);
+    _mm256_storeu_pd(maxima[1].as_mut_ptr(), ym);
+    // the last `n % 4` unknowns as the scalar form takes them
+    let (mut state, pred) = ([av, yddv, yv, ydv], [ypv, vpv, dxv]);
+    for i in whole..n {
+        correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
+    }
+    let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
+    (max4(maxima[0]), max4(maxima[1]))
+}
+
+/// `max |a_i - b_i|` over two slices of one length, four running maxima (no chain through
+/// every entry; the maximum is exact, so the order does not matter).
+pub(super) fn max_abs_difference(a: &[f64], b: &[f64]) -> f64 {
+    max_abs_difference_from(a, b, 0, [0.0; 4])
+}
+
+/// [`max_abs_difference`] from entry `start` (a multiple of 4) on, its four running maxima
+/// starting at `m`.
+#[inline(always)]
+fn max_abs_difference_from(a: &[f64], b: &[f64], start: usize, mut m: [f64; 4]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[start.min(n)..n], &b[start.min(n)..n]);
+    // `if d > m` (not f64::max, whose NaN rule keeps it from vectorizing): skips NaN alike
+    for (ca, cb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+        for k in 0..4 {
+            let d = (ca[k] - cb[k]).abs();
+            m[k] = if d > m[k] { d } else { m[k] };
+        }
+    }
+    let whole = a.len() / 4 * 4;
+    for i in whole..a.len() {
+        let d = (a[i] - b[i]).abs();
+        m[i % 4] = if d > m[i % 4] { d } else { m[i % 4] };
+    }
+    m[0].max(m[1]).max(m[2].max(m[3]))
+}
+
+/// [`max_abs_difference`] four entries at a time in AVX2 registers, lane by lane the same
+/// operations (`_mm256_max_pd(d, m)` is `if d > m { d } else { m }`): the same value.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn max_abs_difference_avx2(a: &[f64], b: &[f64]) -> f64 {
+    use std::arch::x86_64::*;
+    let whole = a.len().min(b.len()) / 4 * 4;
+    let sign = _mm256_set1_pd(-0.0);
+    let mut m = _mm256_setzero_pd();
+    for i in (0..whole).step_by(4) {
+        let d = _mm256_sub_pd(
+            _mm256_loadu_pd(a[i..i + 4].as_ptr()),
+            _mm256_loadu_pd(b[i..i + 4].as_ptr()),
+        );
+        m = _mm256_max_pd(_mm256_andnot_pd(sign, d), m);
+    }
+    let mut lanes = [0.0; 4];
+    _mm256_storeu_pd(lanes.as_mut_ptr(), m);
+    max_abs_difference_from(a, b, whole, lanes)
+}
