@@ -272,6 +272,10 @@ impl WoodburyScratch {
     }
 
     fn resize(&mut self, m: usize) {
+        if self.cap.len() == m * m && self.yb.len() == m {
+            // sized already (every solve of a run asks for the same rank)
+            return;
+        }
         self.yb.resize(m, 0.0);
         self.h.resize(m, 0.0);
         self.y.resize(m, 0.0);
