@@ -1928,6 +1928,7 @@ impl<'a> NewtonRun<'a> {
         Ok([m, c, k, self.r.clone()])
     }
 
+    #[inline(always)]
     fn update_frames(&mut self, t: f64) {
         self.tracked_state = false;
         self.t_frames = t;
@@ -1938,6 +1939,7 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// Recomputes the per-link rotations and per-node transforms from the current frames.
+    #[inline(always)]
     fn refresh_transforms(&mut self) {
         if self.node_off.len() != self.links.len() {
             // first call: every node; later calls recompute only the nodes whose transform
