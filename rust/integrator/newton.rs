@@ -251,6 +251,7 @@ impl Extrapolation {
     /// Records the converged step from `t` of `h` (s) with start and end accelerations `a0`,
     /// `a1` (those of the step [`Self::start`] began), and whether the extrapolation would have
     /// predicted `a1` better than `a0` (kept from before where it could not have applied).
+    #[inline(always)]
     fn converged(&mut self, t: f64, h: f64, a0: &[f64], a1: &[f64]) {
         if let Some(w) = self.pending.take() {
             let n = a1.len();
