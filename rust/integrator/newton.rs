@@ -1730,6 +1730,7 @@ impl<'a> NewtonRun<'a> {
     /// The blocks of `G` for the current contact terms (the step's `bh2 = beta h^2`,
     /// `gh = gamma h`): the contact part of the Jacobian of [`Self::assemble`] is
     /// `P^T (bh2 k + gh c + bh2 rate c S) P`, turned into each joint's reference axes.
+    #[inline(always)]
     fn rate_blocks(&mut self, bh2: f64, gh: f64) {
         let Some(rs) = self.rate.as_deref_mut() else {
             return;
@@ -2958,6 +2959,7 @@ impl<'a> NewtonRun<'a> {
     /// status switches). With `tangent`, the implicit contact's spring tangent too (a step's
     /// start leaves it out: its first iteration evaluates the contact again, tangent included,
     /// before anything reads it).
+    #[inline(always)]
     fn evaluate_contacts(&mut self, from_start: bool, tangent: bool) {
         if self.cont.is_some() {
             self.continuous_terms(from_start);
@@ -3023,6 +3025,7 @@ impl<'a> NewtonRun<'a> {
     /// iterations a step and 3655 -> 2350 factorizations; the midspan against iterations to
     /// 1e-12 within 1.1e-6 and 7.4e-7 of its scale (1.1e-6 and 1.0e-4 before), the discretization
     /// error (against dt/8) 1.8e-2 and 0.12.
+    #[inline(always)]
     fn carried_rate_margin(&mut self) -> Option<f64> {
         let adaptive = self.settings.adaptive.is_some();
         let mut margin = 1.0;
