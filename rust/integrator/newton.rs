@@ -550,7 +550,7 @@ impl NodeT {
 /// A link's element matrices `(C, K)` at zero axial force for frame `f` into `out`:
 /// [`NewtonRun::element_ck`]`(li, 0.0)` entry by entry in one pass (`C = D1 + G (2 w)`, `K = K1 +
 /// (G al - Mt w^2)`, the same operations as its matrix expressions, without their temporaries).
-#[inline]
+#[inline(always)]
 fn frame_ck(ld: &LinkData, f: &FrameState, out: &mut (Mat6, Mat6)) {
     let (c, k) = out;
     let (two_w, al, w2) = (2.0 * f.rate, f.accel, f.rate * f.rate);
@@ -2484,6 +2484,7 @@ impl<'a> NewtonRun<'a> {
 
     /// Global elastic displacement and velocity of an endpoint, and the columns of `d q/d y`
     /// (unknown, column) and of the velocity's extra position dependence.
+    #[inline(always)]
     fn endpoint_state(&self, e: &Endpoint, y: &[f64], yd: &[f64]) -> ([f64; 2], [f64; 2]) {
         match e {
             Endpoint::Node { link, node } => {
@@ -2511,6 +2512,7 @@ impl<'a> NewtonRun<'a> {
         }
     }
 
+    #[inline(always)]
     fn joint_state(&self, j: usize, y: &[f64], yd: &[f64]) -> ([f64; 2], [f64; 2]) {
         let jt = &self.mech.joints[j];
         let (a, ad) = self.endpoint_state(&jt.journal, y, yd);
@@ -2938,7 +2940,7 @@ impl<'a> NewtonRun<'a> {
 
     /// The law of joint `j` at `(q, qd)`, within its contact episode when the law needs the
     /// approach speed ([`crate::contact::approach_speed`]).
-    #[inline]
+    #[inline(always)]
     fn law_terms(&self, j: usize, q: [f64; 2], qd: [f64; 2]) -> ContactTerms {
         let jt = &self.mech.joints[j];
         evaluation::law_terms(
