@@ -70,7 +70,8 @@ fn correct_one(
     yddv[i] = av[i];
     yv[i] = ypv[i] + bh2 * av[i];
     ydv[i] = vpv[i] + gh * av[i];
-    // `if d > m`: f64::max's NaN rule would not skip NaN alike (as _mm256_max_pd does)
+    // `if d > m`, not f64::max (whose NaN rule keeps a loop from vectorizing); NaN is skipped
+    // alike, and it is `_mm256_max_pd(d, m)` of the AVX2 form
     let d = (bh2 * da).abs();
     dm[k] = if d > dm[k] { d } else { dm[k] };
     let y = yv[i].abs();
