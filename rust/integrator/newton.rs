@@ -100,7 +100,7 @@ mod continuous;
 mod element_lanes;
 mod state_update;
 
-use state_update::{correct, max_abs_difference, predict};
+use state_update::{correct, max_abs_difference, max_of_lanes, predict};
 #[cfg(target_arch = "x86_64")]
 use state_update::{correct_avx2, max_abs_difference_avx2};
 
@@ -274,8 +274,7 @@ impl Extrapolation {
                 ms[i % 4] = if d > ms[i % 4] { d } else { ms[i % 4] };
                 me[i % 4] = if e > me[i % 4] { e } else { me[i % 4] };
             }
-            let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
-            self.better = max4(me) < EXTRAPOLATION_MARGIN * max4(ms);
+            self.better = max_of_lanes(me) < EXTRAPOLATION_MARGIN * max_of_lanes(ms);
             // `a0` is the last step's end, bitwise (`applicable`)
             std::mem::swap(&mut self.a0, &mut self.a1);
         } else if ACCELERATION_EXTRAPOLATION {
@@ -346,7 +345,7 @@ fn max_abs_or_inf(r: &[f64]) -> f64 {
         m[i % 4] = if a > m[i % 4] { a } else { m[i % 4] };
     }
     if finite {
-        m[0].max(m[1]).max(m[2].max(m[3]))
+        max_of_lanes(m)
     } else {
         f64::INFINITY
     }

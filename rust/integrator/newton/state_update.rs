@@ -5,6 +5,13 @@
 //! performs the scalar form's operations lane by lane, so both give the same values
 //! (`a_run_in_the_avx2_build_equals_the_baseline_run_bitwise` in `newton.rs`).
 
+/// The largest of four running maxima (the lanes of the loops here and of
+/// `Extrapolation::converged` and `max_abs_or_inf`: unknown `i` in lane `i % 4`).
+#[inline(always)]
+pub(super) fn max_of_lanes(m: [f64; 4]) -> f64 {
+    m[0].max(m[1]).max(m[2].max(m[3]))
+}
+
 /// The Newmark predictors of a step of `h` (s) from the state `[y, yd, ydd]` into `[y_pred,
 /// v_pred]`, and its first iterate `a = a_n + w (a_n - a_prev)` (`a_n` where `w = 0`) into `a`
 /// and the state; `c = [h, beta, gamma, beta h^2, gamma h, w]`. A function of its own so that the
@@ -47,8 +54,7 @@ pub(super) fn correct(mut state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, g
     for i in 0..state[0].len() {
         correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
     }
-    let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
-    (max4(maxima[0]), max4(maxima[1]))
+    (max_of_lanes(maxima[0]), max_of_lanes(maxima[1]))
 }
 
 /// Unknown `i` of [`correct`], its maxima into `maxima[.][i % 4]`.
@@ -124,8 +130,7 @@ pub(super) unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2
     for i in whole..n {
         correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
     }
-    let max4 = |m: [f64; 4]| m[0].max(m[1]).max(m[2].max(m[3]));
-    (max4(maxima[0]), max4(maxima[1]))
+    (max_of_lanes(maxima[0]), max_of_lanes(maxima[1]))
 }
 
 /// `max |a_i - b_i|` over two slices of one length, four running maxima (no chain through
@@ -152,7 +157,7 @@ fn max_abs_difference_from(a: &[f64], b: &[f64], start: usize, mut m: [f64; 4]) 
         let d = (a[i] - b[i]).abs();
         m[i % 4] = if d > m[i % 4] { d } else { m[i % 4] };
     }
-    m[0].max(m[1]).max(m[2].max(m[3]))
+    max_of_lanes(m)
 }
 
 /// [`max_abs_difference`] four entries at a time in AVX2 registers, lane by lane the same
