@@ -9,7 +9,9 @@
 //! cargo run --release --example profile_newton -- spin-rate 0.02    # the same on the constant-rate stepper
 //! ```
 //!
-//! Every case steps at dt = 1e-5 s and records nothing but the joint extremes. The slider-crank
+//! Every case steps at dt = 1e-5 s and records nothing but the joint extremes
+//! (`FLEXCLEAR_RECORD=default`: the default recording of Python's `simulate`, joint histories
+//! and every node's displacements at every step). The slider-crank
 //! runs with the scene's defaults of `flexclear.scenes.slider_crank(clearance_at="crank_pin")`
 //! (8 elements, 26 unknowns, geometric terms on, implicit contact iterated to `iter_tol` 1e-10).
 
@@ -36,6 +38,10 @@ fn main() {
         },
         ..RecordSpec::default()
     };
+    if std::env::var("FLEXCLEAR_RECORD").as_deref() == Ok("default") {
+        // what Python's `simulate` keeps by default: joint histories and every node
+        s.record = RecordSpec::default();
+    }
     s.coupling = Coupling::Modified {
         iterate: true,
         tol: 1e-10,

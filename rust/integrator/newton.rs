@@ -526,6 +526,16 @@ fn node0_vec(a: &[f64; 3]) -> Vec6 {
     Vec6::new(a[0], a[1], a[2], 0.0, 0.0, 0.0)
 }
 
+/// A stretch of a link's nodes as the record reads their displacements
+/// ([`NewtonRun::displacement_runs`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum DispRun {
+    /// Nodes plain on consecutive unknowns: `len` (3 per node) entries of `y` from `first`.
+    Slice { first: usize, len: usize },
+    /// A node read through its transform ([`NewtonRun::local_displacement`]).
+    Node(usize),
+}
+
 /// Rotation-derived per-node transform for the current frame state: T (3x3 block, local from
 /// slots), Td, Tdd, and the slot unknown indices.
 #[derive(Clone, Copy)]
@@ -851,6 +861,9 @@ pub struct NewtonRun<'a> {
     elem_first: Vec<Vec<usize>>,
     /// Per link: whether [`Self::elem_first`]'s slices hold node `e + 1` before node `e`.
     elem_swapped: Vec<bool>,
+    /// Per link, its nodes' displacements as the record reads them, node after node: runs of
+    /// nodes plain on consecutive unknowns (a slice of `y` each) and the other nodes one by one.
+    disp_runs: Vec<Vec<DispRun>>,
     /// Per slider, its guide's frame at [`Self::t_frames`] and `(cos, sin)` of the guide angle.
     slider_frames: Vec<FrameState>,
     slider_dir: Vec<[f64; 2]>,
@@ -1265,6 +1278,7 @@ impl<'a> NewtonRun<'a> {
             elem_pos: Vec::new(),
             elem_first: Vec::new(),
             elem_swapped: Vec::new(),
+            disp_runs: Vec::new(),
             slider_frames: vec![FrameState::default(); mech.sliders.len()],
             slider_dir: mech.sliders.iter().map(|s| [s.angle.cos(), s.angle.sin()]).collect(),
             y: vec![0.0; n],
@@ -1401,6 +1415,7 @@ impl<'a> NewtonRun<'a> {
                     .collect()
             })
             .collect();
+        run.disp_runs = (0..run.links.len()).map(|li| run.displacement_runs(li)).collect();
         if run.settings.coupling == Coupling::Continuous && nj > 0 {
             run.cont = Some(Box::new(continuous::Contact::new(nj, n)));
             for j in &mech.joints {
@@ -1986,6 +2001,22 @@ impl<'a> NewtonRun<'a> {
     #[inline]
     fn nt(&self, li: usize, node: usize) -> &NodeT {
         &self.node_ts[self.node_off[li] + node]
+    }
+
+    /// Link `li`'s nodes in order as [`DispRun`]s: consecutive nodes plain on consecutive
+    /// unknowns (node `nd + 1`'s first unknown three past node `nd`'s) make one slice.
+    fn displacement_runs(&self, li: usize) -> Vec<DispRun> {
+        let mut runs: Vec<DispRun> = Vec::new();
+        for nd in 0..self.mech.links[li].nodes() {
+            match self.nt(li, nd).consecutive() {
+                Some(i) => match runs.last_mut() {
+                    Some(DispRun::Slice { first, len }) if *first + *len == i => *len += 3,
+                    _ => runs.push(DispRun::Slice { first: i, len: 3 }),
+                },
+                None => runs.push(DispRun::Node(nd)),
+            }
+        }
+        runs
     }
 
     /// Local displacement, velocity and acceleration (u, v, th) of a node from global unknowns.
@@ -3548,28 +3579,30 @@ impl<'a> NewtonRun<'a> {
         for li in 0..self.links.len() {
             let l = &self.mech.links[li];
             let f = self.frames[li];
-            let mut hist = std::mem::take(&mut self.hist_links[li]);
+            // the link's node transforms; the history borrowed beside them (fields apart)
+            let nts = &self.node_ts[self.node_off[li]..];
+            let hist = &mut self.hist_links[li];
             hist.frame.push([f.origin[0], f.origin[1], f.angle, f.rate]);
             let nn = l.nodes();
             let ch = rec.links;
             let need_w = ch.displacements || ch.axial_force || ch.midspan || ch.energy;
             if ch.displacements && !(ch.axial_force || ch.midspan || ch.energy) {
-                // the displacements alone (the default): a node plain on three consecutive
-                // unknowns is a slice of `y` (its local state's displacements, T = I)
-                for nd in 0..nn {
-                    let nt = self.nt(li, nd);
-                    match nt.consecutive() {
-                        Some(i) => hist.displacements.extend_from_slice(&self.y[i..i + 3]),
-                        None => hist
+                // the displacements alone (the default): nodes plain on consecutive unknowns
+                // are a slice of `y` (their local states' displacements, T = I)
+                for run in &self.disp_runs[li] {
+                    match *run {
+                        DispRun::Slice { first, len } => {
+                            hist.displacements.extend_from_slice(&self.y[first..first + len])
+                        }
+                        DispRun::Node(nd) => hist
                             .displacements
-                            .extend_from_slice(&Self::local_displacement(nt, &self.y)),
+                            .extend_from_slice(&Self::local_displacement(&nts[nd], &self.y)),
                     }
                 }
             } else if need_w {
                 buf.clear();
                 for nd in 0..nn {
-                    let nt = self.nt(li, nd);
-                    buf.push(Self::local(nt, &self.y, &self.yd, &self.ydd));
+                    buf.push(Self::local(&nts[nd], &self.y, &self.yd, &self.ydd));
                 }
                 if ch.displacements {
                     for w in &buf {
@@ -3641,7 +3674,6 @@ impl<'a> NewtonRun<'a> {
                     hist.momentum.push(he);
                 }
             }
-            self.hist_links[li] = hist;
         }
         self.node_states = buf;
         for j in 0..self.mech.joints.len() {
