@@ -1685,8 +1685,12 @@ impl<'a> NewtonRun<'a> {
             }
         }
         let mut sig = std::mem::take(&mut rs.sig_new);
-        self.frame_signature(h, &mut sig);
-        let moved = sig != rs.signature || self.nonlinear_geometric;
+        // with geometric terms the axial forces move the Jacobian at every step: the signature
+        // is made only to be kept with a new factor (below)
+        let moved = self.nonlinear_geometric || {
+            self.frame_signature(h, &mut sig);
+            sig != rs.signature
+        };
         let newton = rs.fixed_step.is_none();
         let same_step = rs.signature.first() == Some(&h);
         let reuse = rs.ready && !force && moved && newton && self.may_reuse(same_step);
@@ -1698,6 +1702,9 @@ impl<'a> NewtonRun<'a> {
         }
         let mut res = Ok(());
         if refactor {
+            if self.nonlinear_geometric {
+                self.frame_signature(h, &mut sig);
+            }
             std::mem::swap(&mut rs.signature, &mut sig);
             let (bh2, gh) = self.settings.newmark.coefficients(h);
             self.assemble(bh2, gh, &mut rs.lu0, true, false);
