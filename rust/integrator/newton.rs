@@ -2027,7 +2027,7 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// Local displacement, velocity and acceleration (u, v, th) of a node from global unknowns.
-    #[inline]
+    #[inline(always)]
     fn local(nt: &NodeT, y: &[f64], yd: &[f64], ydd: &[f64]) -> [[f64; 3]; 3] {
         let [i, j, k] = nt.idx;
         if nt.plain && i != NONE && j != NONE && k != NONE {
