@@ -2087,7 +2087,7 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// Adds `T^T f` (f: local generalized force of a node) into `r`.
-    #[inline]
+    #[inline(always)]
     fn project(nt: &NodeT, f: [f64; 3], r: &mut [f64]) {
         if nt.plain {
             // T the identity on the node's own unknowns
