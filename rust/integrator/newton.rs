@@ -3112,6 +3112,42 @@ impl<'a> NewtonRun<'a> {
         self.step_body(t, h, step, depth)
     }
 
+    /// A fixed step `k` from `t0` of `h` (s) to the grid instant `t1` (no events, no continuous
+    /// contact) and the tracking of its joints and sliders (`keep`: an output step). The step
+    /// ends where it stopped: at the state its carried-rate stop evaluated, if it stopped so
+    /// ([`Self::margin_state`]); the next step starts from this state and these frames.
+    fn fixed_step(&mut self, t0: f64, h: f64, k: u64, t1: f64, keep: bool) -> Result<()> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`linalg::avx2_fma_available`)
+            return unsafe { self.fixed_step_avx2(t0, h, k, t1, keep) };
+        }
+        self.fixed_step_body(t0, h, k, t1, keep)
+    }
+
+    /// [`Self::fixed_step`] compiled with AVX2 enabled, the tracking inlined (the step itself is
+    /// [`Self::step_avx2`]): bitwise the baseline's.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn fixed_step_avx2(&mut self, t0: f64, h: f64, k: u64, t1: f64, keep: bool) -> Result<()> {
+        self.fixed_step_body(t0, h, k, t1, keep)
+    }
+
+    #[inline(always)]
+    fn fixed_step_body(&mut self, t0: f64, h: f64, k: u64, t1: f64, keep: bool) -> Result<()> {
+        self.step(t0, h, k, 0)?;
+        self.step_end = None;
+        self.stats.steps = k;
+        let margin = std::mem::take(&mut self.margin_state);
+        self.track_joints(t1, Some((k, h)), margin);
+        self.tracked_state = true;
+        self.track_sliders(t1, keep);
+        Ok(())
+    }
+
     #[inline(always)]
     fn step_body(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         self.jstate_fresh = false;
@@ -3718,6 +3754,7 @@ impl<'a> NewtonRun<'a> {
     /// an event step. Nothing before [`RecordSpec::start`] counts. With `margin`, each joint's
     /// state and terms are those the step's carried-rate stop evaluated at this state
     /// ([`Self::margin_terms`]).
+    #[inline(always)]
     fn track_joints(&mut self, t: f64, step: Option<(u64, f64)>, margin: bool) {
         let counts = t >= self.settings.record.start;
         for j in 0..self.mech.joints.len() {
@@ -3774,6 +3811,7 @@ impl<'a> NewtonRun<'a> {
     /// (`keep`) the histories (when kept) and the deviation from
     /// [`RecordSpec::slider_reference`] (from `start` on; the reference's grid was checked against
     /// the run's in [`Self::new`], so the run's output point `k` is the reference's point `k`).
+    #[inline(always)]
     fn track_sliders(&mut self, t: f64, keep: bool) {
         let settings = self.settings;
         let counted = t >= settings.record.start;
@@ -4500,6 +4538,20 @@ impl Stepper for NewtonLoop<'_, '_> {
         // a fixed step's frames are those of the grid instant `t1` (the first step the events
         // or the continuous contact take is the whole step)
         r.step_end = self.adaptive.is_none().then_some(t1);
+        let keep = k.is_multiple_of(r.settings.record.every as u64) || last;
+        if self.adaptive.is_none() && self.events.is_none() && r.cont.is_none() {
+            // a fixed step (no events, no continuous contact) and its tracking
+            if let Err(e) = r.fixed_step(t0, h, k, t1, keep) {
+                r.step_end = None;
+                self.outcome = Some(Err((e, t0)));
+                return;
+            }
+            if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
+                let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
+                self.outcome = Some(Err((e, t1)));
+            }
+            return;
+        }
         let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
             (Some(ad), _) => r.adaptive_advance(t1, k, ad, control),
             (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
@@ -4512,14 +4564,9 @@ impl Stepper for NewtonLoop<'_, '_> {
             return;
         }
         r.stats.steps = k;
-        // a fixed step (no events, no continuous contact) ends where it stopped: at the state
-        // its carried-rate stop evaluated, if it stopped so
-        let fixed = self.adaptive.is_none() && self.events.is_none() && r.cont.is_none();
-        let margin = fixed && std::mem::take(&mut r.margin_state);
-        r.track_joints(t1, Some((k, h)), margin);
-        // the next fixed step starts from this state and these frames
-        r.tracked_state = fixed;
-        r.track_sliders(t1, k.is_multiple_of(r.settings.record.every as u64) || last);
+        r.track_joints(t1, Some((k, h)), false);
+        r.tracked_state = false;
+        r.track_sliders(t1, keep);
         if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
             let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
             self.outcome = Some(Err((e, t1)));
