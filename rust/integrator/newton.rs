@@ -2108,7 +2108,7 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// Element matrices (C, K) of element `e` of link `li` at axial force `fax`.
-    #[inline]
+    #[inline(always)]
     fn element_ck(&self, li: usize, fax: f64) -> (Mat6, Mat6) {
         let ld = &self.links[li];
         let f = &self.frames[li];
@@ -2730,6 +2730,7 @@ impl<'a> NewtonRun<'a> {
     /// (`C0 = D1 + 2 w G`, `K0 = K1 + a G - w^2 MT`, each term as the link carries it) and `geo =
     /// bh2 (K2 + K3) + gh eta K2`, so that the element's is `base + fax geo` at axial force `fax`
     /// (N) plus the tangent of the axial force.
+    #[inline(always)]
     fn link_jacobian_terms(&self, li: usize, bh2: f64, gh: f64) -> (Mat6, Mat6) {
         let ld = &self.links[li];
         let f = &self.frames[li];
@@ -2763,6 +2764,26 @@ impl<'a> NewtonRun<'a> {
     /// Without `contacts`, the clearance joints' terms are left out (the constant-rate stepper's
     /// contact-free Jacobian).
     fn assemble(&self, bh2: f64, gh: f64, lu: &mut BandLu, tangent: bool, contacts: bool) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA (`linalg::avx2_fma_available`)
+            return unsafe { self.assemble_avx2(bh2, gh, lu, tangent, contacts) };
+        }
+        self.assemble_body(bh2, gh, lu, tangent, contacts)
+    }
+
+    /// [`Self::assemble`] compiled with AVX2 enabled: bitwise the baseline's.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn assemble_avx2(&self, bh2: f64, gh: f64, lu: &mut BandLu, tangent: bool, contacts: bool) {
+        self.assemble_body(bh2, gh, lu, tangent, contacts)
+    }
+
+    #[inline(always)]
+    fn assemble_body(&self, bh2: f64, gh: f64, lu: &mut BandLu, tangent: bool, contacts: bool) {
         lu.clear();
         for li in 0..self.links.len() {
             let ld = &self.links[li];
