@@ -1561,7 +1561,11 @@ impl<'a> NewtonRun<'a> {
         };
         Box::new(RateSolver {
             fixed_step,
-            lu0: BandLu::new(self.n, self.lu.bandwidth()),
+            lu0: {
+                let mut lu = BandLu::new(self.n, self.lu.bandwidth());
+                lu.set_avx2(self.avx2);
+                lu
+            },
             ready: false,
             signature: Vec::new(),
             sig_new: Vec::new(),
@@ -3131,6 +3135,17 @@ impl<'a> NewtonRun<'a> {
     #[target_feature(enable = "avx2,fma")]
     unsafe fn step_avx2(&mut self, t: f64, h: f64, step: u64, depth: u32) -> Result<()> {
         self.step_body(t, h, step, depth)
+    }
+
+    /// Runs the step, the residual and the band solves in their AVX2 builds where `on` (and the
+    /// CPU has AVX2 and FMA), else in the baseline's (the tests compare the two).
+    #[cfg(test)]
+    fn set_avx2(&mut self, on: bool) {
+        self.avx2 = on && crate::linalg::avx2_fma_available();
+        self.lu.set_avx2(on);
+        for rs in self.rate.iter_mut().map(|rs| &mut **rs).chain(self.rate_kept.iter_mut()) {
+            rs.lu0.set_avx2(on);
+        }
     }
 
     /// A fixed step `k` from `t0` of `h` (s) to the grid instant `t1` (no events, no continuous
@@ -4847,7 +4862,7 @@ mod tests {
             .into_iter()
             .map(|avx2| {
                 let mut run = super::NewtonRun::new(&mech, &settings).expect("a Newton run");
-                run.avx2 = avx2;
+                run.set_avx2(avx2);
                 run.run(&mut |_| true).expect("the run")
             })
             .collect();

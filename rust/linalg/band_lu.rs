@@ -49,6 +49,9 @@ pub struct BandLu {
     ucols: Vec<f64>,
     /// Numeric factorizations done.
     pub factorizations: u64,
+    /// Whether [`Self::solve_in_place`] runs its AVX2 build (the CPU has AVX2 and FMA; the
+    /// same operations in the same order as the baseline's, so the same bits).
+    avx2: bool,
 }
 
 impl BandLu {
@@ -63,7 +66,15 @@ impl BandLu {
             lcols: vec![0.0; n * b],
             ucols: vec![0.0; n * b],
             factorizations: 0,
+            avx2: super::ldlt::avx2_fma_available(),
         }
+    }
+
+    /// Runs [`Self::solve_in_place`] in its AVX2 build where `on` and the CPU has AVX2 and FMA
+    /// (the default where it has), else in the baseline's: the same bits either way (the tests
+    /// compare the two).
+    pub fn set_avx2(&mut self, on: bool) {
+        self.avx2 = on && super::ldlt::avx2_fma_available();
     }
 
     /// Matrix dimension.
@@ -271,6 +282,27 @@ impl BandLu {
     /// entry is what bounds a small system's solve). Half-bandwidths 1 to 8 take a variant with
     /// the column length fixed at compile time.
     pub fn solve_in_place(&self, x: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
+            return unsafe { self.solve_in_place_avx2(x) };
+        }
+        self.solve_in_place_body(x)
+    }
+
+    /// [`Self::solve_in_place`] compiled with AVX2 enabled (its window in registers twice as
+    /// wide as the baseline's).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn solve_in_place_avx2(&self, x: &mut [f64]) {
+        self.solve_in_place_body(x)
+    }
+
+    #[inline(always)]
+    fn solve_in_place_body(&self, x: &mut [f64]) {
         match self.b {
             1 => self.solve_fixed::<1>(x),
             2 => self.solve_fixed::<2>(x),
@@ -287,6 +319,7 @@ impl BandLu {
     /// [`Self::solve_in_place`] for `b == B` and `n > B`: the `B` entries that column `j`
     /// updates are carried in a window (registers) from one column to the next; the operations
     /// and their order are those of [`Self::solve_columns`].
+    #[inline(always)]
     fn solve_fixed<const B: usize>(&self, x: &mut [f64]) {
         let n = self.n;
         debug_assert_eq!(self.b, B);
@@ -452,9 +485,19 @@ mod band_lu_tests {
                 let (mut x, mut z) = (rhs.clone(), rhs);
                 let (mut p, mut q) = (x.clone(), x.clone());
                 let mut r = x.clone();
+                let mut y = x.clone();
                 m.solve_in_place(&mut x);
                 m.solve_columns(&mut z);
                 assert_eq!(x, z, "b {b}, n {n}");
+                // the baseline build of the solve (the default is AVX2 where the CPU has it)
+                let mut base = m.clone();
+                base.set_avx2(false);
+                base.solve_in_place(&mut y);
+                assert_eq!(
+                    y.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "baseline, b {b}, n {n}"
+                );
                 m.solve_pair_in_place(&mut p, &mut q);
                 assert_eq!(p, x, "pair, b {b}, n {n}");
                 assert_eq!(q, x, "pair, b {b}, n {n}");
