@@ -124,11 +124,6 @@ impl FourBar {
         (self.ground - self.crank * e[0]).hypot(self.crank * e[1])
     }
 
-    /// The pose at `t` (s), solved once per instant ([`PoseMemo`]).
-    fn pose(&self, t: f64) -> FourBarPose {
-        self.last.get(t, |t| self.solve(t))
-    }
-
     /// Solves the loop closure at `t` (s).
     fn solve(&self, t: f64) -> FourBarPose {
         let (g, a2, a3, a4, k) = (self.ground, self.crank, self.coupler, self.rocker, self.branch);
@@ -194,28 +189,34 @@ impl FourBar {
     /// Frame of the coupler at `t` (s): origin at the crank pin A (moving with it), angle
     /// `theta3`, x axis toward B.
     pub fn coupler_frame(&self, t: f64) -> FrameState {
-        let p = self.pose(t);
-        FrameState {
-            origin: p.pin_a.pos,
-            origin_vel: p.pin_a.vel,
-            origin_acc: p.pin_a.acc,
-            angle: p.th[1],
-            rate: p.w[1],
-            accel: p.al[1],
-        }
+        self.last.with(
+            t,
+            |t| self.solve(t),
+            |p| FrameState {
+                origin: p.pin_a.pos,
+                origin_vel: p.pin_a.vel,
+                origin_acc: p.pin_a.acc,
+                angle: p.th[1],
+                rate: p.w[1],
+                accel: p.al[1],
+            },
+        )
     }
 
     /// Frame of the rocker at `t` (s): origin at O4 = (ground, 0), at rest; angle `theta4`, x
     /// axis toward B.
     pub fn rocker_frame(&self, t: f64) -> FrameState {
-        let p = self.pose(t);
-        FrameState {
-            origin: [self.ground, 0.0],
-            angle: p.th[2],
-            rate: p.w[2],
-            accel: p.al[2],
-            ..FrameState::default()
-        }
+        self.last.with(
+            t,
+            |t| self.solve(t),
+            |p| FrameState {
+                origin: [self.ground, 0.0],
+                angle: p.th[2],
+                rate: p.w[2],
+                accel: p.al[2],
+                ..FrameState::default()
+            },
+        )
     }
 
     /// Checks that the loop closes, away from dead-centre positions, at every crank angle the

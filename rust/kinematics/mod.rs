@@ -555,18 +555,26 @@ impl<P: Copy> PoseMemo<P> {
     /// The pose at `t`: the kept one when `t` is its time, else `solve(t)`, kept. A poisoned
     /// lock (a panic elsewhere while it was held) only skips the memo.
     pub(crate) fn get(&self, t: f64, solve: impl FnOnce(f64) -> P) -> P {
+        self.with(t, solve, |p| *p)
+    }
+
+    /// What `read` takes from the pose at `t` (as [`Self::get`]), read in place: the pose is not
+    /// copied out (a link's frame needs a few of its entries).
+    #[inline]
+    pub(crate) fn with<R>(&self, t: f64, solve: impl FnOnce(f64) -> P, read: impl FnOnce(&P) -> R) -> R {
         let key = t.to_bits();
         let Ok(mut last) = self.0.lock() else {
-            return solve(t);
+            return read(&solve(t));
         };
-        if let Some((k, p)) = *last {
-            if k == key {
-                return p;
+        match &*last {
+            Some((k, p)) if *k == key => read(p),
+            _ => {
+                let p = solve(t);
+                let r = read(&p);
+                *last = Some((key, p));
+                r
             }
         }
-        let p = solve(t);
-        *last = Some((key, p));
-        p
     }
 }
 

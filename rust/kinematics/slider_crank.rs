@@ -131,20 +131,23 @@ impl SliderCrank {
     /// axis from A toward the slider pin B; rate and acceleration exact, from differentiating the
     /// loop closure (`psi_dot = -crank theta_dot cos(theta) / (rod cos(psi))`, and so on).
     pub fn rod_frame(&self, t: f64) -> FrameState {
-        let p = self.pose(t);
-        FrameState {
-            origin: p.pin_a.pos,
-            origin_vel: p.pin_a.vel,
-            origin_acc: p.pin_a.acc,
-            angle: p.psi.0,
-            rate: p.psi.1,
-            accel: p.psi.2,
-        }
+        self.last.with(
+            t,
+            |t| self.solve(t),
+            |p| FrameState {
+                origin: p.pin_a.pos,
+                origin_vel: p.pin_a.vel,
+                origin_acc: p.pin_a.acc,
+                angle: p.psi.0,
+                rate: p.psi.1,
+                accel: p.psi.2,
+            },
+        )
     }
 
     /// Position (m), velocity (m/s) and acceleration (m/s^2) of the slider pin B at `t` (s).
     pub fn slider(&self, t: f64) -> Kinematics {
-        self.pose(t).pin_b
+        self.last.with(t, |t| self.solve(t), |p| p.pin_b)
     }
 
     /// Frame of the slider block at `t` (s): origin at B, axes parallel to the global axes (the
