@@ -3143,7 +3143,12 @@ impl<'a> NewtonRun<'a> {
     fn set_avx2(&mut self, on: bool) {
         self.avx2 = on && crate::linalg::avx2_fma_available();
         self.lu.set_avx2(on);
-        for rs in self.rate.iter_mut().map(|rs| &mut **rs).chain(self.rate_kept.iter_mut()) {
+        for rs in self
+            .rate
+            .iter_mut()
+            .map(|rs| &mut **rs)
+            .chain(self.rate_kept.iter_mut())
+        {
             rs.lu0.set_avx2(on);
         }
     }

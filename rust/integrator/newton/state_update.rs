@@ -99,6 +99,13 @@ pub(super) unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2
     let [av, yddv, yv, ydv] = state;
     let [ypv, vpv, dxv] = pred;
     let n = av.len();
+    // the masked tail below reads and writes through pointers: every slice must hold n entries
+    assert!(
+        [yddv.len(), yv.len(), ydv.len(), ypv.len(), vpv.len(), dxv.len()]
+            .iter()
+            .all(|&l| l >= n),
+        "correct_avx2: slices shorter than the unknowns"
+    );
     let whole = n / 4 * 4;
     let (b, g, sign) = (_mm256_set1_pd(bh2), _mm256_set1_pd(gh), _mm256_set1_pd(-0.0));
     let (mut dm, mut ym) = (_mm256_setzero_pd(), _mm256_setzero_pd());
@@ -122,14 +129,31 @@ pub(super) unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2
         dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
         ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
     }
+    if whole < n {
+        // the last `n % 4` unknowns in lanes 0.. (unknown i in lane i % 4, as in the scalar
+        // form), the lanes past the end neither read nor written; their zeros leave the
+        // maxima as they are (`max(0, m) = m` for the maxima >= 0 or NaN of the lanes before)
+        let mask = _mm256_castpd_si256(_mm256_cmp_pd::<_CMP_LT_OQ>(
+            _mm256_set_pd(3.0, 2.0, 1.0, 0.0),
+            _mm256_set1_pd((n - whole) as f64),
+        ));
+        // SAFETY: the pointers are the slices' entries from `whole` (< n) on; the mask keeps
+        // every access below `n`
+        let ld = |v: &[f64]| _mm256_maskload_pd(v.as_ptr().add(whole), mask);
+        let da = _mm256_xor_pd(ld(dxv), sign);
+        let a = _mm256_add_pd(ld(av), da);
+        let y = _mm256_add_pd(ld(ypv), _mm256_mul_pd(b, a));
+        let yd = _mm256_add_pd(ld(vpv), _mm256_mul_pd(g, a));
+        _mm256_maskstore_pd(av.as_mut_ptr().add(whole), mask, a);
+        _mm256_maskstore_pd(yddv.as_mut_ptr().add(whole), mask, a);
+        _mm256_maskstore_pd(yv.as_mut_ptr().add(whole), mask, y);
+        _mm256_maskstore_pd(ydv.as_mut_ptr().add(whole), mask, yd);
+        dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
+        ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
+    }
     let mut maxima = [[0.0; 4]; 2];
     _mm256_storeu_pd(maxima[0].as_mut_ptr(), dm);
     _mm256_storeu_pd(maxima[1].as_mut_ptr(), ym);
-    // the last `n % 4` unknowns as the scalar form takes them
-    let (mut state, pred) = ([av, yddv, yv, ydv], [ypv, vpv, dxv]);
-    for i in whole..n {
-        correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
-    }
     (max_of_lanes(maxima[0]), max_of_lanes(maxima[1]))
 }
 
@@ -183,4 +207,43 @@ pub(super) unsafe fn max_abs_difference_avx2(a: &[f64], b: &[f64]) -> f64 {
     let mut lanes = [0.0; 4];
     _mm256_storeu_pd(lanes.as_mut_ptr(), m);
     max_abs_difference_from(a, b, whole, lanes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The AVX2 correction (whole chunks and the masked tail) gives the scalar form's state
+    /// and maxima bit for bit, for every remainder of the unknowns' count modulo 4.
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn the_avx2_correction_equals_the_scalar_one_bitwise() {
+        if !crate::linalg::avx2_fma_available() {
+            return;
+        }
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for n in 1..=13 {
+            let mut vs: Vec<Vec<f64>> = (0..7).map(|_| (0..n).map(|_| next()).collect()).collect();
+            if n == 6 {
+                vs[6][5] = f64::NAN; // a NaN correction is skipped by the maxima alike
+            }
+            let (bh2, gh) = (2.5e-11, 5e-6);
+            let mut scalar = vs.clone();
+            let (s0, rest) = scalar.split_at_mut(4);
+            let [a, ydd, y, yd] = s0 else { unreachable!() };
+            let m_scalar = correct([a, ydd, y, yd], [&rest[0], &rest[1], &rest[2]], bh2, gh);
+            let (v0, rest) = vs.split_at_mut(4);
+            let [a, ydd, y, yd] = v0 else { unreachable!() };
+            // SAFETY: the CPU has AVX2 and FMA (checked above)
+            let m_avx2 = unsafe { correct_avx2([a, ydd, y, yd], [&rest[0], &rest[1], &rest[2]], bh2, gh) };
+            let bits = |v: &[Vec<f64>]| -> Vec<u64> { v.iter().flatten().map(|x| x.to_bits()).collect() };
+            assert_eq!(bits(&vs), bits(&scalar), "n {n}");
+            assert_eq!(m_avx2.0.to_bits(), m_scalar.0.to_bits(), "n {n}");
+            assert_eq!(m_avx2.1.to_bits(), m_scalar.1.to_bits(), "n {n}");
+        }
+    }
 }
