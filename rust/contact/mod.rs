@@ -79,6 +79,13 @@ pub trait ContactLaw: std::fmt::Debug + Send + Sync {
     /// Checks the law's parameters; `name` prefixes parameter names in errors.
     fn validate(&self, name: &str) -> Result<()>;
 
+    /// The law as the built-in [`SpringDamper`] where it is one: the Newton stepper then calls
+    /// it directly, compiled into its step, instead of through the trait object (the same
+    /// code, so the same values). Default: `None`.
+    fn as_spring_damper(&self) -> Option<&SpringDamper> {
+        None
+    }
+
     /// Contact stiffness scale, N/m: used for the gap coupling's defaults and diagnostics.
     fn stiffness(&self) -> f64;
 

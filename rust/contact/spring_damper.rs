@@ -76,6 +76,10 @@ impl ContactLaw for SpringDamper {
         t
     }
 
+    fn as_spring_damper(&self) -> Option<&SpringDamper> {
+        Some(self)
+    }
+
     fn validate(&self, name: &str) -> Result<()> {
         check_non_negative(&format!("{name}.stiffness"), self.stiffness, "N/m")?;
         check_non_negative(&format!("{name}.damping"), self.damping, "N s/m")
@@ -87,6 +91,7 @@ impl ContactLaw for SpringDamper {
 
     /// `K_B [(1 - c/r) I + (c/r) n n^T]` in contact (`r = |q| > c`, `n = q/r`), else zero: the
     /// derivative of `-K_B (r - c) n`.
+    #[inline]
     fn spring_tangent(&self, q: [f64; 2], clearance: f64) -> [[f64; 2]; 2] {
         let r = q[0].hypot(q[1]);
         if r <= clearance || r == 0.0 {

@@ -84,7 +84,7 @@ use super::events::{earliest_crossing, penetration_rate, CutSearch, EVENT_MAX_CU
 use super::run_loop::{self, Stepper};
 use super::{norm2, same_instant};
 use crate::contact::friction::FrictionEval;
-use crate::contact::{evaluation, ContactTerms, Coupling, Mat2};
+use crate::contact::{evaluation, ContactLaw, ContactTerms, Coupling, Mat2, SpringDamper};
 use crate::element::{Mat6, Vec6};
 use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
@@ -903,6 +903,9 @@ pub struct NewtonRun<'a> {
     /// step start instead of the joint's own (its state projected radially): the new side of the
     /// circle at an adaptive step's cut, `NaN` otherwise.
     status_hint: Vec<f64>,
+    /// Per joint, its law where it is the built-in spring-dashpot
+    /// ([`ContactLaw::as_spring_damper`]): evaluated in the step, not through the trait object.
+    spring_dampers: Vec<Option<SpringDamper>>,
     /// Approach speed of each joint's current contact episode, m/s (`None` while open; only
     /// for laws that need it).
     episode: Vec<Option<f64>>,
@@ -1304,6 +1307,7 @@ impl<'a> NewtonRun<'a> {
             split_joints: false,
             contact_was: vec![false; mech.joints.len()],
             status_hint: vec![f64::NAN; mech.joints.len()],
+            spring_dampers: mech.joints.iter().map(|j| j.law.as_spring_damper().copied()).collect(),
             episode: vec![None; mech.joints.len()],
             nominal_offset: (0..nj).map(|j| mech.joint_moves_apart(j, settings.t_end)).collect(),
             t_frames: 0.0,
@@ -3005,6 +3009,9 @@ impl<'a> NewtonRun<'a> {
     #[inline(always)]
     fn law_terms(&self, j: usize, q: [f64; 2], qd: [f64; 2]) -> ContactTerms {
         let jt = &self.mech.joints[j];
+        if let Some(sd) = &self.spring_dampers[j] {
+            return sd.evaluate(q, qd, jt.clearance);
+        }
         evaluation::law_terms(
             &*jt.law,
             jt.law.needs_approach_speed(),
@@ -3060,7 +3067,10 @@ impl<'a> NewtonRun<'a> {
                     (terms, _) = evaluation::iterated_terms(terms, was, &mut self.switches[j]);
                 }
                 if tangent {
-                    let k = jt.law.spring_tangent(q, jt.clearance);
+                    let k = match &self.spring_dampers[j] {
+                        Some(sd) => sd.spring_tangent(q, jt.clearance),
+                        None => jt.law.spring_tangent(q, jt.clearance),
+                    };
                     self.contact_tan[j] = (k, terms.c);
                 }
             }
