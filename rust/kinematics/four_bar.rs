@@ -192,14 +192,7 @@ impl FourBar {
         self.last.with(
             t,
             |t| self.solve(t),
-            |p| FrameState {
-                origin: p.pin_a.pos,
-                origin_vel: p.pin_a.vel,
-                origin_acc: p.pin_a.acc,
-                angle: p.th[1],
-                rate: p.w[1],
-                accel: p.al[1],
-            },
+            |p| FrameState::at(&p.pin_a, (p.th[1], p.w[1], p.al[1])),
         )
     }
 

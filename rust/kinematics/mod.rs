@@ -86,6 +86,20 @@ pub struct FrameState {
 }
 
 impl FrameState {
+    /// The frame whose origin moves as `origin` and whose angle, rate and acceleration are
+    /// `(angle, rate, accel)` (rad, rad/s, rad/s^2).
+    #[inline]
+    pub fn at(origin: &Kinematics, (angle, rate, accel): (f64, f64, f64)) -> Self {
+        FrameState {
+            origin: origin.pos,
+            origin_vel: origin.vel,
+            origin_acc: origin.acc,
+            angle,
+            rate,
+            accel,
+        }
+    }
+
     /// Rotation matrix `R = [[cos, -sin], [sin, cos]]` of the frame, row-major: its columns are the
     /// frame's x and y axes in global coordinates, so `global = origin + R local`.
     pub fn rotation(&self) -> [[f64; 2]; 2] {
@@ -489,16 +503,7 @@ impl RotatingFrame {
 
 impl FrameKinematics for RotatingFrame {
     fn frame(&self, t: f64) -> FrameState {
-        let o = self.origin.at(t);
-        let (angle, rate, accel) = self.rotation.at(t);
-        FrameState {
-            origin: o.pos,
-            origin_vel: o.vel,
-            origin_acc: o.acc,
-            angle,
-            rate,
-            accel,
-        }
+        FrameState::at(&self.origin.at(t), self.rotation.at(t))
     }
 
     /// Validates `name.origin` and `name.rotation` and checks that tables cover `[0, t_end]`.

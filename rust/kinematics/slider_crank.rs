@@ -131,18 +131,8 @@ impl SliderCrank {
     /// axis from A toward the slider pin B; rate and acceleration exact, from differentiating the
     /// loop closure (`psi_dot = -crank theta_dot cos(theta) / (rod cos(psi))`, and so on).
     pub fn rod_frame(&self, t: f64) -> FrameState {
-        self.last.with(
-            t,
-            |t| self.solve(t),
-            |p| FrameState {
-                origin: p.pin_a.pos,
-                origin_vel: p.pin_a.vel,
-                origin_acc: p.pin_a.acc,
-                angle: p.psi.0,
-                rate: p.psi.1,
-                accel: p.psi.2,
-            },
-        )
+        self.last
+            .with(t, |t| self.solve(t), |p| FrameState::at(&p.pin_a, p.psi))
     }
 
     /// Position (m), velocity (m/s) and acceleration (m/s^2) of the slider pin B at `t` (s).
@@ -153,13 +143,7 @@ impl SliderCrank {
     /// Frame of the slider block at `t` (s): origin at B, axes parallel to the global axes (the
     /// guide is along global x, so the angle is 0 and the block does not rotate).
     pub fn slider_frame(&self, t: f64) -> FrameState {
-        let b = self.slider(t);
-        FrameState {
-            origin: b.pos,
-            origin_vel: b.vel,
-            origin_acc: b.acc,
-            ..FrameState::default()
-        }
+        FrameState::at(&self.slider(t), (0.0, 0.0, 0.0))
     }
 
     /// Crank angle, rate and acceleration at `t` (s) together with the rod's: `((theta,
