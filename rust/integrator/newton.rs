@@ -3190,7 +3190,6 @@ impl<'a> NewtonRun<'a> {
     #[inline(always)]
     fn fixed_step_body(&mut self, t0: f64, h: f64, k: u64, t1: f64, keep: bool) -> Result<()> {
         self.step(t0, h, k, 0)?;
-        self.step_end = None;
         self.stats.steps = k;
         let margin = std::mem::take(&mut self.margin_state);
         self.track_joints(t1, Some((k, h)), margin);
@@ -4590,34 +4589,26 @@ impl Stepper for NewtonLoop<'_, '_> {
         // or the continuous contact take is the whole step)
         r.step_end = self.adaptive.is_none().then_some(t1);
         let keep = k.is_multiple_of(r.settings.record.every as u64) || last;
-        if self.adaptive.is_none() && self.events.is_none() && r.cont.is_none() {
-            // a fixed step (no events, no continuous contact) and its tracking
-            if let Err(e) = r.fixed_step(t0, h, k, t1, keep) {
-                r.step_end = None;
-                self.outcome = Some(Err((e, t0)));
-                return;
-            }
-            if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
-                let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
-                self.outcome = Some(Err((e, t1)));
-            }
-            return;
-        }
         let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
             (Some(ad), _) => r.adaptive_advance(t1, k, ad, control),
             (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
             (None, None) if r.cont.is_some() => r.continuous_step(t0, h, k),
-            (None, None) => r.step(t0, h, k, 0),
+            // a fixed step (no events, no continuous contact) tracks its joints and sliders itself
+            (None, None) => r.fixed_step(t0, h, k, t1, keep),
         };
         r.step_end = None;
         if let Err(e) = res {
             self.outcome = Some(Err((e, t0)));
             return;
         }
-        r.stats.steps = k;
-        r.track_joints(t1, Some((k, h)), false);
-        r.tracked_state = false;
-        r.track_sliders(t1, keep);
+        let fixed = self.adaptive.is_none() && self.events.is_none() && r.cont.is_none();
+        if !fixed {
+            // the other steps' tracking (a fixed step's is in `fixed_step`)
+            r.stats.steps = k;
+            r.track_joints(t1, Some((k, h)), false);
+            r.tracked_state = false;
+            r.track_sliders(t1, keep);
+        }
         if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
             let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);
             self.outcome = Some(Err((e, t1)));
