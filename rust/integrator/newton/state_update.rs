@@ -48,40 +48,26 @@ pub(super) fn predict(state: [&mut [f64]; 3], pred: [&mut [f64]; 3], a_prev: &[f
 /// running maxima each, exact whatever the order). A function of its own so that the slices
 /// are known not to overlap.
 #[inline(always)]
-pub(super) fn correct(mut state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
-    let mut maxima = [[0.0f64; 4]; 2];
-    // unknown i into maximum i % 4
-    for i in 0..state[0].len() {
-        correct_one(&mut state, &pred, bh2, gh, i, &mut maxima);
-    }
-    (max_of_lanes(maxima[0]), max_of_lanes(maxima[1]))
-}
-
-/// Unknown `i` of [`correct`], its maxima into `maxima[.][i % 4]`.
-#[inline(always)]
-fn correct_one(
-    state: &mut [&mut [f64]; 4],
-    pred: &[&[f64]; 3],
-    bh2: f64,
-    gh: f64,
-    i: usize,
-    maxima: &mut [[f64; 4]; 2],
-) {
+pub(super) fn correct(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2: f64, gh: f64) -> (f64, f64) {
     let [av, yddv, yv, ydv] = state;
     let [ypv, vpv, dxv] = pred;
-    let [dm, ym] = maxima;
-    let k = i % 4;
-    let da = -dxv[i];
-    av[i] += da;
-    yddv[i] = av[i];
-    yv[i] = ypv[i] + bh2 * av[i];
-    ydv[i] = vpv[i] + gh * av[i];
-    // `if d > m`, not f64::max (whose NaN rule keeps a loop from vectorizing); NaN is skipped
-    // alike, and it is `_mm256_max_pd(d, m)` of the AVX2 form
-    let d = (bh2 * da).abs();
-    dm[k] = if d > dm[k] { d } else { dm[k] };
-    let y = yv[i].abs();
-    ym[k] = if y > ym[k] { y } else { ym[k] };
+    let [mut dm, mut ym] = [[0.0f64; 4]; 2];
+    for i in 0..av.len() {
+        // unknown i into maximum i % 4
+        let k = i % 4;
+        let da = -dxv[i];
+        av[i] += da;
+        yddv[i] = av[i];
+        yv[i] = ypv[i] + bh2 * av[i];
+        ydv[i] = vpv[i] + gh * av[i];
+        // `if d > m`, not f64::max (whose NaN rule keeps a loop from vectorizing); NaN is
+        // skipped alike, and it is `_mm256_max_pd(d, m)` of the AVX2 form
+        let d = (bh2 * da).abs();
+        dm[k] = if d > dm[k] { d } else { dm[k] };
+        let y = yv[i].abs();
+        ym[k] = if y > ym[k] { y } else { ym[k] };
+    }
+    (max_of_lanes(dm), max_of_lanes(ym))
 }
 
 /// [`correct`] four unknowns at a time in AVX2 registers (the compiler keeps the scalar form's
@@ -117,17 +103,24 @@ pub(super) unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2
         .chunks_exact(4)
         .zip(vpv[..whole].chunks_exact(4))
         .zip(dxv[..whole].chunks_exact(4));
-    for (((a4, ydd4), (y4, yd4)), ((yp4, vp4), dx4)) in outs.zip(ins) {
-        let da = _mm256_xor_pd(_mm256_loadu_pd(dx4.as_ptr()), sign);
-        let a = _mm256_add_pd(_mm256_loadu_pd(a4.as_ptr()), da);
-        _mm256_storeu_pd(a4.as_mut_ptr(), a);
-        _mm256_storeu_pd(ydd4.as_mut_ptr(), a);
-        let y = _mm256_add_pd(_mm256_loadu_pd(yp4.as_ptr()), _mm256_mul_pd(b, a));
-        _mm256_storeu_pd(y4.as_mut_ptr(), y);
-        let yd = _mm256_add_pd(_mm256_loadu_pd(vp4.as_ptr()), _mm256_mul_pd(g, a));
-        _mm256_storeu_pd(yd4.as_mut_ptr(), yd);
+    // four unknowns' operations, the whole chunks' and the tail's: `(a, y, yd)`, the maxima
+    // updated
+    let mut four = |dx: __m256d, a0: __m256d, yp: __m256d, vp: __m256d| {
+        let da = _mm256_xor_pd(dx, sign);
+        let a = _mm256_add_pd(a0, da);
+        let y = _mm256_add_pd(yp, _mm256_mul_pd(b, a));
+        let yd = _mm256_add_pd(vp, _mm256_mul_pd(g, a));
         dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
         ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
+        (a, y, yd)
+    };
+    for (((a4, ydd4), (y4, yd4)), ((yp4, vp4), dx4)) in outs.zip(ins) {
+        let ld = |v: &[f64]| _mm256_loadu_pd(v.as_ptr());
+        let (a, y, yd) = four(ld(dx4), ld(a4), ld(yp4), ld(vp4));
+        _mm256_storeu_pd(a4.as_mut_ptr(), a);
+        _mm256_storeu_pd(ydd4.as_mut_ptr(), a);
+        _mm256_storeu_pd(y4.as_mut_ptr(), y);
+        _mm256_storeu_pd(yd4.as_mut_ptr(), yd);
     }
     if whole < n {
         // the last `n % 4` unknowns in lanes 0.. (unknown i in lane i % 4, as in the scalar
@@ -140,16 +133,11 @@ pub(super) unsafe fn correct_avx2(state: [&mut [f64]; 4], pred: [&[f64]; 3], bh2
         // SAFETY: the pointers are the slices' entries from `whole` (< n) on; the mask keeps
         // every access below `n`
         let ld = |v: &[f64]| _mm256_maskload_pd(v.as_ptr().add(whole), mask);
-        let da = _mm256_xor_pd(ld(dxv), sign);
-        let a = _mm256_add_pd(ld(av), da);
-        let y = _mm256_add_pd(ld(ypv), _mm256_mul_pd(b, a));
-        let yd = _mm256_add_pd(ld(vpv), _mm256_mul_pd(g, a));
+        let (a, y, yd) = four(ld(dxv), ld(av), ld(ypv), ld(vpv));
         _mm256_maskstore_pd(av.as_mut_ptr().add(whole), mask, a);
         _mm256_maskstore_pd(yddv.as_mut_ptr().add(whole), mask, a);
         _mm256_maskstore_pd(yv.as_mut_ptr().add(whole), mask, y);
         _mm256_maskstore_pd(ydv.as_mut_ptr().add(whole), mask, yd);
-        dm = _mm256_max_pd(_mm256_andnot_pd(sign, _mm256_mul_pd(b, da)), dm);
-        ym = _mm256_max_pd(_mm256_andnot_pd(sign, y), ym);
     }
     let mut maxima = [[0.0; 4]; 2];
     _mm256_storeu_pd(maxima[0].as_mut_ptr(), dm);
