@@ -123,8 +123,11 @@ enum Job {
     /// On the constant stepper: the translating model [`Plan::compile`] derives (validated as a
     /// mechanism first, as `plan::simulate` does).
     Constant(Model),
-    /// Alone, through [`crate::plan::simulate`]: a sample for another stepper, or one that fails
-    /// before its first step (the failure is its outcome).
+    /// Alone on the Newton or constant-rate stepper, on the plan made to group the samples
+    /// ([`crate::plan::simulate_planned`]: not compiled, nor the mechanism validated, again).
+    Planned(Plan),
+    /// Alone, through [`crate::plan::simulate`]: a sample that fails before its first step (the
+    /// failure is its outcome).
     Alone,
 }
 
@@ -134,21 +137,25 @@ impl Job {
             Ok(plan) if plan.kind == StepperKind::Constant && mech.validate(settings.t_end).is_ok() => {
                 mech.to_translating().map_or(Job::Alone, Job::Constant)
             }
+            Ok(plan) if plan.kind != StepperKind::Constant => Job::Planned(plan),
             _ => Job::Alone,
         }
     }
 
-    /// One run of `mech` (this job's sample) with `settings`.
+    /// One run of `mech` (this job's sample) with `settings`: the sample's own, or with
+    /// `retrying` a retry's (a smaller step, planned again).
     fn run(
         &self,
         mech: &Mechanism,
         settings: &Settings,
         cache: &AnalysisCache,
         control: &mut dyn FnMut(f64) -> bool,
+        retrying: bool,
     ) -> RunResult {
         match self {
             Job::Constant(model) => simulate_shared(model, settings, Some(cache), control),
-            Job::Alone => crate::plan::simulate(mech, settings, control),
+            Job::Planned(plan) if !retrying => crate::plan::simulate_planned(mech, settings, plan, control),
+            Job::Planned(_) | Job::Alone => crate::plan::simulate(mech, settings, control),
         }
     }
 }
@@ -202,7 +209,7 @@ pub fn run_batch(
                         && s.validate(m).is_ok();
                     fits.then(|| System::assemble(m))
                 }
-                Job::Alone => None,
+                Job::Planned(_) | Job::Alone => None,
             })
             .collect();
         let groups = lockstep_groups(samples, &systems, lanes);
@@ -281,7 +288,7 @@ fn run_group(
         .zip(group)
         .filter_map(|(job, (_, s))| match job {
             Job::Constant(m) => Some((m, s)),
-            Job::Alone => None,
+            Job::Planned(_) | Job::Alone => None,
         })
         .collect();
     debug_assert_eq!(
@@ -346,7 +353,7 @@ fn run_one(
     }
     let start = Instant::now();
     let mut control = |_: f64| !stop.load(Ordering::Relaxed);
-    let result = job.run(&sample.0, &sample.1, cache, &mut control);
+    let result = job.run(&sample.0, &sample.1, cache, &mut control, false);
     let wall = start.elapsed().as_secs_f64();
     retry_failed(sample, job, result, retry, cache, stop, wall)
 }
@@ -374,7 +381,7 @@ fn retry_failed(
             settings.dt *= retry.factor;
             let start = Instant::now();
             let mut control = |_: f64| !stop.load(Ordering::Relaxed);
-            result = job.run(mech, &settings, cache, &mut control);
+            result = job.run(mech, &settings, cache, &mut control, true);
             wall += start.elapsed().as_secs_f64();
             continue;
         }

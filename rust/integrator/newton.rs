@@ -1070,16 +1070,37 @@ impl<'a> NewtonRun<'a> {
     /// Validates and prepares a run. Errors: invalid parameters or model
     /// ([`Mechanism::validate`]), an over-constrained node ([`dofs::number`]).
     pub fn new(mech: &'a Mechanism, settings: &'a Settings) -> Result<Self> {
-        Self::prepare(mech, settings, None)
+        Self::prepare(mech, settings, None, None)
     }
 
     /// [`NewtonRun::new`] with the unknowns numbered already: `dofs` is [`dofs::number`] of
     /// `mech` (as [`crate::plan::Plan::compile`] keeps it).
     pub fn with_dofs(mech: &'a Mechanism, settings: &'a Settings, dofs: DofMap) -> Result<Self> {
-        Self::prepare(mech, settings, Some(dofs))
+        Self::prepare(mech, settings, Some(dofs), None)
     }
 
-    fn prepare(mech: &'a Mechanism, settings: &'a Settings, numbered: Option<DofMap>) -> Result<Self> {
+    /// [`NewtonRun::with_dofs`] with what a [`crate::plan::Plan`] compiled for these `mech` and
+    /// `settings` keeps: the plan numbered the unknowns only once [`Mechanism::validate_apart`]
+    /// passed for `settings.t_end`, which also gave `apart` (per clearance joint,
+    /// [`Mechanism::joint_moves_apart`]), so the run checks the mechanism's closure no more (it
+    /// solves the kinematics at 201 instants per pin and joint: most of a short run's setup).
+    pub(crate) fn with_plan_dofs(
+        mech: &'a Mechanism,
+        settings: &'a Settings,
+        dofs: DofMap,
+        apart: Vec<bool>,
+    ) -> Result<Self> {
+        Self::prepare(mech, settings, Some(dofs), Some(apart))
+    }
+
+    /// Prepares a run; `validated`: `mech` passed [`Mechanism::validate_apart`] for
+    /// `settings.t_end`, with this result.
+    fn prepare(
+        mech: &'a Mechanism,
+        settings: &'a Settings,
+        numbered: Option<DofMap>,
+        validated: Option<Vec<bool>>,
+    ) -> Result<Self> {
         validate_settings(settings)?;
         if let Some(l) = mech.links.iter().find(|l| l.rotary_inertia) {
             return Err(Error::InvalidModel {
@@ -1097,7 +1118,10 @@ impl<'a> NewtonRun<'a> {
             let names: Vec<&str> = mech.sliders.iter().map(|s| s.name.as_str()).collect();
             r.check_grid(&names, settings.t_end, settings.dt, settings.record.every)?;
         }
-        mech.validate(settings.t_end)?;
+        let apart = match validated {
+            Some(apart) => apart,
+            None => mech.validate_apart(settings.t_end)?,
+        };
         let DofMap {
             nodes: node_maps,
             slider_dof,
@@ -1309,7 +1333,7 @@ impl<'a> NewtonRun<'a> {
             status_hint: vec![f64::NAN; mech.joints.len()],
             spring_dampers: mech.joints.iter().map(|j| j.law.as_spring_damper().copied()).collect(),
             episode: vec![None; mech.joints.len()],
-            nominal_offset: (0..nj).map(|j| mech.joint_moves_apart(j, settings.t_end)).collect(),
+            nominal_offset: apart,
             t_frames: 0.0,
             rec: Recorder::new(&joint_spec(&settings.record), nj, |_, _| 0, 0),
             jpen: vec![0.0; nj],

@@ -388,6 +388,13 @@ impl Mechanism {
     /// [`Error::InvalidModel`] (a dangling reference, a link with nothing attached, a pin whose
     /// two sides do not stay together under the nominal motion, an over-constrained node).
     pub fn validate(&self, t_end: f64) -> Result<()> {
+        self.validate_apart(t_end).map(|_| ())
+    }
+
+    /// [`Mechanism::validate`], returning for each clearance joint whether its sides move apart
+    /// under the nominal motion ([`Mechanism::joint_moves_apart`], which the validation's
+    /// closure check finds on the way).
+    pub fn validate_apart(&self, t_end: f64) -> Result<Vec<bool>> {
         if self.links.is_empty() {
             return Err(Error::InvalidModel {
                 message: "the mechanism has no flexible link".into(),
@@ -476,6 +483,7 @@ impl Mechanism {
                     "clearance joint",
                 )
             }));
+        let mut apart = Vec::with_capacity(self.joints.len());
         for (label, name, a, b, kind) in pairs {
             if !matches!(a, Endpoint::Node { .. }) {
                 return Err(Error::InvalidModel {
@@ -502,7 +510,11 @@ impl Mechanism {
                 }
             }
             // a clearance joint's sides may move apart (a stop beside a moving link); a pin's not
-            if let Some((t, d)) = self.separation(a, b, t_end) {
+            let separation = self.separation(a, b, t_end);
+            if kind != "pin" {
+                apart.push(separation.is_some());
+            }
+            if let Some((t, d)) = separation {
                 if kind == "pin" || d.is_nan() {
                     let (pa, pb) = (self.nominal_position(a, t), self.nominal_position(b, t));
                     return Err(Error::InvalidModel {
@@ -541,7 +553,7 @@ impl Mechanism {
                 });
             }
         }
-        Ok(())
+        Ok(apart)
     }
 
     /// Index of the link named `name`.

@@ -19,7 +19,8 @@
 //!
 //! For the Newton and constant-rate kinds the plan numbers the moving-frame unknowns, pins
 //! eliminated ([`dofs::number`]), keeps the numbering ([`Plan::dofs`]) and hands it to the stepper
-//! ([`NewtonRun::with_dofs`]).
+//! ([`NewtonRun::with_dofs`]; the plan's numbering exists only for a mechanism that passed
+//! [`Mechanism::validate`], so the stepper does not validate it again).
 
 pub mod assembly;
 pub mod dofs;
@@ -69,7 +70,24 @@ pub struct Plan {
     /// The numbering of the moving-frame unknowns ([`dofs::number`]) for the Newton and
     /// constant-rate kinds; `None` for the constant kind and for a model that fails validation or
     /// numbering (its run fails with that error).
-    dofs: Option<dofs::DofMap>,
+    dofs: Option<Numbered>,
+}
+
+/// What a plan keeps of a mechanism that passed [`Mechanism::validate`] for its settings'
+/// `t_end` ([`Mechanism::validate_apart`]) for the moving-frame steppers.
+#[derive(Debug, Clone)]
+struct Numbered {
+    /// The unknowns' numbering ([`dofs::number`]).
+    dofs: dofs::DofMap,
+    /// Per clearance joint, whether its sides move apart under the nominal motion.
+    apart: Vec<bool>,
+}
+
+impl Numbered {
+    /// The run of `mech` with `settings` on this numbering (validated, not again).
+    fn run<'a>(&self, mech: &'a Mechanism, settings: &'a Settings) -> crate::error::Result<NewtonRun<'a>> {
+        NewtonRun::with_plan_dofs(mech, settings, self.dofs.clone(), self.apart.clone())
+    }
 }
 
 impl Plan {
@@ -124,9 +142,9 @@ impl Plan {
     /// Why the constant-rate stepper cannot run `mech` with `settings`
     /// ([`NewtonRun::constant_rate_obstacle`]; an invalid model or settings is a reason too, and
     /// the run then fails with that error on the Newton stepper). `dofs`: the plan's numbering.
-    fn rate_obstacle(mech: &Mechanism, settings: &Settings, dofs: Option<&dofs::DofMap>) -> Option<String> {
+    fn rate_obstacle(mech: &Mechanism, settings: &Settings, dofs: Option<&Numbered>) -> Option<String> {
         let run = match dofs {
-            Some(d) => NewtonRun::with_dofs(mech, settings, d.clone()),
+            Some(d) => d.run(mech, settings),
             None => NewtonRun::new(mech, settings),
         };
         match run {
@@ -188,16 +206,17 @@ impl Plan {
     /// The numbering of the moving-frame unknowns of `mech` ([`dofs::number`]), once it passes
     /// [`Mechanism::validate`]; `None` where either fails (the Newton stepper reports the error
     /// when it prepares the run).
-    fn number(mech: &Mechanism, settings: &Settings) -> Option<dofs::DofMap> {
-        mech.validate(settings.t_end).ok()?;
-        dofs::number(mech).ok()
+    fn number(mech: &Mechanism, settings: &Settings) -> Option<Numbered> {
+        let apart = mech.validate_apart(settings.t_end).ok()?;
+        let dofs = dofs::number(mech).ok()?;
+        Some(Numbered { dofs, apart })
     }
 
     /// The numbering of the moving-frame unknowns ([`dofs::number`]) that the Newton and
     /// constant-rate steppers run on (`None` for the constant stepper, or a model that fails
     /// validation or numbering).
     pub fn dofs(&self) -> Option<&dofs::DofMap> {
-        self.dofs.as_ref()
+        self.dofs.as_ref().map(|n| &n.dofs)
     }
 }
 
@@ -210,13 +229,24 @@ pub fn simulate(
     settings: &Settings,
     control: &mut dyn FnMut(f64) -> bool,
 ) -> std::result::Result<RunOutput, Box<RunFailure>> {
+    let plan = Plan::compile(mech, settings).map_err(RunFailure::before_start)?;
+    simulate_planned(mech, settings, &plan, control)
+}
+
+/// [`simulate`] on `plan`, [`Plan::compile`] of these same `mech` and `settings` (a batch
+/// compiles each sample's plan once, to group the samples, and runs it).
+pub fn simulate_planned(
+    mech: &Mechanism,
+    settings: &Settings,
+    plan: &Plan,
+    control: &mut dyn FnMut(f64) -> bool,
+) -> std::result::Result<RunOutput, Box<RunFailure>> {
     let fail = RunFailure::before_start;
-    let plan = Plan::compile(mech, settings).map_err(fail)?;
-    let Some(model) = plan.translating else {
+    let Some(model) = plan.translating.as_ref() else {
         // the Newton and constant-rate steppers run on the plan's numbering
         // (`simulate_mechanism`, `simulate_constant_rate` with it)
-        let mut run = match plan.dofs {
-            Some(dofs) => NewtonRun::with_dofs(mech, settings, dofs),
+        let mut run = match &plan.dofs {
+            Some(numbered) => numbered.run(mech, settings),
             None => NewtonRun::new(mech, settings),
         }
         .map_err(fail)?;
@@ -244,10 +274,10 @@ pub fn simulate(
     let with_links = |mut out: RunOutput| {
         // the node histories the link channels are made from stay in the output (as the memory
         // estimate of the Python `Model` counts them)
-        out.record.links = link_histories(&model, &out, settings);
+        out.record.links = link_histories(model, &out, settings);
         out
     };
-    match simulate_translating(&model, &s, control) {
+    match simulate_translating(model, &s, control) {
         Ok(out) => Ok(with_links(out)),
         Err(mut fail) => {
             if !matches!(fail.error, Error::InvalidParameter { .. } | Error::InvalidModel { .. }) {
