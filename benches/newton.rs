@@ -74,12 +74,7 @@ fn quiet(t_end: f64, dt: f64) -> Settings {
     let mut s = Settings::new(t_end, dt);
     s.record = RecordSpec {
         every: usize::MAX / 2,
-        links: LinkChannels {
-            displacements: false,
-            axial_force: false,
-            midspan: false,
-            energy: false,
-        },
+        links: LinkChannels::NONE,
         ..RecordSpec::default()
     };
     s

@@ -19,12 +19,7 @@ fn main() {
     let mut s = Settings::new(t_end, 1e-5);
     s.record = RecordSpec {
         histories: false,
-        links: LinkChannels {
-            displacements: false,
-            axial_force: false,
-            midspan: false,
-            energy: false,
-        },
+        links: LinkChannels::NONE,
         ..RecordSpec::default()
     };
     let samples: Vec<_> = (0..n)

@@ -31,12 +31,7 @@ fn main() {
     let mut s = Settings::new(t_end, 1e-5);
     s.record = RecordSpec {
         histories: false,
-        links: LinkChannels {
-            displacements: false,
-            axial_force: false,
-            midspan: false,
-            energy: false,
-        },
+        links: LinkChannels::NONE,
         ..RecordSpec::default()
     };
     if std::env::var("FLEXCLEAR_RECORD").as_deref() == Ok("default") {

@@ -250,12 +250,7 @@ pub(super) fn run_batch<'py>(
         start,
         impacts: false,
         // joint channels only (a sample on the Newton stepper keeps no link history)
-        links: LinkChannels {
-            displacements: false,
-            axial_force: false,
-            midspan: false,
-            energy: false,
-        },
+        links: LinkChannels::NONE,
         contact_modes,
         sliders: false,
         slider_reference: None,

@@ -60,6 +60,16 @@ pub struct LinkChannels {
     pub energy: bool,
 }
 
+impl LinkChannels {
+    /// No link channel (the frame state alone): a run that keeps joint outputs only.
+    pub const NONE: LinkChannels = LinkChannels {
+        displacements: false,
+        axial_force: false,
+        midspan: false,
+        energy: false,
+    };
+}
+
 impl Default for LinkChannels {
     fn default() -> Self {
         LinkChannels {
