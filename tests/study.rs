@@ -434,3 +434,41 @@ fn samples_that_need_newton_run_in_the_batch_as_single_runs() {
         }
     }
 }
+
+#[test]
+fn a_newton_sample_that_fails_is_retried_on_a_new_plan() {
+    // one Newton iteration a step to a tolerance it cannot reach: the run stops, not converged;
+    // the retry at dt / 2 plans again (its own plan, not the first attempt's) and is the single
+    // run at that step, outcome for outcome
+    let mut s = settings(0.002, 1e-5);
+    s.newton.max_iter = 1;
+    s.newton.tol = 1e-15;
+    let first = flexclear::plan::simulate(&slider_crank(5e-4), &s, &mut |_| true);
+    assert!(
+        matches!(&first, Err(f) if matches!(f.error, Error::NotConverged { .. })),
+        "{}",
+        text(&first)
+    );
+    let samples = vec![
+        (slider_crank(5e-4), s.clone()),
+        (slider_crank(2e-4), settings(0.002, 1e-5)),
+    ];
+    let options = BatchOptions {
+        threads: 1,
+        retry: Retry {
+            attempts: 1,
+            factor: 0.5,
+        },
+        ..Default::default()
+    };
+    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+    let (out, _) = run_batch(&samples, &options, &stop, &done).unwrap();
+    assert_eq!((out[0].retries, out[0].dt), (1, 5e-6));
+    let mut retried = s.clone();
+    retried.dt = 5e-6;
+    let alone = flexclear::plan::simulate(&samples[0].0, &retried, &mut |_| true);
+    assert_eq!(text(out[0].result.as_ref().unwrap()), text(&alone));
+    assert_eq!(out[1].retries, 0);
+    let single = flexclear::plan::simulate(&samples[1].0, &samples[1].1, &mut |_| true);
+    assert_eq!(text(out[1].result.as_ref().unwrap()), text(&single));
+}

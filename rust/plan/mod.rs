@@ -234,8 +234,9 @@ pub fn simulate(
 }
 
 /// [`simulate`] on `plan`, [`Plan::compile`] of these same `mech` and `settings` (a batch
-/// compiles each sample's plan once, to group the samples, and runs it).
-pub fn simulate_planned(
+/// compiles each sample's plan once, to group the samples, and runs it). Crate-private: the run
+/// trusts the plan's validation of `mech` (another mechanism's plan would skip its checks).
+pub(crate) fn simulate_planned(
     mech: &Mechanism,
     settings: &Settings,
     plan: &Plan,
