@@ -19,8 +19,9 @@
 //!
 //! For the Newton and constant-rate kinds the plan numbers the moving-frame unknowns, pins
 //! eliminated ([`dofs::number`]), keeps the numbering ([`Plan::dofs`]) and hands it to the stepper
-//! ([`NewtonRun::with_dofs`]; the plan's numbering exists only for a mechanism that passed
-//! [`Mechanism::validate`], so the stepper does not validate it again).
+//! (`NewtonRun::with_plan_dofs`, with each clearance joint's moves-apart flag: the plan numbers
+//! only a mechanism that passed [`Mechanism::validate_apart`], so the stepper does not validate
+//! it again).
 
 pub mod assembly;
 pub mod dofs;
