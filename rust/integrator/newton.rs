@@ -4613,21 +4613,20 @@ impl Stepper for NewtonLoop<'_, '_> {
         // or the continuous contact take is the whole step)
         r.step_end = self.adaptive.is_none().then_some(t1);
         let keep = k.is_multiple_of(r.settings.record.every as u64) || last;
-        let res = match (self.adaptive.as_mut(), self.events.as_mut()) {
-            (Some(ad), _) => r.adaptive_advance(t1, k, ad, control),
-            (None, Some(ev)) => r.step_with_events(t0, h, k, ev),
-            (None, None) if r.cont.is_some() => r.continuous_step(t0, h, k),
-            // a fixed step (no events, no continuous contact) tracks its joints and sliders itself
-            (None, None) => r.fixed_step(t0, h, k, t1, keep),
+        // `tracked`: the step tracked its joints and sliders itself
+        let (res, tracked) = match (self.adaptive.as_mut(), self.events.as_mut()) {
+            (Some(ad), _) => (r.adaptive_advance(t1, k, ad, control), false),
+            (None, Some(ev)) => (r.step_with_events(t0, h, k, ev), false),
+            (None, None) if r.cont.is_some() => (r.continuous_step(t0, h, k), false),
+            // a fixed step (no events, no continuous contact)
+            (None, None) => (r.fixed_step(t0, h, k, t1, keep), true),
         };
         r.step_end = None;
         if let Err(e) = res {
             self.outcome = Some(Err((e, t0)));
             return;
         }
-        let fixed = self.adaptive.is_none() && self.events.is_none() && r.cont.is_none();
-        if !fixed {
-            // the other steps' tracking (a fixed step's is in `fixed_step`)
+        if !tracked {
             r.stats.steps = k;
             r.track_joints(t1, Some((k, h)), false);
             r.tracked_state = false;
