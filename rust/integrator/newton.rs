@@ -385,9 +385,10 @@ struct LinkData {
     d2_split: SplitMat,
     /// Inertia load vectors per element: bx, by, bxx, byx.
     loads: Vec<[Vec6; 4]>,
-    /// `loads` by entry for the residual's lanes ([`element_lanes::loads_by_entry`]; empty for
-    /// a rigid link).
+    /// `loads` by entry for the residual's lanes of four and of eight
+    /// ([`element_lanes::loads_by_entry`]; empty for a rigid link).
     loads_t: Vec<f64>,
+    loads_t8: Vec<f64>,
     active: LinkTerms,
     /// Point mass per node (kg), summed.
     point_mass: Vec<f64>,
@@ -400,6 +401,17 @@ struct LinkData {
     /// frame origin's nominal acceleration along the link, `K_thth = -m c a_x`
     /// ([`crate::model::mechanism::RigidBody::matrices`]); `None` for a beam.
     rigid_moment: Option<f64>,
+}
+
+impl LinkData {
+    /// The inertia loads by entry for `w` lanes (four or eight).
+    fn loads_by_entry(&self, w: usize) -> &[f64] {
+        if w == 8 {
+            &self.loads_t8
+        } else {
+            &self.loads_t
+        }
+    }
 }
 
 /// Which entries of a 6 x 6 element matrix can be nonzero, for [`mul6`]: a beam element's mass,
@@ -831,6 +843,10 @@ pub struct NewtonRun<'a> {
     /// ([`Self::residual`], [`Self::step`]); always false (and unread) off x86-64.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     avx2: bool,
+    /// The CPU has AVX-512F too: the residual takes a beam link's elements eight at a time
+    /// ([`element_lanes`]); always false off x86-64.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    avx512: bool,
     mech: &'a Mechanism,
     settings: &'a Settings,
     links: Vec<LinkData>,
@@ -1180,6 +1196,7 @@ impl<'a> NewtonRun<'a> {
                         Vec::new()
                     },
                     loads_t: Vec::new(),
+                    loads_t8: Vec::new(),
                     active,
                     point_mass,
                     nodal_load,
@@ -1198,7 +1215,8 @@ impl<'a> NewtonRun<'a> {
             } else {
                 Vec::new()
             };
-            let loads_t = element_lanes::loads_by_entry(&loads);
+            let loads_t = element_lanes::loads_by_entry(&loads, 4);
+            let loads_t8 = element_lanes::loads_by_entry(&loads, 8);
             links.push(LinkData {
                 nodes,
                 m_sparsity: Sparsity::of(&m),
@@ -1220,6 +1238,7 @@ impl<'a> NewtonRun<'a> {
                 ea_l: e.youngs_modulus * e.area / le,
                 loads,
                 loads_t,
+                loads_t8,
                 active,
                 point_mass,
                 nodal_load,
@@ -1289,6 +1308,7 @@ impl<'a> NewtonRun<'a> {
         }
         let mut run = NewtonRun {
             avx2: crate::linalg::avx2_fma_available(),
+            avx512: crate::linalg::avx512_available(),
             mech,
             settings,
             links,
@@ -2220,24 +2240,32 @@ impl<'a> NewtonRun<'a> {
         };
         let first = &self.elem_first[li];
         let elements = self.mech.links[li].section.elements;
-        // a beam link's elements four at a time, one per lane (AVX2)
+        // a beam link's elements four at a time, one per lane (AVX2), or eight (AVX-512)
         let lanes = cfg!(target_arch = "x86_64") && self.avx2 && ld.rigid_moment.is_none();
+        let wide = lanes && self.avx512;
+        let w = if wide { 8 } else { 4 };
         let mut e = 0;
-        let mut qs = [[[0.0; 4]; 6]; 3];
+        let mut qs = [[[0.0; element_lanes::MAX_LANES]; 6]; 3];
         while e < elements {
-            let width = if lanes { 4.min(elements - e) } else { 1 };
+            let width = if lanes { w.min(elements - e) } else { 1 };
             // each element's vectors and its nodes (lanes past `width` keep what an earlier
             // group left: their forces are not read)
-            let mut ends = [(prev, prev); 4];
-            // four elements on consecutive unknowns, node after node: their vectors in one go
-            // (their nodes are not read: each adds its force to its slice)
+            let mut ends = [(prev, prev); element_lanes::MAX_LANES];
+            // a register's elements on consecutive unknowns, node after node: their vectors in
+            // one go (their nodes are not read: each adds its force to its slice)
             let s0 = first[e];
-            let run = !SWAPPED && width == 4 && s0 != NONE && (1..4).all(|l| first[e + l] == s0 + 3 * l);
+            let run = !SWAPPED && width == w && s0 != NONE && (1..w).all(|l| first[e + l] == s0 + 3 * l);
             #[cfg(target_arch = "x86_64")]
             if run {
-                // SAFETY: `lanes` (width 4) is set only where the CPU has AVX2 and FMA
-                unsafe { element_lanes::gather_run([&self.y, &self.yd, &self.ydd], s0, &mut qs) };
-                prev = self.nt(li, e + 4);
+                let vs = [&self.y[..], &self.yd, &self.ydd];
+                if wide {
+                    // SAFETY: `wide` is set only where the CPU has AVX-512F, AVX2 and FMA
+                    unsafe { element_lanes::avx512::gather_run(vs, s0, &mut qs) };
+                } else {
+                    // SAFETY: `lanes` is set only where the CPU has AVX2 and FMA
+                    unsafe { element_lanes::avx2::gather_run(vs, s0, &mut qs) };
+                }
+                prev = self.nt(li, e + w);
                 wprev = None;
             }
             for l in 0..if run { 0 } else { width } {
@@ -2278,9 +2306,15 @@ impl<'a> NewtonRun<'a> {
             let f: element_lanes::Lanes = if lanes {
                 #[cfg(target_arch = "x86_64")]
                 {
-                    // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
-                    // (`linalg::avx2_fma_available`)
-                    unsafe { element_lanes::forces(&lf, e, &qs[0], &qs[1], &qs[2]) }
+                    if wide {
+                        // SAFETY: `avx512` is set only where the CPU has AVX-512F, AVX2 and FMA
+                        // (`linalg::avx512_available`)
+                        unsafe { element_lanes::avx512::forces(&lf, e, &qs[0], &qs[1], &qs[2]) }
+                    } else {
+                        // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
+                        // (`linalg::avx2_fma_available`)
+                        unsafe { element_lanes::avx2::forces(&lf, e, &qs[0], &qs[1], &qs[2]) }
+                    }
                 }
                 #[cfg(not(target_arch = "x86_64"))]
                 unreachable!("lanes are an AVX2 path")
@@ -2291,7 +2325,7 @@ impl<'a> NewtonRun<'a> {
                 if let Some(mc) = ld.rigid_moment {
                     f[2] -= mc * self.a_ref(li, 0.0)[0] * q[2];
                 }
-                std::array::from_fn(|j| [f[j], 0.0, 0.0, 0.0])
+                std::array::from_fn(|j| std::array::from_fn(|l| if l == 0 { f[j] } else { 0.0 }))
             };
             // added element by element, in order
             for (l, &(p, nx)) in ends.iter().enumerate().take(width) {
@@ -3176,6 +3210,7 @@ impl<'a> NewtonRun<'a> {
     #[cfg(test)]
     fn set_avx2(&mut self, on: bool) {
         self.avx2 = on && crate::linalg::avx2_fma_available();
+        self.avx512 = on && crate::linalg::avx512_available();
         self.lu.set_avx2(on);
         for rs in self
             .rate
@@ -4801,12 +4836,13 @@ mod tests {
     #[test]
     #[cfg(target_arch = "x86_64")]
     fn the_avx2_residual_equals_the_baseline_one_bitwise() {
-        // the AVX2 residual (beam elements four at a time in the lanes of element_lanes) against
-        // the baseline's element by element, at random states: the crank-pin slider-crank (8
-        // rod elements: two full groups, transformed end nodes), with material damping (the
-        // geometric damping D2) and 7 elements (a group of three), a four-bar with a flexible
-        // coupler and rocker (5 and 3 elements, a clearance joint at the rocker pin), and rods of
-        // 1 to 9 elements with and without the geometric terms
+        // the AVX2 residual (beam elements four at a time in the lanes of element_lanes, and
+        // eight at a time where the CPU has AVX-512) against the baseline's element by element,
+        // at random states: the crank-pin slider-crank (8 rod elements: two full groups of four,
+        // one of eight, transformed end nodes), with material damping (the geometric damping
+        // D2) and 7 elements (a group of three, of seven), a four-bar with a flexible coupler and
+        // rocker (5 and 3 elements, a clearance joint at the rocker pin), and rods of 1 to 9
+        // elements with and without the geometric terms
         use crate::scenes::{FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin};
         if !crate::linalg::avx2_fma_available() {
             return;
@@ -4866,40 +4902,47 @@ mod tests {
             run.avx2 = false;
             run.residual_body(1e-5, 3.3e-3);
             let baseline = run.r.clone();
-            run.avx2 = true;
-            // SAFETY: the CPU has AVX2 and FMA (checked above)
-            unsafe { run.residual_avx2(1e-5, 3.3e-3) };
             assert!(baseline.iter().any(|&x| x != 0.0));
-            assert_eq!(
-                baseline.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                run.r.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                "mechanism {k}"
-            );
+            run.avx2 = true;
+            for wide in [false, crate::linalg::avx512_available()] {
+                run.avx512 = wide;
+                // SAFETY: the CPU has AVX2 and FMA (checked above)
+                unsafe { run.residual_avx2(1e-5, 3.3e-3) };
+                assert_eq!(
+                    baseline.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    run.r.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    "mechanism {k}, eight lanes {wide}"
+                );
+            }
         }
     }
 
     #[test]
     #[cfg(target_arch = "x86_64")]
     fn a_run_in_the_avx2_build_equals_the_baseline_run_bitwise() {
-        // the step and the residual in their AVX2 builds against both in the baseline's, over
-        // 2 ms of the crank-pin slider-crank (its first impacts)
+        // the step and the residual in their AVX2 builds (the residual's lanes eight wide where
+        // the CPU has AVX-512, and four wide) against both in the baseline's, over 2 ms of the
+        // crank-pin slider-crank (its first impacts)
         let Some(mech) = avx2_crank_pin() else {
             return;
         };
         let settings = crate::Settings::new(2e-3, 1e-5);
-        let outputs: Vec<_> = [true, false]
+        let outputs: Vec<_> = [(true, true), (true, false), (false, false)]
             .into_iter()
-            .map(|avx2| {
+            .map(|(avx2, wide)| {
                 let mut run = super::NewtonRun::new(&mech, &settings).expect("a Newton run");
                 run.set_avx2(avx2);
+                run.avx512 &= wide;
                 run.run(&mut |_| true).expect("the run")
             })
             .collect();
         let bits = |o: &crate::run::RunOutput| -> Vec<u64> { o.state.iter().flatten().map(|x| x.to_bits()).collect() };
-        assert_eq!(bits(&outputs[0]), bits(&outputs[1]));
-        assert_eq!(outputs[0].stats.iterations, outputs[1].stats.iterations);
         let force = |o: &crate::run::RunOutput| o.record.extremes[0].max_force.to_bits();
-        assert_eq!(force(&outputs[0]), force(&outputs[1]));
+        for other in &outputs[1..] {
+            assert_eq!(bits(&outputs[0]), bits(other));
+            assert_eq!(outputs[0].stats.iterations, other.stats.iterations);
+            assert_eq!(force(&outputs[0]), force(other));
+        }
         assert!(outputs[0].record.extremes[0].max_force > 0.0);
     }
 

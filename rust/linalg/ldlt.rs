@@ -580,6 +580,19 @@ pub(crate) fn avx2_fma_available() -> bool {
     }
 }
 
+/// Whether the CPU has AVX-512F besides AVX2 and FMA (the Newton residual's beam elements then
+/// take eight lanes at a time).
+pub(crate) fn avx512_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        avx2_fma_available() && std::arch::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// Symbolic analyses shared among runs whose models have the same sparsity pattern (the samples
 /// of a study that differ only in values share one; a sample that changes the element count gets
 /// its own). Thread-safe; the lock is taken once per run, before the time loop.

@@ -16,6 +16,6 @@ pub use band_lu::BandLu;
 pub use band_lu_lanes::BandLuLanes;
 pub use dense::solve_dense_in_place;
 pub use factor::Factor;
-pub(crate) use ldlt::avx2_fma_available;
+pub(crate) use ldlt::{avx2_fma_available, avx512_available};
 pub use ldlt::{Analysis, AnalysisCache, Cholesky, BAND};
 pub use woodbury::{capacitance_solve, subtract_ws, LowRankBlocks, Woodbury, WoodburyScratch};
