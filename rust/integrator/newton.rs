@@ -404,8 +404,9 @@ struct LinkData {
 }
 
 impl LinkData {
-    /// The inertia loads by entry for `w` lanes (four or eight).
-    fn loads_by_entry(&self, w: usize) -> &[f64] {
+    /// The inertia loads laid out for `w` lanes (four or eight; see
+    /// [`element_lanes::loads_by_entry`]).
+    fn lane_loads(&self, w: usize) -> &[f64] {
         if w == 8 {
             &self.loads_t8
         } else {

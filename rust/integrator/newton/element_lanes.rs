@@ -211,7 +211,7 @@ macro_rules! lanes_kernels {
                     }
                 }
                 if ld.active.load {
-                    let loads = ld.loads_by_entry(W);
+                    let loads = ld.lane_loads(W);
                     let blk: &[f64; 24 * W] = loads[24 * W * e..24 * W * (e + 1)].try_into().expect("load block");
                     let (fs0, fs1) = ($set1(lf.fs[0]), $set1(lf.fs[1]));
                     let (w2, al) = ($set1(lf.rate * lf.rate), $set1(lf.accel));
