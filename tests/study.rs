@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use flexclear::batch::{run_batch, BatchOptions, Retry};
+use flexclear::batch::{run_batch, BatchOptions, BatchStats, Retry, SampleOutcome};
 use flexclear::contact::{Coupling, DampingLaw};
 use flexclear::integrator::constant::Lockstep;
 use flexclear::model::mechanism::Mechanism;
@@ -15,6 +15,26 @@ use flexclear::{Error, RunFailure, RunOutput, Settings};
 /// derives (what the batch runs for such a sample).
 fn simulate(m: &Mechanism, s: &Settings, control: &mut dyn FnMut(f64) -> bool) -> Result<RunOutput, Box<RunFailure>> {
     flexclear::run::simulate(&m.to_translating().unwrap(), s, control)
+}
+
+/// [`run_batch`] with no stop asked: the outcomes, the statistics and the count of samples done.
+fn run_all(
+    samples: &[(Mechanism, Settings)],
+    options: &BatchOptions,
+) -> flexclear::Result<(Vec<SampleOutcome>, BatchStats, usize)> {
+    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
+    let (out, stats) = run_batch(samples, options, &stop, &done)?;
+    Ok((out, stats, done.load(Ordering::Relaxed)))
+}
+
+/// Batch options on `threads` threads that retry a failed sample up to `attempts` times, the
+/// step multiplied by `factor` each time.
+fn retrying(threads: usize, attempts: u32, factor: f64) -> BatchOptions {
+    BatchOptions {
+        threads,
+        retry: Retry { attempts, factor },
+        ..Default::default()
+    }
 }
 
 fn settings(t_end: f64, dt: f64) -> Settings {
@@ -53,9 +73,8 @@ fn batch_equals_single_runs_on_any_number_of_threads() {
             threads,
             ..Default::default()
         };
-        let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-        let (outcomes, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
-        assert_eq!(done.load(Ordering::Relaxed), samples.len());
+        let (outcomes, stats, done) = run_all(&samples, &options).unwrap();
+        assert_eq!(done, samples.len());
         assert_eq!(stats.threads, threads);
         // two element counts, two sparsity patterns: exactly two symbolic analyses
         assert_eq!(stats.analyses, 2);
@@ -89,8 +108,7 @@ fn failures_are_data_and_retries_are_recorded() {
         (SliderYoke::default().build().unwrap(), bad),
         (SliderYoke::default().build().unwrap(), force.clone()),
     ];
-    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let (out, _) = run_batch(&samples, &BatchOptions::default(), &stop, &done).unwrap();
+    let (out, _, _) = run_all(&samples, &BatchOptions::default()).unwrap();
     let err = |i: usize| out[i].result.as_ref().unwrap().as_ref().err().map(|f| f.error.clone());
     assert!(matches!(err(0), Some(Error::Diverged { .. })), "{:?}", err(0));
     assert!(matches!(err(1), Some(Error::InvalidParameter { ref name, .. }) if name == "dt"));
@@ -100,15 +118,7 @@ fn failures_are_data_and_retries_are_recorded() {
     assert!(failed.output.stats.steps > 0 && failed.output.time < 0.01);
 
     // retried at dt / 10 = 1e-6, where the force method is stable on the stiff bearing
-    let options = BatchOptions {
-        threads: 1,
-        retry: Retry {
-            attempts: 2,
-            factor: 0.1,
-        },
-        ..Default::default()
-    };
-    let (out, _) = run_batch(&samples[..1], &options, &stop, &done).unwrap();
+    let (out, _, _) = run_all(&samples[..1], &retrying(1, 2, 0.1)).unwrap();
     assert!(out[0].result.as_ref().unwrap().is_ok());
     assert_eq!(out[0].retries, 1);
     assert!((out[0].dt - 1e-6).abs() < 1e-18);
@@ -124,16 +134,7 @@ fn a_stopped_batch_runs_nothing_more() {
 
 #[test]
 fn bad_retry_factor_is_refused() {
-    let options = BatchOptions {
-        threads: 1,
-        retry: Retry {
-            attempts: 1,
-            factor: 1.5,
-        },
-        ..Default::default()
-    };
-    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let e = run_batch(&[], &options, &stop, &done).unwrap_err();
+    let e = run_all(&[], &retrying(1, 1, 1.5)).unwrap_err();
     assert!(matches!(e, Error::InvalidParameter { ref name, .. } if name == "retry_factor"));
 }
 
@@ -196,9 +197,8 @@ fn lockstep_lanes_are_bitwise_single_runs() {
             lanes,
             ..Default::default()
         };
-        let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-        let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
-        assert_eq!(done.load(Ordering::Relaxed), samples.len());
+        let (out, stats, done) = run_all(&samples, &options).unwrap();
+        assert_eq!(done, samples.len());
         // groups of consecutive samples, `lanes` at most (a group of 3 runs 4 lanes, one idle)
         let n = samples.len();
         let expect = if lanes == 1 {
@@ -245,16 +245,7 @@ fn a_diverging_lane_fails_alone_and_the_others_finish() {
         assert_eq!(text(o), text(e), "lane {i}");
     }
     // in a batch, with a retry at dt / 10 where the force method is stable
-    let options = BatchOptions {
-        threads: 2,
-        retry: Retry {
-            attempts: 1,
-            factor: 0.1,
-        },
-        ..Default::default()
-    };
-    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+    let (out, stats, _) = run_all(&samples, &retrying(2, 1, 0.1)).unwrap();
     assert_eq!(stats.lockstep_samples, 4);
     assert_eq!(out[1].retries, 1);
     let mut retried = samples[1].1.clone();
@@ -285,21 +276,18 @@ fn samples_that_cannot_share_run_alone() {
         lanes: 8,
         ..Default::default()
     };
-    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
+    let (out, stats, _) = run_all(&samples, &options).unwrap();
     // groups: [0] [1] [2] [3] [4] [5] [6, 7]
     assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (1, 2));
     for (o, (m, s)) in out.iter().zip(&samples) {
         assert_eq!(text(o.result.as_ref().unwrap()), text(&simulate(m, s, &mut |_| true)));
     }
-    let e = run_batch(
+    let e = run_all(
         &samples,
         &BatchOptions {
             lanes: 9,
             ..Default::default()
         },
-        &stop,
-        &done,
     )
     .unwrap_err();
     assert!(matches!(e, Error::InvalidParameter { ref name, .. } if name == "lanes"));
@@ -409,9 +397,8 @@ fn samples_that_need_newton_run_in_the_batch_as_single_runs() {
             threads,
             ..Default::default()
         };
-        let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-        let (out, stats) = run_batch(&samples, &options, &stop, &done).unwrap();
-        assert_eq!(done.load(Ordering::Relaxed), samples.len());
+        let (out, stats, done) = run_all(&samples, &options).unwrap();
+        assert_eq!(done, samples.len());
         // [0, 1] and [3, 4] in lockstep; the slider-cranks alone
         assert_eq!((stats.lockstep_groups, stats.lockstep_samples), (2, 4));
         for i in [2, 5, 6] {
@@ -453,16 +440,7 @@ fn a_newton_sample_that_fails_is_retried_on_a_new_plan() {
         (slider_crank(5e-4), s.clone()),
         (slider_crank(2e-4), settings(0.002, 1e-5)),
     ];
-    let options = BatchOptions {
-        threads: 1,
-        retry: Retry {
-            attempts: 1,
-            factor: 0.5,
-        },
-        ..Default::default()
-    };
-    let (stop, done) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let (out, _) = run_batch(&samples, &options, &stop, &done).unwrap();
+    let (out, _, _) = run_all(&samples, &retrying(1, 1, 0.5)).unwrap();
     assert_eq!((out[0].retries, out[0].dt), (1, 5e-6));
     let mut retried = s.clone();
     retried.dt = 5e-6;
