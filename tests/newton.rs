@@ -498,6 +498,7 @@ fn driven_rotating_beam_balances_energy_with_the_work_of_the_drive() {
             axial_force: false,
             midspan: false,
             energy: true,
+            peaks: false,
         },
         ..RecordSpec::default()
     };
@@ -953,6 +954,7 @@ fn slider_crank_clearance_converges_with_implicit_contact_and_the_lagged_kappa_p
                 axial_force: true,
                 midspan: false,
                 energy: false,
+                peaks: false,
             },
             ..RecordSpec::default()
         };
@@ -1068,6 +1070,7 @@ fn clearance_between_two_flexible_links_reduces_to_the_ideal_pin_when_stiff_and_
                 axial_force: false,
                 midspan: true,
                 energy: false,
+                peaks: false,
             },
             ..RecordSpec::default()
         };
@@ -1150,6 +1153,7 @@ fn free_links_meeting_in_a_clearance_joint_keep_energy_and_angular_momentum() {
                 axial_force: false,
                 midspan: false,
                 energy: true,
+                peaks: false,
             },
             ..RecordSpec::default()
         };
@@ -1343,4 +1347,130 @@ fn slider_deviations_online_equal_those_of_the_histories_and_memory_is_o_outputs
         let e = simulate_mechanism(&mech, &settings, &mut |_| true).err().unwrap().error;
         assert!(e.to_string().contains("record.slider_reference"), "{e}");
     }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Link peaks (issue 14 item 3): running maxima over every step, O(1) memory per link
+// ------------------------------------------------------------------------------------------------
+
+/// Largest magnitude in `v`.
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+#[test]
+fn link_peaks_are_the_maxima_of_the_channels_over_every_step_and_leave_the_run_unchanged() {
+    // The crank-pin slider-crank over its impact phase (5 ms: 3 impacts): with the midspan and
+    // axial-force channels kept at every step, the tracked peaks are exactly their largest
+    // magnitudes (the same operations on the same states); with a stride of 7 the channels skip
+    // steps and their maxima can only be smaller. Tracking reads the state and changes nothing:
+    // the joint extremes and the final state are bitwise those of a run without it.
+    let channels = |peaks: bool| LinkChannels {
+        displacements: false,
+        axial_force: true,
+        midspan: true,
+        energy: false,
+        peaks,
+    };
+    let run = |peaks: bool, every: usize| {
+        crank_run(
+            true,
+            5e-3,
+            RecordSpec {
+                every,
+                links: channels(peaks),
+                ..RecordSpec::default()
+            },
+        )
+    };
+    let (tracked, plain, strided) = (run(true, 1), run(false, 1), run(true, 7));
+    assert_eq!(tracked.record.extremes, plain.record.extremes);
+    assert_eq!(tracked.state, plain.state);
+    for (li, (h, s)) in tracked.record.links.iter().zip(&strided.record.links).enumerate() {
+        assert!(plain.record.links[li].peaks.is_none());
+        let Some(p) = h.peaks else {
+            // the crank and the slider are rigid
+            assert!(
+                h.axial_force.is_empty() || h.midspan.iter().all(|&m| m == 0.0),
+                "link {li}"
+            );
+            continue;
+        };
+        println!(
+            "link {li}: peak midspan {:.4e} m, peak axial force {:.1} N",
+            p.midspan, p.axial_force
+        );
+        assert!(p.midspan > 0.0 && p.axial_force > 0.0);
+        assert_eq!(p.midspan, max_abs(&h.midspan));
+        assert_eq!(p.axial_force, max_abs(&h.axial_force));
+        assert_eq!(s.peaks, Some(p), "the stride does not thin the peaks");
+        assert!(max_abs(&s.midspan) <= p.midspan && max_abs(&s.axial_force) <= p.axial_force);
+    }
+    assert!(tracked.record.links.iter().any(|h| h.peaks.is_some()));
+}
+
+#[test]
+fn link_peaks_of_a_beam_held_in_its_static_state_are_the_static_solution() {
+    // A pinned-pinned steel beam (1 m, EI = 200 N m^2, EA = 2e7 N, 8 elements) started in the
+    // static state of its load stays there (the start is an equilibrium of the discrete model to
+    // rounding), so its peaks are the static ones:
+    // - a central transverse load P = 10 N: the midspan deflection P L^3 / (48 EI) = 1.0417 mm.
+    //   Hermite elements are exact at the nodes for nodal loads, so the analytic nodal state
+    //   v = P x (3 L^2 - 4 x^2) / (48 EI), theta = v' (x <= L/2, mirrored) is the discrete one;
+    // - an axial tip load P = 5 kN on the roller: every element carries F with
+    //   F + F^2 / EA = P (the K3 term, see axially_loaded_pinned_beam_frequency_follows_the_load),
+    //   u = F x / EA.
+    // Tolerance 1e-9 relative: what moves the state is the residual of the analytic start in
+    // floating point.
+    let (l, n, ei, ea) = (1.0f64, 8usize, 2e11 * 1e-9, 2e11 * 1e-4);
+    let run = |mech: Mechanism| {
+        let mut s = Settings::new(0.01, 1e-4);
+        s.record = RecordSpec {
+            histories: false,
+            links: LinkChannels {
+                displacements: false,
+                peaks: true,
+                ..LinkChannels::NONE
+            },
+            ..RecordSpec::default()
+        };
+        let out = simulate_mechanism(&mech, &s, &mut |_| true).unwrap();
+        assert!(out.record.time.is_empty(), "no output grid without histories");
+        out.record.links[0].peaks.expect("a flexible link's peaks")
+    };
+    // transverse
+    let p: f64 = 10.0;
+    let mut bent = pinned_pinned(n, 0.0);
+    bent.loads[0] = NodalLoad {
+        link: 0,
+        node: n / 2,
+        force: [0.0, -p],
+        moment: 0.0,
+    };
+    let mut y0 = vec![0.0; 3 * (n + 1)];
+    for k in 0..=n {
+        let x = l * k as f64 / n as f64;
+        let (xs, sign) = if x <= 0.5 * l { (x, 1.0) } else { (l - x, -1.0) };
+        y0[3 * k + 1] = -p * xs * (3.0 * l * l - 4.0 * xs * xs) / (48.0 * ei);
+        y0[3 * k + 2] = -sign * p * (3.0 * l * l - 12.0 * xs * xs) / (48.0 * ei);
+    }
+    bent.links[0].initial_displacement = Some(y0);
+    let peaks = run(bent);
+    let delta = p * l.powi(3) / (48.0 * ei);
+    println!("transverse: peak midspan {:.9e} m, static {delta:.9e} m", peaks.midspan);
+    assert!((peaks.midspan - delta).abs() <= 1e-9 * delta);
+    assert!(peaks.axial_force <= 1e-9 * p, "{}", peaks.axial_force);
+    // axial
+    let p: f64 = 5e3;
+    let f = 0.5 * ea * ((1.0 + 4.0 * p / ea).sqrt() - 1.0);
+    let mut pulled = pinned_pinned(n, p);
+    let mut y0 = vec![0.0; 3 * (n + 1)];
+    for k in 0..=n {
+        y0[3 * k] = f * (l * k as f64 / n as f64) / ea;
+    }
+    pulled.links[0].initial_displacement = Some(y0);
+    let peaks = run(pulled);
+    println!("axial: peak axial force {:.9e} N, static {f:.9e} N", peaks.axial_force);
+    assert!((peaks.axial_force - f).abs() <= 1e-9 * f);
+    assert!(peaks.midspan <= 1e-12, "{}", peaks.midspan);
 }

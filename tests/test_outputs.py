@@ -350,6 +350,67 @@ def test_link_peaks_are_those_of_the_recorded_histories():
     assert np.isnan(plain.max_midspan) and np.isnan(plain.max_axial_force)
 
 
+def test_tracked_link_peaks_count_every_step_from_start_in_o1_memory():
+    # Record(link_peaks=True): running maxima over every step, the same values as the channels'
+    # largest magnitudes at every step (the same operations on the same states), kept without
+    # any history, and from `start` on only
+    model = scenes.slider_crank(clearance_at="crank_pin")
+    full = model.simulate(0.005, 1e-5, record=Record(midspan=True, axial_force=True, link_peaks=True))
+    rod = full.link("rod")
+    assert rod.peaks == (np.max(np.abs(rod.midspan)), np.max(np.abs(rod.axial_force)))
+    assert rod.max_midspan > 0 and rod.max_axial_force > 0
+    bare = model.simulate(0.005, 1e-5, record=Record(histories=False, link_peaks=True))
+    assert (
+        _stored(bare) == 0 and model.memory_estimate(0.5, 1e-5, Record(histories=False, link_peaks=True)) == 0
+    )
+    assert bare.link("rod").peaks == rod.peaks
+    # from 1 ms on: after the axial force's peak (0.61 ms, the first impact), before the
+    # midspan's (3.53 ms)
+    late = model.simulate(0.005, 1e-5, record=Record(histories=False, link_peaks=True, start=0.001)).link(
+        "rod"
+    )
+    after = full.time >= 0.001
+    assert late.max_midspan == np.max(np.abs(rod.midspan[after])) == rod.max_midspan
+    assert late.max_axial_force == np.max(np.abs(rod.axial_force[after])) < rod.max_axial_force
+    # tracking changes nothing else
+    plain = model.simulate(0.005, 1e-5, record=Record(histories=False))
+    assert plain.joint("crank_pin").max_force == bare.joint("crank_pin").max_force
+    assert plain.link("rod").peaks is None
+
+
+def test_link_peaks_run_on_the_newton_stepper():
+    # as link energies: a model the constant stepper would run moves to a moving-frame stepper,
+    # and stepper="constant" is refused naming the record field
+    yoke = scenes.slider_yoke()
+    assert yoke.simulate(0.002, 1e-5).stats["stepper"] == "constant"
+    r = yoke.simulate(0.002, 1e-5, record=Record(histories=False, link_peaks=True))
+    assert r.stats["stepper"] in ("constant-rate", "newton")
+    with pytest.raises(fc.InvalidParameterError, match="record.link_peaks"):
+        yoke.simulate(0.002, 1e-5, stepper="constant", record=Record(link_peaks=True))
+
+
+def test_study_link_outputs_are_the_single_runs_peaks():
+    from flexclear.study import LINK_OUTPUTS
+
+    kw = dict(fixed={"clearance_at": "crank_pin"}, samples=3, seed=4, t_end=0.004, dt=1e-5)
+    s = Study("slider_crank", vary={"clearance": Uniform(1e-4, 3e-4)}, links=True, **kw)
+    assert s.output_columns[-2:] == [f"rod.{o}" for o in LINK_OUTPUTS]
+    f = s.run(threads=2, progress=False).frame
+    assert (f["status"] == "ok").all()
+    for _, row in f.iterrows():
+        one = s._scene_fn(**s._scene_kwargs({"clearance": row["clearance"]})).simulate(
+            0.004, 1e-5, record=Record(histories=False, link_peaks=True)
+        )
+        assert (row["rod.max_midspan"], row["rod.max_axial_force"]) == one.link("rod").peaks
+    # the same through the per-sample path of slider outputs
+    both = Study("slider_crank", vary={"clearance": Uniform(1e-4, 3e-4)}, links=True, sliders=True, **kw)
+    g = both.run(threads=1, progress=False).frame
+    np.testing.assert_array_equal(g["rod.max_midspan"], f["rod.max_midspan"])
+    assert Study.from_dict(s.to_dict()).links and "links" not in Study("slider_crank", **kw).to_dict()
+    with pytest.raises(fc.InvalidParameterError, match="links"):
+        Study("slider_crank", links="yes", **kw)
+
+
 def test_study_slider_outputs_against_the_ideal_mechanism():
     from flexclear.study import SLIDER_OUTPUTS
 

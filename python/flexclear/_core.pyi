@@ -187,6 +187,8 @@ class Mechanism:
     @property
     def pin_names(self) -> list[str]: ...
     @property
+    def link_rigid(self) -> list[bool]: ...
+    @property
     def link_elements(self) -> list[int]: ...
     @property
     def link_lengths(self) -> list[float]: ...
@@ -259,6 +261,7 @@ class Mechanism:
         sliders: bool = ...,
         slider_reference: Optional[SliderReference] = ...,
         truncation_fraction: Optional[float] = ...,
+        link_peaks: bool = ...,
     ) -> RunOutput:
         """Runs the model; returns its output (what `flexclear.Result` reads). A failed run raises
         the matching `flexclear` exception with what it recorded as `exc.partial` (a
@@ -353,7 +356,13 @@ class NodeHistory:
 @final
 class LinkHistory:
     """Histories of one link: `frame` (records x 4), `displacements` (records x 3 (N + 1)),
-    `axial_force` (records x N, N), `midspan` (m), `kinetic`, `strain` (J), `momentum`."""
+    `axial_force` (records x N, N), `midspan` (m), `kinetic`, `strain` (J), `momentum`;
+    `max_midspan` (m) and `max_axial_force` (N), the running peaks over every step with
+    `link_peaks`, NaN otherwise and for a rigid link."""
+    @property
+    def max_midspan(self) -> float: ...
+    @property
+    def max_axial_force(self) -> float: ...
     @property
     def frame(self) -> npt.NDArray[np.float64]: ...
     @property
@@ -550,6 +559,7 @@ def run_batch(
     contact_modes: bool = ...,
     accuracy: Optional[float] = ...,
     max_step: Optional[float] = ...,
+    link_peaks: bool = ...,
 ) -> tuple[list[dict[str, Any]], dict[str, int], Optional[BaseException]]:
     """Runs `models[i]` to `t_end[i]` at step `dt[i]` on a thread pool, GIL released, each on the
     stepper its plan picks (lockstep lanes for the constant stepper, one lane each otherwise);
@@ -558,7 +568,8 @@ def run_batch(
     grid and `max_step` the longest step (s; None: the whole run).
 
     Returns one dict per sample (status, message, dt, retries, wall_time, steps, t, extremes
-    (one `JointExtremes` per joint), time, joints), the batch counters (analyses,
+    (one `JointExtremes` per joint), time, joints, links (per link `(max_midspan m,
+    max_axial_force N)`, NaN unless `link_peaks`)), the batch counters (analyses,
     threads, lockstep_groups, lockstep_samples) and the exception that stopped the batch
     (KeyboardInterrupt, or one raised by `progress(done)`), else None. `lanes` is the largest
     lockstep group (0 = default 8, 1 = none, at most 8). `joint_position` also keeps the

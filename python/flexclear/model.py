@@ -996,7 +996,7 @@ class Model:
         check_window(rec.start, t_end, dt, "record.start")
         if float(t_end) / float(dt) > 1e12:  # as simulate: at most 1e12 steps
             raise _bad("dt", dt, f"at least t_end/1e12 = {float(t_end) / 1e12:e} s (at most 1e12 steps)")
-        return self._history_plan(float(t_end), float(dt), rec, MOVING if rec.energy else self._kind)[0]
+        return self._history_plan(float(t_end), float(dt), rec, MOVING if _on_newton(rec) else self._kind)[0]
 
     def _history_plan(self, t_end: float, dt: float, rec: Record, kind: str) -> tuple[int, int, int, dict]:
         """``(bytes, records, channels, channels by kind)`` of the histories of a run on the
@@ -1361,11 +1361,11 @@ class Model:
             0 <= step_halving <= 20
         ):
             raise _bad("step_halving", step_halving, "an integer in 0 ..= 20")
-        # the stepper the plan picks; energies are recorded by the moving-frame steppers (Newton,
-        # constant-rate)
+        # the stepper the plan picks; energies and link peaks are recorded by the moving-frame
+        # steppers (Newton, constant-rate)
         moving = (
             stepper in ("newton", "constant-rate")
-            or (stepper is None and rec.energy)
+            or (stepper is None and _on_newton(rec))
             or (method == "continuous" and stepper is None and len(self.joint_names) > 0)
         )
         kind = MOVING if moving else self._kind
@@ -1434,10 +1434,13 @@ class Model:
                     raise _bad(
                         "step_halving", step_halving, "0 while every link translates (no Newton to halve)"
                     )
-                if rec.energy:
-                    raise _bad(
-                        "record.energy", True, 'False with stepper="constant" (the Newton stepper records it)'
-                    )
+                for name in ("energy", "link_peaks"):
+                    if getattr(rec, name):
+                        raise _bad(
+                            f"record.{name}",
+                            True,
+                            'False with stepper="constant" (the Newton stepper records it)',
+                        )
             # one call for every stepper: the plan picks it, and the run's link channels (frame,
             # displacements, axial force, midspan) come from the Rust recorder either way
             raw = self._core.simulate(
@@ -1458,6 +1461,7 @@ class Model:
                 axial_force=bool(rec.axial_force),
                 midspan=bool(rec.midspan),
                 energy=bool(rec.energy),
+                link_peaks=bool(rec.link_peaks),
                 progress=cb,
                 events=bool(events),
                 stepper=stepper,
@@ -1549,6 +1553,12 @@ class Model:
             parts.append(f"sliders={self.slider_names}")
         parts.append(f"joints={self.joint_names}")
         return f"Model({', '.join(parts)}, engine={self._kind!r})"
+
+
+def _on_newton(rec: Record) -> bool:
+    """Whether ``rec`` asks for what only the moving-frame steppers record (link energies, the
+    links' running peaks): a model the constant stepper would run then runs on Newton."""
+    return bool(rec.energy or rec.link_peaks)
 
 
 def _joint_record_kwargs(rec: Record, joints) -> dict:

@@ -9,6 +9,7 @@ and names (no reference to the model or the engine), so they pickle and travel t
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, Optional
 
 import numpy as np
@@ -42,6 +43,11 @@ class Record:
         Kinetic and strain energy (J) and angular momentum (kg m^2/s) of each link. Recorded by
         the Newton stepper: a model that the constant stepper would run runs on the Newton one
         when energies are asked for (``stats["stepper"]``).
+    link_peaks : bool
+        Track every flexible link's peak midspan deflection (m, relative to the chord) and peak
+        element axial force (N) over every step from ``start`` on (:attr:`LinkResult.max_midspan`,
+        :attr:`LinkResult.max_axial_force`): running maxima, O(1) memory per link whatever
+        ``every`` and ``histories``. Tracked by the Newton stepper, as ``energy``.
     every : int
         Keep every k-th step (the initial state is always kept).
     histories : bool
@@ -49,7 +55,7 @@ class Record:
         histories, and in moving frames no output grid (:attr:`Result.time`, the link frames)
         unless something on it is asked for explicitly (``displacements=True``, ``nodes``,
         ``midspan``, ``axial_force``, ``energy`` or ``sliders``). Peaks (the joints' extremes,
-        the sliders' ``max_acceleration``) stay exact over every step.
+        the sliders' ``max_acceleration``, ``link_peaks``) stay exact over every step.
     start : float
         Joint extremes and impact logs start at this time, s (and every history, while every
         link translates; in moving frames the histories share the links' grid from t = 0).
@@ -81,6 +87,7 @@ class Record:
     midspan: bool = False
     axial_force: bool = False
     energy: bool = False
+    link_peaks: bool = False
     every: int = 1
     histories: bool = True
     start: float = 0.0
@@ -297,6 +304,9 @@ class LinkResult:
     kinetic, strain, momentum : ndarray
         Kinetic energy of the absolute motion (J), linear strain energy ``Q^T K1 Q / 2`` (J) and
         angular momentum about the frame origin (kg m^2/s). Empty unless ``Record(energy=True)``.
+    peaks : tuple of float or None
+        ``(peak midspan deflection m, peak axial force N)`` tracked over every step from
+        ``Record.start`` on with ``Record(link_peaks=True)``; None otherwise.
     """
 
     name: str
@@ -310,17 +320,24 @@ class LinkResult:
     kinetic: np.ndarray
     strain: np.ndarray
     momentum: np.ndarray
+    peaks: Optional[tuple[float, float]] = None
 
     @property
     def max_midspan(self) -> float:
-        """Peak midspan deflection: the largest magnitude of :attr:`midspan` over the recorded
-        samples, m (NaN unless ``Record(midspan=True)``; ``Record(every=k)`` thins the samples)."""
+        """Peak midspan deflection, m: with ``Record(link_peaks=True)`` the largest magnitude over
+        every step from ``Record.start`` on, else the largest magnitude of :attr:`midspan` over
+        the recorded samples (``Record(every=k)`` thins them; NaN unless ``Record(midspan=True)``)."""
+        if self.peaks is not None:
+            return self.peaks[0]
         return float(np.max(np.abs(self.midspan))) if self.midspan.size else float("nan")
 
     @property
     def max_axial_force(self) -> float:
-        """Peak axial force: the largest magnitude of any element's :attr:`axial_force` over the
-        recorded samples, N (NaN unless ``Record(axial_force=True)``)."""
+        """Peak axial force over the elements, N: with ``Record(link_peaks=True)`` the largest
+        magnitude over every step from ``Record.start`` on, else over the recorded samples of
+        :attr:`axial_force` (NaN unless ``Record(axial_force=True)``)."""
+        if self.peaks is not None:
+            return self.peaks[1]
         return float(np.max(np.abs(self.axial_force))) if self.axial_force.size else float("nan")
 
     @property
@@ -610,6 +627,7 @@ class Result:
             kinetic=h.kinetic,
             strain=h.strain,
             momentum=h.momentum,
+            peaks=None if math.isnan(h.max_midspan) else (float(h.max_midspan), float(h.max_axial_force)),
         )
 
     def node(self, link: str, node: int) -> NodeResult:

@@ -290,6 +290,13 @@ SLIDER_OUTPUTS = {
     "acceleration_deviation_mean": "mean |a - a_ideal|, m/s^2",
     "acceleration_deviation_max": "peak |a - a_ideal|, m/s^2",
 }
+#: Per-link outputs of ``Study(links=True)`` (columns ``"<link>.<output>"``, every flexible link),
+#: with units: running peaks over every step from ``start`` on, O(1) memory per link and sample
+#: (``Record(link_peaks=True)``; such samples run on the Newton stepper).
+LINK_OUTPUTS = {
+    "max_midspan": "peak midspan deflection relative to the chord through the end nodes, m",
+    "max_axial_force": "peak axial force of any element, N",
+}
 #: Parameters of a build's clearance joint, left out of the ideal mechanism of ``sliders``.
 _JOINT_PARAMETERS = frozenset(
     (
@@ -331,6 +338,8 @@ _UNITS = {
     "impact_fraction": "1",
     "continuous_fraction": "1",
     "dissipated_energy": "J",
+    "max_midspan": "m",
+    "max_axial_force": "N",
     "clearance": "m",
     "amplitude": "m",
     "frequency": "Hz",
@@ -346,7 +355,9 @@ _UNITS = {
 
 
 def _label(name: str) -> str:
-    unit = _UNITS.get(name)
+    """``name [unit]`` for a parameter or an output column (``"<joint>.<output>"``: the output's
+    unit)."""
+    unit = _UNITS.get(name, _UNITS.get(name.rpartition(".")[2]))
     return f"{name} [{unit}]" if unit else name
 
 
@@ -560,6 +571,12 @@ class Study:
         whatever the run length (a sample retried at a smaller step, whose grid no longer lines
         up with the ideal run's, keeps its slider histories and compares them interpolated).
         Needs a build with a ``clearance_at`` parameter (``slider_crank``).
+    links : bool
+        Also report every flexible link's :data:`LINK_OUTPUTS` (columns ``"<link>.<output>"``):
+        its peak midspan deflection relative to the chord (m) and its peak element axial force
+        (N) over every step from ``start`` on, tracked during the run in O(1) memory per link
+        (``Record(link_peaks=True)``; the samples run on the Newton stepper, as for link
+        energies).
     orbit : bool
         Also keep the journal-centre orbit of each reported joint: columns
         ``"<joint>.qx_history"`` and ``"<joint>.qy_history"``, the journal centre relative to the
@@ -593,6 +610,7 @@ class Study:
         history_every: Optional[int] = None,
         orbit: bool = False,
         sliders: bool = False,
+        links: bool = False,
         retries: int = 0,
         retry_factor: float = 0.5,
         run_options: Optional[Mapping[str, Any]] = None,
@@ -780,6 +798,16 @@ class Study:
             )
         self.sliders = bool(sliders)
         self._slider_names = list(probe.slider_names) if self.sliders else []
+        flexible = [i for i, rigid in enumerate(probe._core.link_rigid) if not rigid]
+        if not isinstance(links, (bool, np.bool_)) or (links and not flexible):
+            raise InvalidParameterError(
+                f"links = {links!r} is not allowed; allowed: False, or True with a model that has a "
+                "flexible link"
+            )
+        self.links = bool(links)
+        #: The reported links (every flexible link with ``links``) and their indices in the model.
+        self._link_indices = flexible if self.links else []
+        self._link_names = [probe.link_names[i] for i in self._link_indices]
         #: The ideal-joint runs of ``sliders``, per structure (see :meth:`_ideal_run`).
         self._ideal: dict = {}
         self._inputs: Optional[Any] = None
@@ -833,6 +861,7 @@ class Study:
             "history_every": self.history_every,
             **({"orbit": True} if self.orbit else {}),
             **({"sliders": True} if self.sliders else {}),
+            **({"links": True} if self.links else {}),
             "retries": self.retries,
             "retry_factor": self.retry_factor,
             "run_options": self.run_options,
@@ -885,9 +914,11 @@ class Study:
     @property
     def output_columns(self) -> list[str]:
         """The output columns of the result frame: ``"<joint>.<output>"`` per joint and output,
-        then ``"<slider>.<output>"`` per slider and :data:`SLIDER_OUTPUTS` (``sliders=True``)."""
+        then ``"<slider>.<output>"`` per slider and :data:`SLIDER_OUTPUTS` (``sliders=True``),
+        then ``"<link>.<output>"`` per flexible link and :data:`LINK_OUTPUTS` (``links=True``)."""
         joints = [f"{j}.{o}" for j in self.joints for o in self.outputs]
-        return joints + [f"{n}.{o}" for n in self._slider_names for o in SLIDER_OUTPUTS]
+        sliders = [f"{n}.{o}" for n in self._slider_names for o in SLIDER_OUTPUTS]
+        return joints + sliders + [f"{n}.{o}" for n in self._link_names for o in LINK_OUTPUTS]
 
     def column(self, output: str) -> str:
         """The result column of ``output``: a full ``"<joint>.<output>"`` name, or a bare output
@@ -1456,6 +1487,7 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
             histories=hist,
             joint_position=study.orbit,
             contact_modes=study._modes,
+            link_peaks=study.links,
             start=study.start,
             progress=progress,
             step_halving=halving,
@@ -1477,6 +1509,10 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
         for n, vals in (out.get("sliders") or {}).items():
             for o, v in vals.items():
                 rec[f"{n}.{o}"] = v
+        peaks = out.get("links") or []
+        for n, li in zip(study._link_names, study._link_indices):
+            if status == "ok" and li < len(peaks):
+                rec[f"{n}.max_midspan"], rec[f"{n}.max_axial_force"] = map(float, peaks[li])
         for j, ji in zip(study.joints, study._joint_indices):
             ext = out["extremes"][ji] if out["extremes"] and status == "ok" else None
             for o in study.outputs:
@@ -1529,6 +1565,7 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
             start=study.start,
             position=study.orbit,
             contact_modes=study._modes,
+            link_peaks=study.links,
             sliders=study.sliders and ideal is not None and not online,
             slider_reference=ideal if online else None,
         )
@@ -1563,7 +1600,9 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
                     h["qx"], h["qy"] = j.orbit()
                 joints.append(h)
         out = _outcome("ok", "", dt, retries, time.perf_counter() - t0)
-        out.update(extremes=extremes, joints=joints)
+        # the links' running peaks in the layout of the Rust batch (NaN where not tracked)
+        links = [(h.max_midspan, h.max_axial_force) for h in res._raw.links]
+        out.update(extremes=extremes, joints=joints, links=links)
         if study.sliders:
             out["sliders"] = {
                 n: _online_slider_outputs(res, n) if online else _slider_outputs(res, ideal, n, study.start)
@@ -2385,7 +2424,12 @@ def write_report(
     lines += ["| output | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
     for name, row in summ.iterrows():
         lines += [f"| {name} | " + " | ".join(f"{row[c]:.4g}" for c in cols) + " |"]
-    lines += ["", "Units: " + "; ".join(f"{k}: {OUTPUTS[k]}" for k in study.outputs), ""]
+    units = [f"{k}: {OUTPUTS[k]}" for k in study.outputs]
+    if study._slider_names:
+        units += [f"{k}: {v}" for k, v in SLIDER_OUTPUTS.items()]
+    if study._link_names:
+        units += [f"{k}: {v}" for k, v in LINK_OUTPUTS.items()]
+    lines += ["", "Units: " + "; ".join(units), ""]
     if thresholds:
         lines += ["## Exceedance (Clopper-Pearson 95 % interval)", ""]
         lines += ["| output | threshold | P(exceed) | 95 % interval | exceed / n |", "|---|---|---|---|---|"]
@@ -2424,6 +2468,7 @@ __all__ = [
     "DEFAULT_OUTPUTS",
     "MODE_OUTPUTS",
     "SLIDER_OUTPUTS",
+    "LINK_OUTPUTS",
     "LogNormal",
     "Normal",
     "Study",

@@ -85,12 +85,12 @@ use super::run_loop::{self, Stepper};
 use super::{norm2, same_instant};
 use crate::contact::friction::FrictionEval;
 use crate::contact::{evaluation, ContactLaw, ContactTerms, Coupling, Mat2, SpringDamper};
-use crate::element::{Mat6, Vec6};
+use crate::element::{BeamElement, Mat6, Vec6};
 use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
-use crate::record::{JointHistory, LinkHistory, RecordSpec, Recorder, SliderHistory};
+use crate::record::{JointHistory, LinkHistory, LinkPeaks, RecordSpec, Recorder, SliderHistory};
 use crate::run::JACOBIAN_REUSE_ITERATIONS;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
@@ -593,6 +593,19 @@ fn frame_ck(ld: &LinkData, f: &FrameState, out: &mut (Mat6, Mat6)) {
 #[inline]
 fn element_vec(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3], c: usize) -> Vec6 {
     Vec6::new(a[c][0], a[c][1], a[c][2], b[c][0], b[c][1], b[c][2])
+}
+
+/// Midspan deflection of a beam link of `elements` elements relative to the chord through its
+/// end nodes, m, from its nodes' local displacements `w(node) = [u, v, theta]` (m, m, rad):
+/// the element's transverse shape at mid-length less the chord's mean of the end nodes' `v`.
+#[inline]
+fn midspan(e: &BeamElement, elements: usize, w: impl Fn(usize) -> [f64; 3]) -> f64 {
+    let xm = 0.5 * elements as f64;
+    let k = (xm.floor() as usize).min(elements - 1);
+    let xi = xm - k as f64;
+    let (a, b) = (w(k), w(k + 1));
+    let q = Vec6::new(a[0], a[1], a[2], b[0], b[1], b[2]);
+    e.transverse_at(xi, &q) - 0.5 * (w(0)[1] + w(elements)[1])
 }
 
 fn rot(a: f64) -> [[f64; 2]; 2] {
@@ -3255,6 +3268,7 @@ impl<'a> NewtonRun<'a> {
         self.track_joints(t1, Some((k, h)), margin);
         self.tracked_state = true;
         self.track_sliders(t1, keep);
+        self.track_links(t1);
         Ok(())
     }
 
@@ -3770,12 +3784,7 @@ impl<'a> NewtonRun<'a> {
                     }
                 }
                 if ch.midspan {
-                    let xm = 0.5 * l.section.elements as f64;
-                    let k = (xm.floor() as usize).min(l.section.elements - 1);
-                    let xi = xm - k as f64;
-                    let q = element_vec(&buf[k], &buf[k + 1], 0);
-                    let vm = e.transverse_at(xi, &q);
-                    hist.midspan.push(vm - 0.5 * (buf[0][0][1] + buf[nn - 1][0][1]));
+                    hist.midspan.push(midspan(&e, l.section.elements, |k| buf[k][0]));
                 }
                 if ch.energy {
                     let r = self.rots[li];
@@ -3965,6 +3974,32 @@ impl<'a> NewtonRun<'a> {
         }
         if keep {
             self.slider_point += 1;
+        }
+    }
+
+    /// The running peaks of every flexible link ([`LinkHistory::peaks`], with
+    /// `RecordSpec::links.peaks`) at the current state and node transforms at `t` (s), from
+    /// [`RecordSpec::start`] on: the largest magnitude of the midspan deflection and of each
+    /// element's axial force, the channels [`Self::record`] keeps.
+    #[inline(always)]
+    fn track_links(&mut self, t: f64) {
+        if !self.settings.record.links.peaks || t < self.settings.record.start {
+            return;
+        }
+        for (li, l) in self.mech.links.iter().enumerate() {
+            let Some(p) = self.hist_links[li].peaks.as_mut() else {
+                continue;
+            };
+            let nts = &self.node_ts[self.node_off[li]..];
+            let w = |nd: usize| Self::local_displacement(&nts[nd], &self.y);
+            let ea_l = self.links[li].ea_l;
+            let mut u0 = w(0)[0];
+            for k in 1..l.nodes() {
+                let u1 = w(k)[0];
+                p.axial_force = p.axial_force.max((ea_l * (u1 - u0)).abs());
+                u0 = u1;
+            }
+            p.midspan = p.midspan.max(midspan(&l.element(), l.section.elements, w).abs());
         }
     }
 
@@ -4479,7 +4514,16 @@ impl<'a> NewtonRun<'a> {
             .collect();
         let steps = (self.settings.t_end / self.settings.dt).round().max(1.0) as u64;
         self.reserve_histories(steps);
+        if self.settings.record.links.peaks {
+            for (h, l) in self.hist_links.iter_mut().zip(&self.mech.links) {
+                h.peaks = l.rigid.is_none().then_some(LinkPeaks {
+                    midspan: 0.0,
+                    axial_force: 0.0,
+                });
+            }
+        }
         self.track_sliders(0.0, true);
+        self.track_links(0.0);
         self.record(0.0, true);
         let adaptive = self.settings.adaptive.map(|a| AdaptiveScratch {
             t: 0.0,
@@ -4667,6 +4711,7 @@ impl Stepper for NewtonLoop<'_, '_> {
             r.track_joints(t1, Some((k, h)), false);
             r.tracked_state = false;
             r.track_sliders(t1, keep);
+            r.track_links(t1);
         }
         if let Some(j) = r.jpen.iter().position(|&p| p.is_nan() || p > r.limit) {
             let e = super::divergence::joint_diverged(&r.mech.joints[j].name, r.jpen[j], r.limit, t1, k);

@@ -3,7 +3,7 @@
 //!
 //! | the model | stepper |
 //! |---|---|
-//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints without friction (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no energy recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::constant`]) |
+//! | every link and bearing body on a frame that translates at a fixed angle, only clearance joints without friction (no pin, slider, support, point mass, load or gravity), no Coriolis, inertia-coupling or geometric term asked for, no link energy or link peak recorded | [`StepperKind::Constant`]: the contact-free effective matrix factorized once (faer LDL^T, banded substitution), contact by Woodbury ([`crate::integrator::constant`]) |
 //! | otherwise, every link frame at rest or turning at a constant rate, no geometric terms (K2, K3, D2), no node pinned or on a slider in a link that rotates, and (modified method) both sides of each clearance joint turning at one rate, no joint with friction ([`NewtonRun::constant_rate_obstacle`]) | [`StepperKind::ConstantRate`]: the moving-frame equations with the contact-free Jacobian factorized once (band LU), contact by Woodbury on it |
 //! | a rigid link (`Link::rigid`): its rigid-body terms follow the frame's nominal acceleration | [`StepperKind::Newton`] |
 //! | anything else | [`StepperKind::Newton`]: Newton iterations, the Jacobian refactorized when it changes ([`crate::integrator::newton`]); a clearance joint with friction always lands here, on the refactorizing path (the friction tangent is not a symmetric 2 x 2 block of the relative displacement: it couples the rotations, and its dependence on the normal force is unsymmetric) |
@@ -154,8 +154,14 @@ impl Plan {
         }
     }
 
+    /// Whether the run records link channels only the Newton stepper tracks: energies (they
+    /// need the velocities) and the running link peaks.
+    fn links_on_newton(settings: &Settings) -> bool {
+        settings.record.links.energy || settings.record.links.peaks
+    }
+
     fn choose(mech: &Mechanism, settings: &Settings) -> Plan {
-        if settings.adaptive.is_some() && (settings.record.links.energy || mech.to_translating().is_err()) {
+        if settings.adaptive.is_some() && (Self::links_on_newton(settings) || mech.to_translating().is_err()) {
             // adaptive steps run on the constant stepper (its cache of factorizations) or on Newton
             let why = "adaptive steps (a tolerance instead of a step) on a model the constant stepper cannot run \
                        run on the Newton stepper";
@@ -169,6 +175,8 @@ impl Plan {
         }
         let reason = if settings.record.links.energy {
             "the run records link energies".into()
+        } else if settings.record.links.peaks {
+            "the run tracks the links' peaks".into()
         } else if settings.coupling == crate::contact::Coupling::Continuous && !mech.joints.is_empty() {
             "the continuous-contact model (method=\"continuous\") runs on the Newton stepper".into()
         } else {

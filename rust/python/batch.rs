@@ -118,7 +118,8 @@ fn sample_settings(py: Python<'_>, mech: &Mechanism, t_end: f64, dt: f64, c: &Sh
 
 /// One sample's outcome as a dict: `status` ("ok", "diverged", "unconverged", "invalid",
 /// "singular", "interrupted", "not_run"), `message`, `dt`, `retries`, `wall_time`, `steps`, `t`,
-/// `extremes` (per joint) and `joints` (histories, when recorded).
+/// `extremes` (per joint), `joints` (histories, when recorded) and `links` (per link, its running
+/// peaks `(max_midspan m, max_axial_force N)`, NaN unless `link_peaks`, and for a rigid link).
 fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("dt", o.dt)?;
@@ -151,6 +152,10 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     let rec = out.record;
     d.set_item("time", PyArray1::from_vec(py, rec.time))?;
     d.set_item("joints", joint_histories(py, rec.joints)?)?;
+    let peaks: Vec<(f64, f64)> = (rec.links.iter())
+        .map(|h| h.peaks.map_or((f64::NAN, f64::NAN), |p| (p.midspan, p.axial_force)))
+        .collect();
+    d.set_item("links", peaks)?;
     Ok(d)
 }
 
@@ -175,14 +180,16 @@ fn batch_model(py: Python<'_>, i: usize, m: &Bound<'_, PyAny>) -> PyResult<Mecha
 /// (KeyboardInterrupt or one raised by `progress`), else None. The GIL is released throughout;
 /// `progress(done)` is called from the calling thread as samples finish. `joint_position` also
 /// keeps the journal positions (`qx`, `qy`, m) in the joint histories (the orbit of a study);
-/// `contact_modes` tracks the contact-mode fractions and the dissipated energy.
+/// `contact_modes` tracks the contact-mode fractions and the dissipated energy; `link_peaks` each
+/// flexible link's peak midspan deflection and axial force (such a sample runs on the Newton
+/// stepper).
 #[pyfunction]
 #[pyo3(signature = (models, t_end, dt, *, threads=0, lanes=0, retries=0, retry_factor=0.5, method="modified", iterate=None,
                     tol=None, max_iter=None, step_halving=0, gap_stiffness=None, gap_damping=0.0, beta=0.25, gamma=0.5,
                     alpha_m=0.0, alpha_f=0.0,
                     solver="woodbury", divergence_limit=None, joints=None, every=1, histories=false, start=0.0,
                     progress=None, events=false, joint_position=false,
-                    contact_modes=false, accuracy=None, max_step=None))]
+                    contact_modes=false, accuracy=None, max_step=None, link_peaks=false))]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run_batch<'py>(
     py: Python<'py>,
@@ -216,6 +223,7 @@ pub(super) fn run_batch<'py>(
     contact_modes: bool,
     accuracy: Option<f64>,
     max_step: Option<f64>,
+    link_peaks: bool,
 ) -> PyResult<(Bound<'py, PyList>, Bound<'py, PyDict>, Option<PyErr>)> {
     let n = models.len();
     if t_end.len() != n || dt.len() != n {
@@ -249,8 +257,12 @@ pub(super) fn run_batch<'py>(
         histories,
         start,
         impacts: false,
-        // joint channels only (a sample on the Newton stepper keeps no link history)
-        links: LinkChannels::NONE,
+        // joint channels only (a sample on the Newton stepper keeps no link history), and the
+        // links' running peaks when asked for
+        links: LinkChannels {
+            peaks: link_peaks,
+            ..LinkChannels::NONE
+        },
         contact_modes,
         sliders: false,
         slider_reference: None,

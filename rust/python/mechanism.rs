@@ -401,6 +401,12 @@ impl PyMechanism {
         self.inner.pins.iter().map(|p| p.name.clone()).collect()
     }
 
+    /// Per link (in order): whether it is rigid (`add_rigid_link`: no deflection or axial force).
+    #[getter]
+    fn link_rigid(&self) -> Vec<bool> {
+        self.inner.links.iter().map(|l| l.rigid.is_some()).collect()
+    }
+
     /// Element counts per link.
     #[getter]
     fn link_elements(&self) -> Vec<usize> {
@@ -576,7 +582,7 @@ impl PyMechanism {
                         progress=None, events=false, joints=None, joint_position=false, histories=true, start=0.0,
                         impact_log=false, stepper=None, solver="woodbury", gap_stiffness=None, gap_damping=0.0,
                         nodes=Vec::new(), contact_modes=false, adaptive=None, sliders=false,
-                        slider_reference=None, truncation_fraction=None))]
+                        slider_reference=None, truncation_fraction=None, link_peaks=false))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -615,6 +621,7 @@ impl PyMechanism {
         sliders: bool,
         slider_reference: Option<PyRef<'py, super::output::PySliderReference>>,
         truncation_fraction: Option<f64>,
+        link_peaks: bool,
     ) -> PyResult<Py<super::output::PyRunOutput>> {
         let solver = parse_solver(py, solver)?;
         let stepper = match stepper {
@@ -672,6 +679,7 @@ impl PyMechanism {
                     axial_force,
                     midspan,
                     energy,
+                    peaks: link_peaks,
                 },
                 joints,
                 joint_position,

@@ -96,9 +96,12 @@ pub struct PyNodeHistory {
 /// The histories of one link: `frame` (records x 4: origin x, y in m, angle in rad, rate in
 /// rad/s), `displacements` (records x 3 (N + 1): u, v, theta of every node), `axial_force`
 /// (records x N, N), `midspan` (m), `kinetic` and `strain` energy (J), `momentum`; an empty array
-/// for a channel not recorded.
+/// for a channel not recorded. `max_midspan` (m) and `max_axial_force` (N): the running peaks
+/// over every step from `start` on (`link_peaks`), NaN when not tracked or for a rigid link.
 #[pyclass(module = "flexclear._core", name = "LinkHistory", frozen, get_all)]
 pub struct PyLinkHistory {
+    max_midspan: f64,
+    max_axial_force: f64,
     frame: Py<PyArray2<f64>>,
     displacements: Py<PyArray2<f64>>,
     axial_force: Py<PyArray2<f64>>,
@@ -288,7 +291,10 @@ pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]
         let fr: Vec<f64> = h.frame.into_flattened();
         let drows = h.displacements.len() / (3 * nn);
         let arows = h.axial_force.len() / ne;
+        let peaks = h.peaks.map_or([f64::NAN; 2], |p| [p.midspan, p.axial_force]);
         let l = PyLinkHistory {
+            max_midspan: peaks[0],
+            max_axial_force: peaks[1],
             frame: mat(py, fr, fr_rows, 4)?.unbind(),
             displacements: mat(py, h.displacements, drows, 3 * nn)?.unbind(),
             axial_force: mat(py, h.axial_force, arows, ne)?.unbind(),

@@ -58,6 +58,12 @@ pub struct LinkChannels {
     /// Kinetic energy (absolute motion, J), linear strain energy (J) and angular momentum about
     /// the frame origin (kg m^2/s) of every link.
     pub energy: bool,
+    /// The running peaks of every flexible link: the largest magnitude of its midspan deflection
+    /// (m) and of any element's axial force (N) over every step from `RecordSpec::start` on
+    /// ([`LinkHistory::max_midspan`], [`LinkHistory::max_axial_force`]): O(1) memory per link,
+    /// whatever the stride and `histories`. Tracked by the Newton stepper (a model the constant
+    /// stepper would run runs there when they are asked for, as for `energy`).
+    pub peaks: bool,
 }
 
 impl LinkChannels {
@@ -67,6 +73,7 @@ impl LinkChannels {
         axial_force: false,
         midspan: false,
         energy: false,
+        peaks: false,
     };
 }
 
@@ -77,6 +84,7 @@ impl Default for LinkChannels {
             axial_force: false,
             midspan: false,
             energy: false,
+            peaks: false,
         }
     }
 }
@@ -257,7 +265,7 @@ pub struct NodeHistory {
     pub theta: Vec<f64>,
 }
 
-/// Histories of one link in a moving frame, on the output grid.
+/// Histories of one link in a moving frame, on the output grid, and its running peaks.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LinkHistory {
     /// Frame state at each record: origin x, y (m), angle (rad), rate (rad/s).
@@ -274,6 +282,18 @@ pub struct LinkHistory {
     pub strain: Vec<f64>,
     /// Angular momentum about the frame origin, kg m^2/s.
     pub momentum: Vec<f64>,
+    /// The running peaks over every step from `RecordSpec::start` on; `None` unless tracked
+    /// ([`LinkChannels::peaks`]), and for a rigid link.
+    pub peaks: Option<LinkPeaks>,
+}
+
+/// The running peaks of one flexible link ([`LinkChannels::peaks`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkPeaks {
+    /// Largest magnitude of the midspan deflection relative to the chord through the end nodes, m.
+    pub midspan: f64,
+    /// Largest magnitude of any element's axial force, N.
+    pub axial_force: f64,
 }
 
 /// One slider of a moving-frame run: its motion along the guide (nominal path plus its elastic
