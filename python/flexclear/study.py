@@ -354,6 +354,12 @@ _UNITS = {
 }
 
 
+def _sci_ticks(ax, axis: str) -> None:
+    """Tick labels of ``axis`` in powers of ten outside 1e-3 .. 1e5 (a penetration of 2e-5 m reads
+    ``2`` over ``1e-5``, not ``0.00002``, whose neighbours overlap)."""
+    ax.ticklabel_format(axis=axis, style="sci", scilimits=(-3, 5), useOffset=False)
+
+
 def _label(name: str) -> str:
     """``name [unit]`` for a parameter or an output column (``"<joint>.<output>"``: the output's
     unit)."""
@@ -2283,10 +2289,12 @@ class StudyResult:
             ax.hist(ok[o].to_numpy(dtype=float), bins=40, color="C0")
             ax.set_xlabel(_label(o))
             ax.set_ylabel("samples")
+            _sci_ticks(ax, "x")
         for ax in list(axes.flat)[len(outs) :]:
             ax.set_visible(False)
         fig.suptitle(f"{self.study.build}: {len(ok)} samples ({len(self.failed)} failed)")
-        fig.tight_layout()
+        # room above the top row for the title
+        fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / (3.2 * nrow)))
         paths.append(folder / "histograms.png")
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
@@ -2299,6 +2307,7 @@ class StudyResult:
                     ax.plot(bad[k], np.zeros(len(bad)), "x", color="C3", ms=4, label="failed")
                 ax.set_xlabel(_label(k))
                 ax.set_ylabel(_label(o))
+                _sci_ticks(ax, "both")
             for ax in list(axes.flat)[len(outs) :]:
                 ax.set_visible(False)
             fig.tight_layout()
