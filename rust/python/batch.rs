@@ -16,7 +16,7 @@ use crate::error::Error;
 use crate::integrator::Newmark;
 use crate::model::mechanism::Mechanism;
 use crate::plan::{Plan, StepperKind};
-use crate::record::{LinkChannels, RecordSpec};
+use crate::record::{LinkChannels, LinkHistory, RecordSpec};
 use crate::run::{NewtonSettings, Settings};
 
 /// A count given from Python as `i64`. Only negative values are refused here; zero is reported by
@@ -152,9 +152,7 @@ fn outcome_dict(py: Python<'_>, o: SampleOutcome) -> PyResult<Bound<'_, PyDict>>
     let rec = out.record;
     d.set_item("time", PyArray1::from_vec(py, rec.time))?;
     d.set_item("joints", joint_histories(py, rec.joints)?)?;
-    let peaks: Vec<(f64, f64)> = (rec.links.iter())
-        .map(|h| h.peaks.map_or((f64::NAN, f64::NAN), |p| (p.midspan, p.axial_force)))
-        .collect();
+    let peaks: Vec<[f64; 2]> = rec.links.iter().map(LinkHistory::peak_values).collect();
     d.set_item("links", peaks)?;
     Ok(d)
 }

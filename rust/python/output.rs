@@ -288,10 +288,10 @@ pub(super) fn run_output(py: Python<'_>, out: RunOutput, link_elements: &[usize]
     for (h, &ne) in rec.links.into_iter().zip(link_elements) {
         let nn = ne + 1;
         let fr_rows = h.frame.len();
+        let peaks = h.peak_values();
         let fr: Vec<f64> = h.frame.into_flattened();
         let drows = h.displacements.len() / (3 * nn);
         let arows = h.axial_force.len() / ne;
-        let peaks = h.peaks.map_or([f64::NAN; 2], |p| [p.midspan, p.axial_force]);
         let l = PyLinkHistory {
             max_midspan: peaks[0],
             max_axial_force: peaks[1],

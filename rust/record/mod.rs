@@ -287,6 +287,14 @@ pub struct LinkHistory {
     pub peaks: Option<LinkPeaks>,
 }
 
+impl LinkHistory {
+    /// `[peak midspan deflection m, peak axial force N]` ([`Self::peaks`]), NaN where they were
+    /// not tracked (and for a rigid link).
+    pub fn peak_values(&self) -> [f64; 2] {
+        self.peaks.map_or([f64::NAN; 2], |p| [p.midspan, p.axial_force])
+    }
+}
+
 /// The running peaks of one flexible link ([`LinkChannels::peaks`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinkPeaks {
