@@ -1306,10 +1306,11 @@ class Model:
             Which stepper runs the model. None (default): chosen from the model: ``"constant"``
             (the contact-free matrix factorized once, contact by Woodbury) where every link and
             bearing body translates at a fixed angle with only clearance joints and no link
-            energy or link peak recorded; else ``"constant-rate"`` (the moving-frame equations with the contact-free
-            Jacobian factorized once, contact by Woodbury) where every frame is at rest or turns
-            at a constant rate, no link carries geometric terms, no pinned or slider node sits on
-            a rotating link and both sides of each clearance joint turn at one rate;
+            energy or link peak recorded; else ``"constant-rate"`` (the moving-frame equations
+            with the contact-free Jacobian factorized once, contact by Woodbury) where every
+            frame is at rest or turns at a constant rate, no link carries geometric terms, no
+            pinned or slider node sits on a rotating link and both sides of each clearance joint
+            turn at one rate;
             ``"newton"`` (Newton on the moving-frame equations) otherwise. ``"newton"`` runs any
             model on the Newton stepper (e.g. to compare them); ``"constant"`` and
             ``"constant-rate"`` raise :class:`InvalidParameterError`, saying why, where the

@@ -311,7 +311,6 @@ _JOINT_PARAMETERS = frozenset(
         "damping_law",
     )
 )
-_IDEAL_LOCK = threading.Lock()
 #: Outputs that need the runs to track the contact modes (``Record(contact_modes=True)``).
 MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
 #: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS`).
@@ -814,37 +813,12 @@ class Study:
         #: The reported links (every flexible link with ``links``) and their indices in the model.
         self._link_indices = flexible if self.links else []
         self._link_names = [probe.link_names[i] for i in self._link_indices]
-        #: The ideal-joint runs of ``sliders``, per structure (see :meth:`_ideal_run`).
-        self._ideal: dict = {}
+        #: How many ideal-joint runs ``sliders`` has made (one per structure and batch,
+        #: :class:`_IdealRuns`).
+        self._ideal_made = 0
         self._inputs: Optional[Any] = None
         #: Thresholds for the report's exceedance table (output -> value), from a study file.
         self.report_thresholds: dict[str, float] = {}
-
-    def _ideal_run(self, kwargs: Optional[dict], t_end: float, dt: float, options: dict):
-        """The run of the same mechanism with ideal joints (the build with ``clearance_at=None``)
-        for a sample built with ``kwargs``: one per structure (the parameters other than the
-        clearance joint's, ``t_end``, ``dt``), shared by every sample of it; None when it fails."""
-        if kwargs is None:
-            return None
-        kw = {k: v for k, v in kwargs.items() if k not in _JOINT_PARAMETERS}
-        kw["clearance_at"] = None
-        key = (json.dumps(kw, sort_keys=True, default=repr), float(t_end), float(dt))
-        with _IDEAL_LOCK:
-            if key not in self._ideal:
-                from .result import Record
-
-                # the slider histories only: the reference every sample of the structure compares
-                # with online (Record.slider_reference)
-                record = Record(
-                    histories=False, displacements=False, sliders=True, every=self.history_every or 1
-                )
-                try:
-                    model = self._scene_fn(**kw)
-                    self._ideal[key] = model.simulate(t_end, dt, record=record, progress=False, **options)
-                    self._ideal[key]._slider_reference()  # the core's shared copy, built once here
-                except FlexclearError:
-                    self._ideal[key] = None
-            return self._ideal[key]
 
     # -- definition ---------------------------------------------------------------------------
 
@@ -1543,9 +1517,87 @@ def _run_rows(study: Study, ids: list, rows: list, pool: tuple, progress=None):
     return frame, pending
 
 
-def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict) -> dict:
+class _IdealRuns:
+    """The ideal-joint runs of one batch of samples of ``Study(sliders=True)``: one per structure
+    (the build's parameters other than the clearance joint's, ``t_end`` and ``dt``), made by the
+    first sample of its structure that asks for it, outside any lock shared with other
+    structures (the other samples of the structure wait for it; other structures' runs go on in
+    parallel), and dropped once the last sample of its structure that the batch expects
+    (:meth:`expect`) has finished with it (:meth:`release`): a batch holds about one ideal run
+    per worker thread, not one per structure (their slider histories are O(steps))."""
+
+    def __init__(self, study: Study) -> None:
+        self.study = study
+        self.lock = threading.Lock()
+        self.runs: dict = {}
+        self.pending: dict = {}
+
+    @staticmethod
+    def key(kwargs: dict, t_end: float, dt: float) -> tuple:
+        kw = {k: v for k, v in kwargs.items() if k not in _JOINT_PARAMETERS}
+        kw["clearance_at"] = None
+        return (json.dumps(kw, sort_keys=True, default=repr), float(t_end), float(dt)), kw
+
+    def expect(self, kwargs: Optional[dict], t_end: float, dt: float) -> None:
+        """Counts one more sample of ``kwargs``' structure in the batch."""
+        if kwargs is not None:
+            key = self.key(kwargs, t_end, dt)[0]
+            with self.lock:
+                self.pending[key] = self.pending.get(key, 0) + 1
+
+    def get(self, kwargs: Optional[dict], t_end: float, dt: float, options: dict):
+        """The ideal run of the sample built with ``kwargs`` (a :class:`Result` with its slider
+        histories and their shared core reference); None when it failed or without ``kwargs``."""
+        if kwargs is None:
+            return None
+        from concurrent.futures import Future
+
+        from .result import Record
+
+        key, kw = self.key(kwargs, t_end, dt)
+        with self.lock:
+            fut = self.runs.get(key)
+            owner = fut is None
+            if owner:
+                fut = self.runs[key] = Future()
+                self.study._ideal_made += 1
+        if owner:
+            # the slider histories only: the reference every sample of the structure compares
+            # with online (Record.slider_reference)
+            record = Record(
+                histories=False, displacements=False, sliders=True, every=self.study.history_every or 1
+            )
+            try:
+                run = self.study._scene_fn(**kw).simulate(t_end, dt, record=record, progress=False, **options)
+                run._slider_reference()  # the core's shared copy, built once here
+            except FlexclearError:
+                run = None
+            except BaseException as e:  # the waiting samples see it too
+                fut.set_exception(e)
+                raise
+            fut.set_result(run)
+        return fut.result()
+
+    def release(self, kwargs: Optional[dict], t_end: float, dt: float) -> None:
+        """One sample of ``kwargs``' structure is done with its ideal run: dropped after the last."""
+        if kwargs is None:
+            return
+        key = self.key(kwargs, t_end, dt)[0]
+        with self.lock:
+            left = self.pending.get(key, 0) - 1
+            if left > 0:
+                self.pending[key] = left
+            else:
+                self.pending.pop(key, None)
+                self.runs.pop(key, None)
+
+
+def _run_one_moving(
+    study: Study, model, t_end: float, dt: float, options: dict, ideals: Optional[_IdealRuns] = None
+) -> dict:
     """One moving-frame sample, with retries at a smaller step after a divergence or a step that
-    does not converge; the outcome in the layout of the Rust batch."""
+    does not converge; the outcome in the layout of the Rust batch. ``ideals``: the batch's
+    ideal-joint runs (``sliders``; a cache of its own when not given)."""
     from .result import Record
 
     hist = study.history_every is not None
@@ -1554,7 +1606,12 @@ def _run_one_moving(study: Study, model, t_end: float, dt: float, options: dict)
         options = {**options, "tol": study.tol}
     ideal = None
     if study.sliders:
-        ideal = study._ideal_run(getattr(model, "_build_kwargs", None), t_end, dt0, options)
+        ideals = ideals or _IdealRuns(study)
+        build = getattr(model, "_build_kwargs", None)
+        try:
+            ideal = ideals.get(build, t_end, dt0, options)
+        finally:
+            ideals.release(build, t_end, dt0)
     retries = 0
     t0 = time.perf_counter()
     while True:
@@ -1671,8 +1728,11 @@ def _run_moving(study: Study, jobs: list, threads: int, one_done, options: dict)
 
     workers = threads if threads > 0 else (os.cpu_count() or 1)
     out: dict[int, dict] = {}
+    ideals = _IdealRuns(study)
+    for _, m, t, d in jobs:
+        ideals.expect(getattr(m, "_build_kwargs", None), t, d)
     with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
-        futures = {ex.submit(_run_one_moving, study, m, t, d, options): k for k, m, t, d in jobs}
+        futures = {ex.submit(_run_one_moving, study, m, t, d, options, ideals): k for k, m, t, d in jobs}
         try:
             for fut in as_completed(futures):
                 out[futures[fut]] = fut.result()
