@@ -93,18 +93,35 @@ pub fn to_pyerr(py: Python<'_>, e: &Error, partial: Option<Bound<'_, PyAny>>) ->
     build().unwrap_or_else(|err| err)
 }
 
+/// Whether the calling thread is Python's main thread, the only one that sees signals (an
+/// error in asking counts as the main thread: the run then checks as it always may).
+fn on_main_thread(py: Python<'_>) -> bool {
+    let ask = || -> PyResult<bool> {
+        let threading = py.import("threading")?;
+        let main = threading.call_method0("main_thread")?;
+        Ok(main.is(&threading.call_method0("current_thread")?))
+    };
+    ask().unwrap_or(true)
+}
+
 /// Runs `f` with the GIL released. `f` receives a control function for the engine: it briefly
 /// re-acquires the GIL to check for signals (Ctrl-C) and to call `progress(fraction)` when given,
-/// and returns false to stop the run.
+/// and returns false to stop the run. On a thread other than the main one, which never sees a
+/// signal, and without `progress`, it does not take the GIL at all: runs on worker threads (a
+/// study's samples) then never wait for each other's Python code.
 pub fn run_detached<T, F>(py: Python<'_>, progress: Option<Py<PyAny>>, f: F) -> (T, Option<PyErr>)
 where
     T: Send,
     F: FnOnce(&mut dyn FnMut(f64) -> bool) -> T + Send,
 {
+    let silent = progress.is_none() && !on_main_thread(py);
     py.detach(|| {
         let mut pending: Option<PyErr> = None;
         let result = {
             let mut control = |fraction: f64| -> bool {
+                if silent {
+                    return true;
+                }
                 Python::attach(|py| {
                     if let Err(e) = py.check_signals() {
                         pending = Some(e);
