@@ -185,6 +185,9 @@ def _record(g: _Gen, t_end: Any, links: list, joints: list) -> dict:
         rec["start"] = g.num(0.0, 0.95 * te, log=False)
         if g.hostile():
             rec["start"] = g.r.choice([te, 2 * te, te * (1 - 1e-12), -0.0])
+    for key in ("link_peaks", "contact_modes"):
+        if g.maybe(0.15):
+            rec[key] = g.flag()
     return {"$record": rec, "as_dict": g.maybe(0.3)}
 
 
@@ -682,6 +685,8 @@ def _study_case(g: _Gen) -> dict:
     if g.maybe(0.2):
         kw["retries"] = g.integer(0, 2)
         kw["retry_factor"] = g.num(0.1, 0.9, log=False)
+    if g.maybe(0.15):
+        kw["links"] = g.flag()
     if g.maybe(0.3):
         opts = _run_options(g, build in ("slider_crank", "four_bar"))
         opts.pop("raise_on_failure", None)
