@@ -47,7 +47,8 @@ class Record:
         Track every flexible link's peak midspan deflection (m, relative to the chord) and peak
         element axial force (N) over every step from ``start`` on (:attr:`LinkResult.max_midspan`,
         :attr:`LinkResult.max_axial_force`): running maxima, O(1) memory per link whatever
-        ``every`` and ``histories``. Tracked by the Newton stepper, as ``energy``.
+        ``every`` and ``histories`` (a ``tol=`` run tracks them at its output points). Tracked
+        by the Newton stepper, as ``energy``.
     every : int
         Keep every k-th step (the initial state is always kept).
     histories : bool
