@@ -257,6 +257,40 @@ fn band_lanes_of<const L: usize>(c: &mut Criterion) {
             BatchSize::SmallInput,
         )
     });
+    // the solve alone on factors made once (a Newton step solves 1.2 times per factorization
+    // kept for up to 20 steps): its latency-bound chains are what lanes side by side can hide
+    let factored: Vec<BandLu> = (mats.iter().cloned())
+        .map(|mut m| {
+            m.factorize("bench").expect("factorizes");
+            m
+        })
+        .collect();
+    g.bench_function(format!("{L} x BandLu solve"), |bch| {
+        bch.iter_batched(
+            || vec![rhs.clone(); L],
+            |mut xs| {
+                for (m, x) in factored.iter().zip(xs.iter_mut()) {
+                    m.solve_in_place(black_box(x));
+                }
+                xs
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    let mut lanes_factored = lanes.clone();
+    for r in lanes_factored.factorize("bench") {
+        r.expect("factorizes");
+    }
+    g.bench_function(format!("BandLuLanes<{L}> solve"), |bch| {
+        bch.iter_batched(
+            || xl.clone(),
+            |mut x| {
+                lanes_factored.solve_in_place(black_box(&mut x));
+                x
+            },
+            BatchSize::SmallInput,
+        )
+    });
     g.finish();
 }
 
