@@ -18,8 +18,11 @@ How (and why this way):
   benches/gate_base) from `git archive` of that commit (a throwaway checkout, like a temporary
   worktree). The absolute source path ends up in the binary (debug info, symbol strings), so
   from one path the same source gives the same bytes: the gate says when the two binaries are
-  identical, i.e. when every difference it measures is noise. The target dir is the
-  repository's, so the dependencies that `cargo test --release` built serve both sides.
+  identical, i.e. when every difference it measures is noise. The builds go to a target dir of
+  their own, `<repository target>/gate-build` (its dependencies kept there from run to run): the
+  copies are the same package as the working tree, and cargo gave their `flexclear` library the
+  same file name in a shared target dir, so that after a gate run `cargo bench` in the
+  repository built against the baseline's library (and took it for fresh).
 - The baseline binary is cached under `$FLEXCLEAR_GATE_CACHE` (default
   `~/.cache/flexclear/bench-gate`), keyed by the commit, `rustc -vV`, `cargo -V` and every
   environment variable or cargo config file that changes code generation: the same inputs give
@@ -217,8 +220,7 @@ def build_from_src(fill, target: Path, env: dict, dest: Path) -> None:
     binary (debug info, panic locations), and two builds from different paths differ in layout
     by a few per cent on the tight loops even from the same source, which would be read as a
     change of speed. From one path, the same source gives the same binary (the gate says so).
-    The target dir is the repository's, so the dependencies built by `cargo test --release`
-    serve both sides."""
+    `target` is the gate's own target dir (see the module documentation)."""
     with open(SRC.parent / (SRC.name + ".lock"), "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         shutil.rmtree(SRC, ignore_errors=True)
@@ -370,11 +372,12 @@ def main() -> int:
     head = sh(["git", "rev-parse", "--short=12", "HEAD"], cwd=ROOT).strip()
     dirty = bool(sh(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT).strip())
     env = dict(os.environ)
-    target = target_dir()
+    # the gate's own target dir: the copies in SRC are the same package as the working tree
+    target = target_dir() / "gate-build"
 
     t0 = time.monotonic()
     log(f"bench gate: building the candidate (the working tree, copied to {SRC})")
-    cand = target / "gate" / "core-candidate"
+    cand = target.parent / "gate" / "core-candidate"
     build_from_src(export_candidate, target, env, cand)
     log(f"bench gate: candidate built ({time.monotonic() - t0:.0f} s)")
     t0 = time.monotonic()
@@ -486,7 +489,7 @@ def main() -> int:
             print("|" + "|".join("-" * (w + 2) for w in widths) + "|")
     print(f"\nbench gate: {'FAILED' if failed else 'passed'}")
 
-    out = target / "gate"
+    out = target.parent / "gate"
     out.mkdir(parents=True, exist_ok=True)
     (out / "last.json").write_text(
         json.dumps(
