@@ -500,6 +500,9 @@ def test_study_holds_an_ideal_run_only_while_samples_of_its_structure_wait(monke
     f = s.run(threads=1, progress=False).frame
     assert (f["status"] == "ok").all() and f["slider.position_deviation_max"].gt(0).all()
     assert s._ideal_made == 5 and held == [1] * 5
+    # on two threads the ideal runs are made side by side: the same frame, bit for bit
+    g = Study.from_dict(s.to_dict()).run(threads=2, progress=False).frame
+    assert g.drop(columns="wall_time").equals(f.drop(columns="wall_time"))
 
 
 def test_slider_deviations_online_equal_the_history_based_ones():
