@@ -407,6 +407,11 @@ def test_study_link_outputs_are_the_single_runs_peaks():
     g = both.run(threads=1, progress=False).frame
     np.testing.assert_array_equal(g["rod.max_midspan"], f["rod.max_midspan"])
     assert Study.from_dict(s.to_dict()).links and "links" not in Study("slider_crank", **kw).to_dict()
+    # with one link, a bare output name is its column (thresholds of a study file, exceedance)
+    assert (
+        s.column("max_midspan") == "rod.max_midspan"
+        and both.column("max_acceleration") == "slider.max_acceleration"
+    )
     with pytest.raises(fc.InvalidParameterError, match="links"):
         Study("slider_crank", links="yes", **kw)
 

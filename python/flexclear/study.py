@@ -902,12 +902,18 @@ class Study:
 
     def column(self, output: str) -> str:
         """The result column of ``output``: a full ``"<joint>.<output>"`` name, or a bare output
-        name when the study reports on one joint."""
+        name when the study reports on one joint (one slider for :data:`SLIDER_OUTPUTS`, one
+        link for :data:`LINK_OUTPUTS`)."""
         cols = self.output_columns
         if output in cols:
             return output
-        if output in self.outputs and len(self.joints) == 1:
-            return f"{self.joints[0]}.{output}"
+        for names, outputs in (
+            (self.joints, self.outputs),
+            (self._slider_names, SLIDER_OUTPUTS),
+            (self._link_names, LINK_OUTPUTS),
+        ):
+            if output in outputs and len(names) == 1:
+                return f"{names[0]}.{output}"
         raise InvalidParameterError(f"output = {output!r} is not allowed; allowed: one of {cols}")
 
     def fingerprint(self) -> str:
