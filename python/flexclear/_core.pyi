@@ -30,6 +30,7 @@ __all__ = [
     "LuGreFriction",
     "RETRY_MIN_STEP_RATIO",
     "TRUNCATION_FRACTION",
+    "MAX_ITER",
     "__version__",
 ]
 
@@ -39,6 +40,8 @@ RETRY_MIN_STEP_RATIO: float
 #: Default fraction of a fixed step's local truncation error at which its Newton iterations stop
 #: (where it is above their tolerance).
 TRUNCATION_FRACTION: float
+#: Largest iteration cap (`max_iter`) of a step, Newton's or the contact iteration's.
+MAX_ITER: int
 
 @final
 class Motion:

@@ -101,7 +101,7 @@ def _is_number(x: Any) -> bool:
     return is_real(x)
 
 
-#: Largest integer a count of the core (``every``, ``max_iter``) may be: a signed 64-bit value.
+#: Largest integer a count of the core (``every``, ``count``) may be: a signed 64-bit value.
 _MAX_COUNT = 2**62
 
 
@@ -1237,7 +1237,8 @@ class Model:
             two free links), off otherwise (the paper's lagged kappa). ``stats["iterate"]`` says
             what ran.
         iter_tol, max_iter : float, int, optional
-            Tolerance and cap of the within-step iterations. Default (None): the contact
+            Tolerance and cap (at most ``flexclear._core.MAX_ITER``, 10000) of the within-step
+            iterations. Default (None): the contact
             iteration converges kappa to 1e-10 relative within 50 iterations while every link
             translates; Newton on the moving-frame equations stops at a correction of 1e-8 of the
             displacement scale, or (from the third iteration) where its corrections' contraction
@@ -1398,9 +1399,9 @@ class Model:
             raise _bad("iter_tol", iter_tol, "a finite relative tolerance > 0")
         max_iter = iter_default if max_iter is None else max_iter
         if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool)) or not (
-            1 <= max_iter <= _MAX_COUNT
+            1 <= max_iter <= _core.MAX_ITER
         ):
-            raise _bad("max_iter", max_iter, f"an integer in 1 ..= {_MAX_COUNT}")
+            raise _bad("max_iter", max_iter, f"an integer in 1 ..= {_core.MAX_ITER}")
         joints = None if rec.joints is None else [self._joint_index(j) for j in rec.joints]
         nodes = [
             (self._link_index(ln), self._node(self._link_index(ln), n, "record.nodes")) for ln, n in rec.nodes

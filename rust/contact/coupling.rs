@@ -58,9 +58,7 @@ impl Coupling {
             Coupling::Force | Coupling::Continuous => Ok(()),
             Coupling::Modified { tol, max_iter, .. } => {
                 check_positive("tol", tol, "(relative)")?;
-                if max_iter < 1 {
-                    return Err(Error::param("max_iter", max_iter, "an integer >= 1"));
-                }
+                check_max_iter(max_iter)?;
                 Ok(())
             }
             Coupling::Gap {
@@ -72,9 +70,7 @@ impl Coupling {
                     check_positive("gap_stiffness", k, "N/m")?;
                 }
                 check_non_negative("gap_damping", damping, "N s/m")?;
-                if max_iter < 1 {
-                    return Err(Error::param("max_iter", max_iter, "an integer >= 1"));
-                }
+                check_max_iter(max_iter)?;
                 Ok(())
             }
         }
@@ -88,5 +84,19 @@ impl Coupling {
             Coupling::Gap { .. } => "gap",
             Coupling::Continuous => "continuous",
         }
+    }
+}
+
+/// The iteration cap of a coupling: `1 ..= MAX_ITER` ([`crate::run::MAX_ITER`]).
+fn check_max_iter(max_iter: usize) -> Result<()> {
+    use crate::run::MAX_ITER;
+    if (1..=MAX_ITER).contains(&max_iter) {
+        Ok(())
+    } else {
+        Err(Error::param(
+            "max_iter",
+            max_iter,
+            format!("an integer in 1 ..= {MAX_ITER}"),
+        ))
     }
 }
