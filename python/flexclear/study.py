@@ -1528,9 +1528,10 @@ class _IdealRuns:
     (the build's parameters other than the clearance joint's, ``t_end`` and ``dt``), made by the
     first sample of its structure that asks for it, outside any lock shared with other
     structures (the other samples of the structure wait for it; other structures' runs go on in
-    parallel), and dropped once the last sample of its structure that the batch expects
-    (:meth:`expect`) has finished with it (:meth:`release`): a batch holds about one ideal run
-    per worker thread, not one per structure (their slider histories are O(steps))."""
+    parallel), and dropped from the cache once the last sample of its structure that the batch
+    expects (:meth:`expect`) has taken it (:meth:`release`; that sample keeps it while it runs):
+    a batch holds about one ideal run per worker thread, not one per structure (their slider
+    histories are O(steps))."""
 
     def __init__(self, study: Study) -> None:
         self.study = study
