@@ -149,6 +149,10 @@ WRONG_TYPES = [
     # fuzz seed 62, case 135129: a gap-element run asked for 1e7 iterations a step, whose
     # iteration cycled at every step: about 55 minutes (MAX_ITER caps it at 1e4)
     (_simulate(max_iter=10**7, method="gap"), "max_iter"),
+    (
+        lambda: Study("slider_crank", fixed={"clearance_at": "crank_pin"}, run_options={"max_iter": 10**7}),
+        "run_options.max_iter",
+    ),
     (_simulate(gap_damping="abc"), "gap_damping"),
     (_simulate(gap_stiffness="abc", method="gap"), "gap_stiffness"),
     (_simulate(divergence_limit="abc"), "divergence_limit"),

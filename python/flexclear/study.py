@@ -435,7 +435,10 @@ def _check_run_options(options: Mapping[str, Any]) -> None:
             lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
             "None or a finite tolerance > 0",
         ),
-        "max_iter": (lambda v: v is None or (integer(v) and 1 <= v <= 2**62), "None or an integer >= 1"),
+        "max_iter": (
+            lambda v: v is None or (integer(v) and 1 <= v <= _core.MAX_ITER),
+            f"None or an integer in 1 ..= {_core.MAX_ITER}",
+        ),
         "gap_stiffness": (
             lambda v: v is None or (real(v) and math.isfinite(v) and v > 0),
             "None or a finite N/m > 0",
