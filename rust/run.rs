@@ -207,6 +207,20 @@ pub const TRUNCATION_FRACTION: f64 = 0.01;
 /// run asked for 1e7 a step: 782 steps, about 55 minutes).
 pub const MAX_ITER: usize = 10_000;
 
+/// An iteration cap, Newton's or a contact coupling's: `1 ..= MAX_ITER`, else
+/// [`Error::InvalidParameter`] naming `max_iter`.
+pub(crate) fn check_max_iter(max_iter: usize) -> Result<()> {
+    if (1..=MAX_ITER).contains(&max_iter) {
+        Ok(())
+    } else {
+        Err(Error::param(
+            "max_iter",
+            max_iter,
+            format!("an integer in 1 ..= {MAX_ITER}"),
+        ))
+    }
+}
+
 /// The largest Newton tolerance (relative correction) that [`NewtonSettings::truncation_fraction`]
 /// may relax a fixed step's to. The Zienkiewicz-Xie estimate speaks for the modes a step
 /// resolves; modes far above `1 / h` (a stiff rod's) inflate it without making the step less
@@ -263,13 +277,7 @@ impl NewtonSettings {
 
     fn validate(&self) -> Result<()> {
         check_positive("tol", self.tol, "(relative)")?;
-        if !(1..=MAX_ITER).contains(&self.max_iter) {
-            return Err(Error::param(
-                "max_iter",
-                self.max_iter,
-                format!("an integer in 1 ..= {MAX_ITER}"),
-            ));
-        }
+        check_max_iter(self.max_iter)?;
         let f = self.truncation_fraction;
         if !(f.is_finite() && (0.0..1.0).contains(&f)) {
             return Err(Error::param("truncation_fraction", f, "in [0, 1)"));

@@ -1,6 +1,6 @@
 //! How a clearance joint's force enters the Newmark step.
 
-use crate::error::{check_non_negative, check_positive, Error, Result};
+use crate::error::{check_non_negative, check_positive, Result};
 
 /// The couplings of docs/method.md section 4, and the continuous-contact model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,7 +58,7 @@ impl Coupling {
             Coupling::Force | Coupling::Continuous => Ok(()),
             Coupling::Modified { tol, max_iter, .. } => {
                 check_positive("tol", tol, "(relative)")?;
-                check_max_iter(max_iter)?;
+                crate::run::check_max_iter(max_iter)?;
                 Ok(())
             }
             Coupling::Gap {
@@ -70,7 +70,7 @@ impl Coupling {
                     check_positive("gap_stiffness", k, "N/m")?;
                 }
                 check_non_negative("gap_damping", damping, "N s/m")?;
-                check_max_iter(max_iter)?;
+                crate::run::check_max_iter(max_iter)?;
                 Ok(())
             }
         }
@@ -84,19 +84,5 @@ impl Coupling {
             Coupling::Gap { .. } => "gap",
             Coupling::Continuous => "continuous",
         }
-    }
-}
-
-/// The iteration cap of a coupling: `1 ..= MAX_ITER` ([`crate::run::MAX_ITER`]).
-fn check_max_iter(max_iter: usize) -> Result<()> {
-    use crate::run::MAX_ITER;
-    if (1..=MAX_ITER).contains(&max_iter) {
-        Ok(())
-    } else {
-        Err(Error::param(
-            "max_iter",
-            max_iter,
-            format!("an integer in 1 ..= {MAX_ITER}"),
-        ))
     }
 }

@@ -60,7 +60,7 @@ pub struct LinkChannels {
     pub energy: bool,
     /// The running peaks of every flexible link: the largest magnitude of its midspan deflection
     /// (m) and of any element's axial force (N) over every step from `RecordSpec::start` on
-    /// ([`LinkHistory::max_midspan`], [`LinkHistory::max_axial_force`]): O(1) memory per link,
+    /// ([`LinkHistory::peaks`]): O(1) memory per link,
     /// whatever the stride and `histories`. Tracked by the Newton stepper (a model the constant
     /// stepper would run runs there when they are asked for, as for `energy`).
     pub peaks: bool,
