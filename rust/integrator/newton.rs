@@ -90,7 +90,7 @@ use crate::error::{Error, Result};
 use crate::kinematics::FrameState;
 use crate::linalg::{BandLu, LowRankBlocks, Woodbury, WoodburyScratch};
 use crate::model::mechanism::{Endpoint, Mechanism};
-use crate::record::{JointHistory, LinkHistory, LinkPeaks, RecordSpec, Recorder, SliderHistory};
+use crate::record::{reserve_now, JointHistory, LinkHistory, LinkPeaks, RecordSpec, Recorder, SliderHistory};
 use crate::run::JACOBIAN_REUSE_ITERATIONS;
 use crate::run::{RunFailure, RunOutput, RunStats, Settings, SolverMode};
 
@@ -3695,38 +3695,38 @@ impl<'a> NewtonRun<'a> {
         }
         let rec = &self.settings.record;
         let samples = crate::record::initial_samples(steps, rec.every);
-        self.hist_time.reserve(samples);
+        reserve_now(&mut self.hist_time, samples);
         let ch = rec.links;
         for (li, hist) in self.hist_links.iter_mut().enumerate() {
             let l = &self.mech.links[li];
-            hist.frame.reserve(samples);
+            reserve_now(&mut hist.frame, samples);
             if ch.displacements {
-                hist.displacements.reserve(samples * 3 * l.nodes());
+                reserve_now(&mut hist.displacements, samples * 3 * l.nodes());
             }
             if ch.axial_force {
-                hist.axial_force.reserve(samples * l.section.elements);
+                reserve_now(&mut hist.axial_force, samples * l.section.elements);
             }
             if ch.midspan {
-                hist.midspan.reserve(samples);
+                reserve_now(&mut hist.midspan, samples);
             }
             if ch.energy {
                 for v in [&mut hist.kinetic, &mut hist.strain, &mut hist.momentum] {
-                    v.reserve(samples);
+                    reserve_now(v, samples);
                 }
             }
         }
         for h in &mut self.hist_joints {
-            h.penetration.reserve(samples);
-            h.force.reserve(samples);
+            reserve_now(&mut h.penetration, samples);
+            reserve_now(&mut h.force, samples);
             if rec.joint_position {
-                h.qx.reserve(samples);
-                h.qy.reserve(samples);
+                reserve_now(&mut h.qx, samples);
+                reserve_now(&mut h.qy, samples);
             }
         }
         if self.keep_sliders {
             for h in &mut self.hist_sliders {
                 for v in [&mut h.position, &mut h.velocity, &mut h.acceleration] {
-                    v.reserve(samples);
+                    reserve_now(v, samples);
                 }
             }
         }

@@ -702,6 +702,39 @@ pub struct Recorder {
 /// (amortized doubling) as the run records them.
 pub const INITIAL_SAMPLES: usize = 1 << 16;
 
+/// Histories shorter than this (bytes of spare capacity) are left to fault in as they fill.
+const PREFAULT_MIN_BYTES: usize = 64 << 10;
+
+/// Reserves room for `additional` more samples in `v` and backs it with memory at once, in one
+/// call to the kernel, rather than one page fault per 4 KiB page as the run first writes it
+/// (Linux: `madvise(MADV_POPULATE_WRITE)`, since 5.14; an older kernel leaves the pages to fault
+/// in as before; elsewhere a plain `reserve`). Room under [`PREFAULT_MIN_BYTES`] is left to fault
+/// in. On a virtual machine a first-touch fault costs microseconds: a fresh process's crank-pin
+/// slider-crank run of 10^4 steps took about 700 of them for its default recording.
+pub(crate) fn reserve_now<T>(v: &mut Vec<T>, additional: usize) {
+    v.reserve(additional);
+    #[cfg(target_os = "linux")]
+    {
+        const PAGE: usize = 4096;
+        let spare = v.spare_capacity_mut();
+        let bytes = std::mem::size_of_val(spare);
+        if bytes < PREFAULT_MIN_BYTES {
+            return;
+        }
+        let start = spare.as_mut_ptr() as usize;
+        let end = start + bytes;
+        let (p0, p1) = (start.next_multiple_of(PAGE), end / PAGE * PAGE);
+        // SAFETY: the range lies inside `v`'s allocation (its spare capacity), which `v` owns;
+        // the advice does not change the memory's contents (errors, e.g. an older kernel's EINVAL,
+        // are ignored: the pages then fault in as they are written)
+        unsafe {
+            if p1 > p0 {
+                libc::madvise(p0 as *mut libc::c_void, p1 - p0, libc::MADV_POPULATE_WRITE);
+            }
+        }
+    }
+}
+
 /// The samples reserved up front for the histories of a run of `steps` grid steps recorded every
 /// `every`-th step (with the first and the last): at most [`INITIAL_SAMPLES`].
 pub(crate) fn initial_samples(steps: u64, every: usize) -> usize {
@@ -719,7 +752,13 @@ impl Recorder {
         } else {
             0
         };
-        let cap = |on: bool| if on { Vec::with_capacity(samples) } else { Vec::new() };
+        let cap = |on: bool| {
+            let mut v = Vec::new();
+            if on {
+                reserve_now(&mut v, samples);
+            }
+            v
+        };
         Recorder {
             time: cap(spec.histories),
             joints: if spec.histories {
@@ -1097,6 +1136,41 @@ fn normal_speed(q: [f64; 2], qd: [f64; 2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reserve_now_keeps_the_samples_and_backs_the_room_with_memory() {
+        let mut v: Vec<f64> = (0..10).map(f64::from).collect();
+        let n = 1 << 19; // 4 MiB of room
+        reserve_now(&mut v, n);
+        assert!(v.capacity() >= 10 + n);
+        assert_eq!(v, (0..10).map(f64::from).collect::<Vec<_>>());
+        #[cfg(target_os = "linux")]
+        {
+            // every whole page of the room is resident before anything is written to it
+            const PAGE: usize = 4096;
+            let spare = v.spare_capacity_mut();
+            let start = (spare.as_mut_ptr() as usize).next_multiple_of(PAGE);
+            let end = (spare.as_mut_ptr() as usize + std::mem::size_of_val(spare)) / PAGE * PAGE;
+            let pages = (end - start) / PAGE;
+            let mut resident = vec![0u8; pages];
+            // SAFETY: the range is mapped (inside `v`'s allocation); `resident` has a byte a page
+            let rc = unsafe { libc::mincore(start as *mut libc::c_void, end - start, resident.as_mut_ptr()) };
+            assert_eq!(rc, 0);
+            // (MADV_POPULATE_WRITE came with Linux 5.14)
+            let release = std::fs::read_to_string("/proc/sys/kernel/osrelease").unwrap_or_default();
+            let mut parts = release
+                .split(|c: char| !c.is_ascii_digit())
+                .filter_map(|p| p.parse::<u32>().ok());
+            let version = (parts.next().unwrap_or(0), parts.next().unwrap_or(0));
+            if version >= (5, 14) {
+                assert!(resident.iter().all(|&r| r & 1 == 1), "some pages were left unbacked");
+            }
+        }
+        // room below PREFAULT_MIN_BYTES: a plain reserve
+        let mut w: Vec<f64> = Vec::new();
+        reserve_now(&mut w, 16);
+        assert!(w.capacity() >= 16 && w.is_empty());
+    }
 
     #[test]
     fn sums_of_squares_of_huge_values_stay_finite_and_ordinary_ones_are_untouched() {
