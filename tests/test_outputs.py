@@ -199,6 +199,67 @@ def test_a_journal_dropped_on_the_wall_bounces_then_stays():
     assert j.continuous_fraction * 0.05 == pytest.approx(0.05 - log.time[-1], rel=1e-3)
 
 
+def test_clearance_outputs_converge_as_the_step_shrinks_but_the_impact_count_does_not():
+    """The crank-pin slider-crank (scene defaults, 0.1 s) at dt = 1e-5, 2.5e-6 and 6.25e-7 s.
+    Measured (2026-11-29): peak force 7984.4, 7978.8, 7978.5 N; RMS force 675.60, 675.08,
+    675.23 N; dissipated energy 0.1531, 0.1683, 0.1705 J (differences 0.0152 then 0.0022: about
+    order 1.4, so the scene's default step leaves about 10 % out); free-flight, impact and
+    continuous fractions within 0.0008 of each other; impacts 13, 37, 103. Each closing counts as
+    an impact: the three impacts proper (first closings at 0.47, 1.43 and 1.99 ms, after free
+    flights of 717-730 and 240-261 us) are the same at every dt, and the other closings end
+    separations of at most 40, 17.5 and 14.4 us (a median of a few steps) during the continuous
+    contact that follows, which a finer step resolves more of."""
+    m = scenes.slider_crank(clearance_at="crank_pin")
+    runs = []
+    for dt in (1e-5, 2.5e-6, 6.25e-7):
+        r = m.simulate(0.1, dt, record=Record(histories=False, contact_modes=True, impact_log=True))
+        runs.append(r.joint("crank_pin"))
+    # the approach speed of the first impact, from the last open state: 2.132, 2.129, 2.134 m/s
+    # (from the first closed state it was 1.165, 1.715, 2.001: slowed by the contact force)
+    speed = [j.max_impact_velocity for j in runs]
+    assert max(speed) - min(speed) < 5e-3 * speed[2], speed
+    peak = [j.max_force for j in runs]
+    rms = [j.rms_force for j in runs]
+    work = [j.dissipated_energy for j in runs]
+    # converging: the second refinement moves each output less than the first, and the peak and
+    # RMS force sit within 0.2 % and 0.1 % of the finest run
+    for v in (peak, rms, work):
+        assert abs(v[2] - v[1]) < abs(v[1] - v[0]), v
+    assert peak[0] == pytest.approx(peak[2], rel=2e-3)
+    assert rms[0] == pytest.approx(rms[2], rel=1e-3)
+    # the dissipated energy at better than first order (the differences fall by more than the
+    # refinement's 4, here 6.9)
+    assert abs(work[2] - work[1]) < abs(work[1] - work[0]) / 4, work
+    for k in MODES:
+        f = [getattr(j, k) for j in runs]
+        assert max(f) - min(f) < 2e-3, (k, f)  # 200 us of the 0.1 s run
+    # the impact count grows with the resolution: the extra impacts are rebounds a few steps
+    # after an opening, and the gaps longer than 100 us (impacts proper) stay the same
+    counts = [j.impacts for j in runs]
+    assert counts[0] < counts[1] < counts[2], counts
+    proper = []
+    for j, dt in zip(runs, (1e-5, 2.5e-6, 6.25e-7)):
+        log = j.impact_log
+        gaps = log.time[1:] - (log.time[:-1] + log.duration[:-1])
+        assert np.median(gaps) < 5 * dt, (dt, np.median(gaps))
+        proper.append(1 + int(np.sum(gaps > 1e-4)))
+    assert len(set(proper)) == 1, proper
+
+
+@pytest.mark.parametrize("dt", [1e-4, 1e-5, 1e-6])
+def test_the_impact_velocity_of_a_free_flight_is_its_speed(dt):
+    # the bar flies at V0 until it reaches the walls: the approach speed is V0 at any step (the
+    # first closed state of the implicit contact, slowed by the contact for part of its step,
+    # gave 0.0917, 0.0995 and 0.09996 m/s at dt = 1e-4, 1e-5 and 1e-6 s)
+    r = bar().simulate(4e-3, dt, iterate=True, record=Record(histories=False, impact_log=True))
+    for name in ("left", "right"):
+        j = r.joint(name)
+        assert j.impact_log.speed[0] == pytest.approx(V0, rel=1e-9)
+        # (at 1e-4 s, 7 steps a contact, the bar rebounds across the clearance faster than it
+        # came, 0.134 m/s: the energy a fixed step adds at an entry between steps)
+        assert j.max_impact_velocity == max(j.impact_log.speed)
+
+
 def test_study_outputs_include_the_contact_modes_and_the_dissipation():
     for name in MODES + ("dissipated_energy",):
         assert name in OUTPUTS

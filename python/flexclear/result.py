@@ -112,7 +112,8 @@ class ImpactLog:
     time : ndarray
         Entry times, s.
     speed : ndarray
-        Normal approach speed at entry, ``q' . q / |q|``, m/s.
+        Normal approach speed at entry, ``q' . q / |q|``, m/s (on fixed steps that of the last
+        state before the entry, as ``max_impact_velocity``).
     peak_force : ndarray
         Largest contact force magnitude of each episode, N.
     peak_penetration : ndarray
@@ -192,7 +193,9 @@ class JointResult(_Channels):
     max_velocity : float
         Largest speed of the journal relative to the bearing, m/s.
     max_impact_velocity : float
-        Largest normal approach speed at an impact, m/s.
+        Largest normal approach speed at an impact, m/s: on fixed steps the speed of the last
+        state before the step that closes (the closing state has already been slowed by the
+        contact force), with ``events=True`` the speed at the crossing.
     rms_penetration, rms_force : float
         Root mean square of the penetration (m) and of the force magnitude (N) over every step
         from ``Record.start`` (whatever ``Record.every``).
