@@ -358,7 +358,6 @@ struct JointTrack {
     recorded: bool,
     max_penetration: f64,
     max_force: f64,
-    impacts: u64,
 }
 
 struct LinkData {
@@ -928,7 +927,6 @@ pub struct NewtonRun<'a> {
     /// Contact status switches of each joint within the current step's iteration (implicit
     /// contact: [`evaluation::iterated_terms`]).
     switches: Vec<u8>,
-    contact_was: Vec<bool>,
     /// Per joint, a radius (m) at which [`Self::evaluate_contacts`] evaluates the law from the
     /// step start instead of the joint's own (its state projected radially): the new side of the
     /// circle at an adaptive step's cut, `NaN` otherwise.
@@ -1088,8 +1086,7 @@ struct EventScratch {
     p1: Vec<f64>,
     pc: Vec<f64>,
     /// Joint tracking before the cut (restored when the cut step falls back to the whole step).
-    was: Vec<bool>,
-    extremes: Vec<(f64, f64, u64)>,
+    extremes: Vec<(f64, f64)>,
     rec: Option<Recorder>,
     /// LuGre states and friction work at the step's start.
     fric_z: Vec<f64>,
@@ -1306,7 +1303,6 @@ impl<'a> NewtonRun<'a> {
                 recorded: rec.histories && rec.joints.as_ref().is_none_or(|js| js.contains(&j)),
                 max_penetration: 0.0,
                 max_force: 0.0,
-                impacts: 0,
             })
             .collect();
         let mut hist_slot = vec![None; nj];
@@ -1363,7 +1359,6 @@ impl<'a> NewtonRun<'a> {
             ) && !mech.joints.is_empty(),
             woodbury_fits: false,
             split_joints: false,
-            contact_was: vec![false; mech.joints.len()],
             status_hint: vec![f64::NAN; mech.joints.len()],
             spring_dampers: mech.joints.iter().map(|j| j.law.as_spring_damper().copied()).collect(),
             episode: vec![None; mech.joints.len()],
@@ -3890,16 +3885,10 @@ impl<'a> NewtonRun<'a> {
             }
             let fmag = (f[0] * f[0] + f[1] * f[1]).sqrt();
             let h = &mut self.track[j];
-            let closed = terms.penetration > 0.0;
             if counts {
-                // a joint closed in the initial state is no impact (as in the shared recorder)
-                if closed && !self.contact_was[j] && !matches!(step, Some((0, _))) {
-                    h.impacts += 1;
-                }
                 h.max_penetration = h.max_penetration.max(terms.penetration);
                 h.max_force = h.max_force.max(fmag);
             }
-            self.contact_was[j] = closed;
             if self.mech.joints[j].law.needs_approach_speed() {
                 self.episode[j] = crate::contact::next_episode(q, qd, terms.penetration, self.episode[j]);
             }
@@ -4074,10 +4063,9 @@ impl<'a> NewtonRun<'a> {
         let Some((theta, jstar)) = earliest_crossing(&ev.p0, &ev.p1) else {
             return Ok(());
         };
-        ev.was.clone_from(&self.contact_was);
         ev.extremes.clear();
         ev.extremes
-            .extend(self.track.iter().map(|j| (j.max_penetration, j.max_force, j.impacts)));
+            .extend(self.track.iter().map(|j| (j.max_penetration, j.max_force)));
         ev.rec = Some(self.rec.clone());
         if self.cut_step(t0, h, k, ev, theta, jstar).is_ok() {
             self.stats.event_steps += 1;
@@ -4086,9 +4074,8 @@ impl<'a> NewtonRun<'a> {
         // a substep did not converge where the whole step did: keep the whole step (and undo the
         // tracking at the cut)
         self.stats.event_fallbacks += 1;
-        self.contact_was.clone_from(&ev.was);
-        for (j, &(p, f, n)) in self.track.iter_mut().zip(&ev.extremes) {
-            (j.max_penetration, j.max_force, j.impacts) = (p, f, n);
+        for (j, &(p, f)) in self.track.iter_mut().zip(&ev.extremes) {
+            (j.max_penetration, j.max_force) = (p, f);
         }
         if let Some(rec) = ev.rec.take() {
             self.rec = rec;
@@ -4568,7 +4555,8 @@ impl<'a> NewtonRun<'a> {
     }
 
     /// What the run has produced when it ends at `t` (s): the shared recorder's joint extremes
-    /// (the largest penetration, force and the impact count from the stepper's own tracking) and
+    /// (the largest penetration and force from the stepper's own tracking, which sees the peaks
+    /// within steps) and
     /// impact logs, with the histories on the output grid; the counters; the unknowns'
     /// displacement, velocity and acceleration (see [`Self::dof_map`]).
     fn output(&mut self, t: f64) -> RunOutput {
@@ -4578,7 +4566,7 @@ impl<'a> NewtonRun<'a> {
         record.joints = std::mem::take(&mut self.hist_joints);
         record.sliders = std::mem::take(&mut self.hist_sliders);
         for (e, j) in record.extremes.iter_mut().zip(&self.track) {
-            (e.max_penetration, e.max_force, e.impacts) = (j.max_penetration, j.max_force, j.impacts);
+            (e.max_penetration, e.max_force) = (j.max_penetration, j.max_force);
         }
         for (e, f) in record.extremes.iter_mut().zip(&self.fric_track) {
             e.friction_work = f.work;
