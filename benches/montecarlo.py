@@ -44,7 +44,7 @@ STUDY_FILE = STUDIES["table1"]
 COMPARED_OUTPUTS = [
     "max_penetration",
     "max_force",
-    "impacts",
+    "contact_episodes",
     "contact_time",
     "max_impact_velocity",
     "rms_force",
@@ -246,13 +246,13 @@ def main(argv=None) -> int:
             print(f"== Exudyn ParameterVariation, first {n} samples of the slider-crank study, 2 processes")
             ex = exudyn_crank_subset(tp["frame"], n)
             print_rates(ex, tp, lanes)
-            print("clearance [m] | K_B [N/m] | w [rad/s] | max force [N] flexclear / Exudyn | impacts")
+            print("clearance [m] | K_B [N/m] | w [rad/s] | max force [N] flexclear / Exudyn | closings")
             for i, (inp, v) in enumerate(zip(ex["samples"], ex["values"])):
                 row = tp["frame"].iloc[i]
                 print(
                     f"{inp['clearance']:.3e} | {inp['bearing_stiffness']:.3e} | {inp['crank_speed']:.1f} | "
                     f"{row['crank_pin.max_force']:.1f} / {v[1]:.1f} | "
-                    f"{int(row['crank_pin.impacts'])} / {v[2]}  (Exudyn steps {v[3]})"
+                    f"{int(row['crank_pin.contact_episodes'])} / {v[2]}  (Exudyn steps {v[3]})"
                 )
         return 0
     if not args.skip_memory:
@@ -273,14 +273,14 @@ def main(argv=None) -> int:
         print_rates(ex, tp, lanes)
         print(
             "clearance [m] | max penetration [m] flexclear / Exudyn | "
-            "max force [N] flexclear / Exudyn | impacts"
+            "max force [N] flexclear / Exudyn | closings"
         )
         for i, (c, v) in enumerate(zip(ex["clearances"], ex["values"])):
             row = tp["frame"].iloc[i]
             print(
                 f"{c:.4e} | {row['bearing.max_penetration']:.4e} / {v[0]:.4e} | "
                 f"{row['bearing.max_force']:.3f} / {v[1]:.3f} | "
-                f"{int(row['impacts'])} / {int(v[2])}  (Exudyn steps {int(v[3])})"
+                f"{int(row['contact_episodes'])} / {int(v[2])}  (Exudyn steps {int(v[3])})"
             )
     return 0
 

@@ -322,7 +322,9 @@ def test_preload_past_the_impact_threshold_adds_one_to_one_to_the_pin_force():
     slope = (f300 - f200) / 100.0
     assert 0.99 <= slope <= 1.0 + 1e-9
     f0, i0 = _preloaded_peak(0.0)
-    assert i0 > 50 and f0 > f200  # unloaded: the journal rattles and hits harder
+    # unloaded: the journal crosses the clearance at each reversal of the load (two a turn, over
+    # two turns) and hits harder
+    assert i0 >= 4 and f0 > f200
 
 
 def test_preloaded_builder_is_rebuilt_by_the_design_methods():

@@ -31,6 +31,7 @@ __all__ = [
     "RETRY_MIN_STEP_RATIO",
     "TRUNCATION_FRACTION",
     "MAX_ITER",
+    "REBOUND_DEPTH",
     "__version__",
 ]
 
@@ -42,6 +43,9 @@ RETRY_MIN_STEP_RATIO: float
 TRUNCATION_FRACTION: float
 #: Largest iteration cap (`max_iter`) of a step, Newton's or the contact iteration's.
 MAX_ITER: int
+#: A closing is an impact after a separation deeper than this fraction of the radial clearance;
+#: after a shallower one it is a rebound of the impact going on.
+REBOUND_DEPTH: float
 
 @final
 class Motion:
@@ -284,6 +288,8 @@ class JointExtremes:
     def max_force(self) -> float: ...
     @property
     def impacts(self) -> int: ...
+    @property
+    def contact_episodes(self) -> int: ...
     @property
     def contact_time(self) -> float: ...
     @property

@@ -61,7 +61,8 @@ class Record:
         Joint extremes and impact logs start at this time, s (and every history, while every
         link translates; in moving frames the histories share the links' grid from t = 0).
     impact_log : bool
-        Also keep an :class:`ImpactLog` per recorded joint: one entry per contact episode.
+        Also keep an :class:`ImpactLog` per recorded joint: one entry per impact (its rebounds
+        included).
     sliders : bool
         Keep the sliders' position, velocity and acceleration histories (:meth:`Result.slider`,
         with :attr:`Result.time`) even with ``histories=False`` (with ``histories=True`` they are
@@ -100,10 +101,12 @@ class Record:
 
 @dataclasses.dataclass
 class ImpactLog:
-    """The contact episodes (open -> closed -> open) of one joint, one array entry each.
+    """The impacts of one joint, one array entry each: from the closing that starts it to the
+    opening that ends its last rebound (closings after a separation of at most
+    ``flexclear._core.REBOUND_DEPTH`` of the clearance are rebounds, docs/contact.md).
 
-    On fixed steps an entry is the first step that ends closed, and speed and peaks are those of
-    the steps. With event-aware stepping (``simulate(..., events=True)``) entry and exit are the
+    On fixed steps an entry is the first step that ends closed, and the peaks are those of the
+    steps. With event-aware stepping (``simulate(..., events=True)``) entry and exit are the
     cuts at the crossings, the speed is the approach speed there and the peak force includes the
     force just after the cut (the dashpot jump at entry).
 
@@ -115,11 +118,12 @@ class ImpactLog:
         Normal approach speed at entry, ``q' . q / |q|``, m/s (on fixed steps that of the last
         state before the entry, as ``max_impact_velocity``).
     peak_force : ndarray
-        Largest contact force magnitude of each episode, N.
+        Largest contact force magnitude of each impact, its rebounds included, N.
     peak_penetration : ndarray
-        Largest penetration of each episode, m.
+        Largest penetration of each impact, its rebounds included, m.
     duration : ndarray
-        Time in contact, s (NaN for an episode still closed at the end of the run).
+        From the entry to the last exit, s (NaN for an impact still closed at the end of the
+        run).
     """
 
     time: np.ndarray
@@ -187,7 +191,14 @@ class JointResult(_Channels):
     max_force : float
         Largest contact force magnitude, N.
     impacts : int
-        Open-to-closed transitions.
+        Impacts: closings after a separation deeper than 1 % of the radial clearance
+        (``flexclear._core.REBOUND_DEPTH``); a closing after a shallower one is a rebound of the impact
+        going on. During continuous contact the journal leaves the wall for a few steps and
+        closes again, and a finer step resolves more of these: counting every closing made the
+        count grow with the resolution (docs/contact.md, "Impacts and rebounds").
+    contact_episodes : int
+        Every open-to-closed transition, rebounds included (the raw count; it depends on the
+        step).
     contact_time : float
         Time spent in contact, s.
     max_velocity : float
@@ -243,6 +254,7 @@ class JointResult(_Channels):
     time_of_max_penetration: float
     max_force: float
     impacts: int
+    contact_episodes: int
     contact_time: float
     max_velocity: float
     max_impact_velocity: float
@@ -548,6 +560,7 @@ class Result:
             time_of_max_penetration=ext.time_of_max_penetration,
             max_force=ext.max_force,
             impacts=ext.impacts,
+            contact_episodes=ext.contact_episodes,
             contact_time=ext.contact_time,
             max_velocity=ext.max_velocity,
             max_impact_velocity=ext.max_impact_velocity,

@@ -266,7 +266,8 @@ OUTPUTS = {
     "max_penetration": "largest penetration delta_r - delta_c, m (negative: never touched)",
     "time_of_max_penetration": "when it happened, s",
     "max_force": "largest contact force magnitude, N",
-    "impacts": "open-to-closed transitions",
+    "impacts": "closings after a separation deeper than 1 % of the clearance (rebounds not counted)",
+    "contact_episodes": "every open-to-closed transition, rebounds included",
     "contact_time": "time in contact, s",
     "max_velocity": "peak speed of the journal relative to the bearing, m/s",
     "max_impact_velocity": "peak normal approach speed at an impact, m/s",
@@ -313,14 +314,16 @@ _JOINT_PARAMETERS = frozenset(
 )
 #: Outputs that need the runs to track the contact modes (``Record(contact_modes=True)``).
 MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
-#: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS`).
-DEFAULT_OUTPUTS = tuple(o for o in OUTPUTS if o not in MODE_OUTPUTS)
+#: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS` and the raw
+#: count of contact episodes).
+DEFAULT_OUTPUTS = tuple(o for o in OUTPUTS if o not in MODE_OUTPUTS and o != "contact_episodes")
 
 _UNITS = {
     "max_penetration": "m",
     "time_of_max_penetration": "s",
     "max_force": "N",
     "impacts": "count",
+    "contact_episodes": "count",
     "contact_time": "s",
     "max_velocity": "m/s",
     "max_impact_velocity": "m/s",

@@ -866,7 +866,8 @@ impl<'m> Lane<'m> {
             ));
         }
         let node_dof = |l: usize, node: usize| sys.links[l].offset + 3 * node;
-        let rec = Recorder::new(&settings.record, nj, node_dof, settings.steps());
+        let clearances: Vec<f64> = sys.joints.iter().map(|j| j.clearance).collect();
+        let rec = Recorder::new(&settings.record, &clearances, node_dof, settings.steps());
         let reads_u = settings.record.histories && !settings.record.nodes.is_empty();
         Lane {
             model,

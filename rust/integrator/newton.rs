@@ -1364,7 +1364,12 @@ impl<'a> NewtonRun<'a> {
             episode: vec![None; mech.joints.len()],
             nominal_offset: apart,
             t_frames: 0.0,
-            rec: Recorder::new(&joint_spec(&settings.record), nj, |_, _| 0, 0),
+            rec: Recorder::new(
+                &joint_spec(&settings.record),
+                &mech.joints.iter().map(|j| j.clearance).collect::<Vec<_>>(),
+                |_, _| 0,
+                0,
+            ),
             jpen: vec![0.0; nj],
             jforce: vec![[0.0; 2]; nj],
             jq: vec![[0.0; 2]; nj],

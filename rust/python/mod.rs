@@ -110,6 +110,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RETRY_MIN_STEP_RATIO", crate::batch::RETRY_MIN_STEP_RATIO)?;
     m.add("TRUNCATION_FRACTION", crate::run::TRUNCATION_FRACTION)?;
     m.add("MAX_ITER", crate::run::MAX_ITER)?;
+    m.add("REBOUND_DEPTH", crate::record::REBOUND_DEPTH)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! What a run keeps: chosen joints' penetration, force and journal position, chosen nodes'
 //! displacements, every k-th step from a start time; running extremes of every joint, which
 //! cost O(joints) memory whatever the run length; and, when asked, an impact log per chosen joint
-//! (one entry per contact episode: memory grows with the number of impacts, not of steps).
+//! (one entry per impact, its rebounds included: memory grows with the number of impacts, not of
+//! steps).
 
 use std::sync::Arc;
 
@@ -230,7 +231,8 @@ pub struct JointHistory {
     pub slip: Vec<f64>,
 }
 
-/// One contact episode of a joint (open -> closed -> open).
+/// One impact of a joint: from the closing that starts it to the opening that ends its last
+/// rebound (closings after a separation of at most [`REBOUND_DEPTH`] of the clearance).
 ///
 /// On fixed steps the entry and exit are known to the step: the entry is the first step that ends
 /// closed, the peaks are those of the recorded steps and the speed is that of the last state
@@ -243,11 +245,11 @@ pub struct Impact {
     pub time: f64,
     /// Normal approach speed at entry, `q' . q / |q|`, m/s.
     pub speed: f64,
-    /// Largest contact force magnitude during the episode, N.
+    /// Largest contact force magnitude during the impact and its rebounds, N.
     pub peak_force: f64,
-    /// Largest penetration during the episode, m.
+    /// Largest penetration during the impact and its rebounds, m.
     pub peak_penetration: f64,
-    /// Time in contact (exit minus entry), s; NaN while still closed at the end of the run.
+    /// Last exit minus entry, s; NaN while still closed at the end of the run.
     pub duration: f64,
 }
 
@@ -389,8 +391,13 @@ pub struct JointExtremes {
     pub time_of_max_penetration: f64,
     /// Largest contact force magnitude, N.
     pub max_force: f64,
-    /// Number of impacts (open -> closed transitions).
+    /// Number of impacts: closings after a separation deeper than [`REBOUND_DEPTH`] of the
+    /// clearance (the first closing of a run that starts open is one; a joint closed in the
+    /// initial state has none until it separates that far).
     pub impacts: u64,
+    /// Number of contact episodes: every open -> closed transition, the rebounds of an impact
+    /// included (a count that grows as the step resolves more of them).
+    pub contact_episodes: u64,
     /// Total time in contact, s.
     pub contact_time: f64,
     /// Largest magnitude of the journal's velocity relative to the bearing, `|q'|`, m/s.
@@ -452,6 +459,17 @@ pub struct Episode {
     /// Step length, s (one step of slack in the classification).
     pub dt: f64,
 }
+
+/// A closing is an impact when the joint has separated by more than this fraction of its radial
+/// clearance since it last opened (the deepest `-penetration` of the free flight); after a
+/// shallower separation it is a rebound of the impact going on, which neither counts nor starts
+/// a log entry (the contact-mode classification still takes each closing as its own episode).
+/// During continuous contact the journal leaves the wall for a few steps and closes again, and a
+/// finer step resolves more of these: on the crank-pin slider-crank (clearance 0.5 mm, 0.1 s)
+/// every closing counted gave 13, 37 and 103 impacts at dt = 1e-5, 2.5e-6 and 6.25e-7 s, whose
+/// rebounds separated by at most 2.2, 0.29 and 0.16 um, while the three impacts proper follow
+/// separations of 330-338 and 41-46 um at every step.
+pub const REBOUND_DEPTH: f64 = 0.01;
 
 /// An episode longer than this many natural contact periods is continuous contact.
 pub const CONTINUOUS_PERIODS: f64 = 5.0;
@@ -648,6 +666,7 @@ impl Default for JointExtremes {
             time_of_max_penetration: 0.0,
             max_force: 0.0,
             impacts: 0,
+            contact_episodes: 0,
             contact_time: 0.0,
             max_velocity: 0.0,
             max_impact_velocity: 0.0,
@@ -693,6 +712,12 @@ pub struct Recorder {
     /// on fixed steps an impact's approach speed is that of the last open state before it
     /// ([`Self::entry_speed`]).
     last_state: Vec<Option<[[f64; 2]; 2]>>,
+    /// Every joint's deepest separation since it last opened, m (the largest `-penetration`;
+    /// infinite before its first contact: a run starts in free flight).
+    retreat: Vec<f64>,
+    /// Every joint's separation beyond which a closing is an impact, m ([`REBOUND_DEPTH`] times
+    /// its clearance).
+    rebound_depth: Vec<f64>,
     /// Step length of the last recorded step, s (with `modes`).
     dt: f64,
     /// `RecordSpec::contact_modes`.
@@ -748,10 +773,13 @@ pub(crate) fn initial_samples(steps: u64, every: usize) -> usize {
 }
 
 impl Recorder {
-    /// A recorder for `spec`; `node_dof(link, node)` gives a node's first global DOF; `steps` sets
-    /// the expected number of samples, of which at most [`INITIAL_SAMPLES`] are reserved up front
-    /// (histories then grow in chunks: a long run never reserves its whole history at once).
-    pub fn new(spec: &RecordSpec, joints: usize, node_dof: impl Fn(usize, usize) -> usize, steps: u64) -> Self {
+    /// A recorder for `spec` of joints of radial clearances `clearances` (m, one per joint: they
+    /// set what separation makes the next closing an impact, [`REBOUND_DEPTH`]);
+    /// `node_dof(link, node)` gives a node's first global DOF; `steps` sets the expected number of
+    /// samples, of which at most [`INITIAL_SAMPLES`] are reserved up front (histories then grow in
+    /// chunks: a long run never reserves its whole history at once).
+    pub fn new(spec: &RecordSpec, clearances: &[f64], node_dof: impl Fn(usize, usize) -> usize, steps: u64) -> Self {
+        let joints = clearances.len();
         let js: Vec<usize> = spec.joints.clone().unwrap_or_else(|| (0..joints).collect());
         let samples = if spec.histories {
             initial_samples(steps, spec.every)
@@ -823,6 +851,8 @@ impl Recorder {
             modes: spec.contact_modes,
             was_closed: vec![false; joints],
             last_state: vec![None; joints],
+            retreat: vec![f64::INFINITY; joints],
+            rebound_depth: clearances.iter().map(|c| REBOUND_DEPTH * c.max(0.0)).collect(),
             dt: 0.0,
             spec_every: spec.every,
             spec_start: spec.start,
@@ -849,7 +879,11 @@ impl Recorder {
             let closed = pen[j] > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed && !self.was_closed[j] {
-                enter(e, log, t, pen[j], fm, normal_speed(q[j], qd[j]));
+                if self.retreat[j] > self.rebound_depth[j] {
+                    enter(e, log, t, pen[j], fm, normal_speed(q[j], qd[j]));
+                } else {
+                    rebound(e, log, pen[j], fm);
+                }
             } else if let Some(last) = open_impact(log) {
                 if closed {
                     last.peak_force = last.peak_force.max(fm);
@@ -857,6 +891,7 @@ impl Recorder {
                     last.duration = t - last.time;
                 }
             }
+            self.retreat[j] = separation(self.retreat[j], self.was_closed[j], pen[j]);
             self.was_closed[j] = closed;
             self.last_state[j] = Some([q[j], qd[j]]);
         }
@@ -947,8 +982,10 @@ impl Recorder {
             let closed = p > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed {
-                if !self.was_closed[j] && step > 0 {
+                if !self.was_closed[j] && step > 0 && self.retreat[j] > self.rebound_depth[j] {
                     enter(e, log, t, p, f, entry_speed(self.last_state[j], q[j], qd[j]));
+                } else if !self.was_closed[j] && step > 0 {
+                    rebound(e, log, p, f);
                 } else if let Some(last) = open_impact(log) {
                     last.peak_force = last.peak_force.max(f);
                     last.peak_penetration = last.peak_penetration.max(p);
@@ -961,6 +998,7 @@ impl Recorder {
                     last.duration = t - last.time;
                 }
             }
+            self.retreat[j] = separation(self.retreat[j], self.was_closed[j], p);
             self.was_closed[j] = closed;
             self.last_state[j] = Some([q[j], qd[j]]);
         }
@@ -1008,6 +1046,7 @@ impl Recorder {
                 }
                 e.work_to(p, force[j], q[j], false);
             }
+            self.retreat[j] = separation(self.retreat[j], self.was_closed[j], p);
             self.was_closed[j] = closed;
             self.last_state[j] = Some([q[j], qd[j]]);
         }
@@ -1106,6 +1145,7 @@ fn norm(f: [f64; 2]) -> f64 {
 /// force `force` (N).
 fn enter(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, t: f64, pen: f64, force: f64, speed: f64) {
     e.impacts += 1;
+    e.contact_episodes += 1;
     e.max_impact_velocity = e.max_impact_velocity.max(speed);
     if let Some(log) = log {
         log.push(Impact {
@@ -1115,6 +1155,31 @@ fn enter(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, t: f64, pen: f64,
             peak_penetration: pen,
             duration: f64::NAN,
         });
+    }
+}
+
+/// A closing after a separation no deeper than the joint's rebound depth ([`REBOUND_DEPTH`]): the
+/// impact going on continues (the last entry of the log, if kept, is open again and takes the
+/// closing state's penetration `pen`, m, and force `force`, N, into its peaks); nothing is
+/// counted.
+fn rebound(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, pen: f64, force: f64) {
+    e.contact_episodes += 1;
+    if let Some(last) = log.and_then(|l| l.last_mut()) {
+        last.duration = f64::NAN;
+        last.peak_force = last.peak_force.max(force);
+        last.peak_penetration = last.peak_penetration.max(pen);
+    }
+}
+
+/// A joint's deepest separation (m) after a state of penetration `pen` (m), from `retreat` (the
+/// deepest before it) and whether the joint was closed before (`was`): reset at an opening,
+/// growing while open, kept while closed.
+#[inline]
+fn separation(retreat: f64, was: bool, pen: f64) -> f64 {
+    match (pen > 0.0, was) {
+        (true, _) => retreat,
+        (false, true) => -pen,
+        (false, false) => retreat.max(-pen),
     }
 }
 
@@ -1220,7 +1285,7 @@ mod tests {
             start,
             ..RecordSpec::default()
         };
-        let mut rec = Recorder::new(&spec, 1, |_, _| 0, states.len() as u64);
+        let mut rec = Recorder::new(&spec, &[1e-3], |_, _| 0, states.len() as u64);
         let c = 1e-3;
         for (k, &(p, f, v)) in states.iter().enumerate() {
             rec.record(
@@ -1235,6 +1300,47 @@ mod tests {
             );
         }
         rec.extremes[0]
+    }
+
+    #[test]
+    fn a_closing_after_a_shallow_separation_is_a_rebound_of_the_impact_going_on() {
+        // clearance 1 mm: rebound depth 10 um. Closed, open by 2 um, closed (a rebound), open by
+        // 50 um, closed (an impact), open by 10 um exactly (not deeper: a rebound), closed
+        let states = [
+            (-1e-4, 0.0, 1.0),
+            (1e-6, 1.0, 1.0),
+            (-2e-6, 0.0, -1.0),
+            (2e-6, 3.0, 1.0),
+            (-5e-5, 0.0, -1.0),
+            (3e-6, 2.0, 1.0),
+            (-1e-5, 0.0, -1.0),
+            (1e-6, 1.0, 1.0),
+            (-1e-6, 0.0, -1.0),
+        ];
+        let spec = RecordSpec {
+            histories: false,
+            impacts: true,
+            ..RecordSpec::default()
+        };
+        let c = 1e-3;
+        assert_eq!(REBOUND_DEPTH * c, 1e-5);
+        let mut rec = Recorder::new(&spec, &[c], |_, _| 0, states.len() as u64);
+        for (k, &(p, f, v)) in states.iter().enumerate() {
+            let (q, qd) = ([c + p, 0.0], [v, 0.0]);
+            rec.record(k as u64, k as f64, 1.0, &[p], &[[-f, 0.0]], &[q], &[qd], &[]);
+        }
+        let e = rec.extremes[0];
+        assert_eq!((e.impacts, e.contact_episodes), (2, 4));
+        let log = &rec.impacts[0].1;
+        assert_eq!(log.len(), 2);
+        // each entry spans its rebounds: entry, exit of the last rebound, peaks over them
+        assert_eq!((log[0].time, log[0].duration), (1.0, 3.0 - 1.0 + 1.0));
+        assert_eq!((log[0].peak_force, log[0].peak_penetration), (3.0, 2e-6));
+        assert_eq!((log[1].time, log[1].duration), (5.0, 8.0 - 5.0));
+        assert_eq!((log[1].peak_force, log[1].peak_penetration), (2.0, 3e-6));
+        // the approach speed of an impact is that of the state before it (open)
+        assert_eq!((log[0].speed, log[1].speed), (1.0, -1.0));
+        assert_eq!(e.max_impact_velocity, 1.0);
     }
 
     #[test]

@@ -234,7 +234,7 @@ PERTURBATION = 1e-8
 GROWTH = 10.0
 #: Accuracy tolerance: the peak penetration within this fraction of the converged one.
 ACCURACY = 0.10
-#: Spurious chatter: more impacts than ``CHATTER[0] x converged + CHATTER[1]``.
+#: Spurious chatter: more contact episodes (closings) than ``CHATTER[0] x converged + CHATTER[1]``.
 CHATTER = (5, 10)
 #: A contact is a net energy source when the work it returns exceeds this fraction of the work it
 #: exchanges (the crossing error of a passive contact, ``K_B (v dt)^2/8`` per crossing, cancels
@@ -250,7 +250,7 @@ class Reference:
 
     dt: float  # step of the baseline pair, s
     max_penetration: float  # m, iterated kappa with events at dt/2
-    impacts: int
+    impacts: int  # contact episodes (every closing: JointResult.contact_episodes)
     contact_time: float  # s
     convergence: float  # relative change of the max penetration from dt to dt/2 (both with events)
     separation: float  # largest twin separation of the baseline pair (iterated kappa at dt), m
@@ -265,7 +265,7 @@ class RunCheck:
     accurate: bool
     growth: float  # twin separation / the converged pair's (inf when a run diverged)
     penetration_error: float  # max penetration / converged - 1 (nan when diverged)
-    impacts: int
+    impacts: int  # contact episodes (every closing: JointResult.contact_episodes)
     net_work: float  # contact work balance: absorbed - returned, over exchanged (-1 .. 1)
     unconverged: int  # steps accepted at the iteration cap (both runs)
     reason: str  # why unstable, else why inaccurate, else ""
@@ -361,14 +361,14 @@ def classify_run(build, kw: dict, t_end: float, dt: float, reference: Reference,
     err = ja.max_penetration / reference.max_penetration - 1
     net = contact_work_balance(ja.penetration, ja.force)
     unconv = int(sa.get("unconverged_steps", 0)) + int(sb.get("unconverged_steps", 0))
-    chatter = ja.impacts > CHATTER[0] * reference.impacts + CHATTER[1]
+    chatter = ja.contact_episodes > CHATTER[0] * reference.impacts + CHATTER[1]
     reason = ""
     if growth > GROWTH:
         reason = f"perturbation grows {growth:.3g} x the converged run's"
     elif chatter and net < -ACTIVE:
         reason = (
-            f"spurious chatter ({ja.impacts} impacts, converged {reference.impacts}) with the contact "
-            f"a net energy source (work balance {net:+.2f})"
+            f"spurious chatter ({ja.contact_episodes} closings, converged {reference.impacts}) with the "
+            f"contact a net energy source (work balance {net:+.2f})"
         )
     stable = not reason
     accurate = stable and abs(err) <= ACCURACY and reference.convergence <= ACCURACY / 3
@@ -377,7 +377,7 @@ def classify_run(build, kw: dict, t_end: float, dt: float, reference: Reference,
             reason = f"reference not converged ({reference.convergence:.2g} from dt to dt/2)"
         else:
             reason = f"max penetration {err:+.3g} off the converged {reference.max_penetration:.3g} m"
-    return RunCheck(dt, stable, accurate, growth, err, ja.impacts, net, unconv, reason)
+    return RunCheck(dt, stable, accurate, growth, err, ja.contact_episodes, net, unconv, reason)
 
 
 def converged_reference(build, t_end: float, max_steps: int = 4_000_000) -> Reference:
@@ -412,7 +412,7 @@ def _reference(build, kw, t_end, dt, fine, coarse, contact_time, run) -> Referen
     return Reference(
         dt,
         fine.max_penetration,
-        fine.impacts,
+        fine.contact_episodes,
         contact_time,
         abs(coarse.max_penetration / fine.max_penetration - 1),
         max(sep, 1e-300),
