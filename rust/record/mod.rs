@@ -708,10 +708,10 @@ pub struct Recorder {
     /// For every joint, the slot in `impacts` when it is logged.
     impact_slot: Vec<Option<usize>>,
     was_closed: Vec<bool>,
-    /// Every joint's journal position and velocity `(q, qd)` (m, m/s) at the last state taken:
-    /// on fixed steps an impact's approach speed is that of the last open state before it
-    /// ([`Self::entry_speed`]).
-    last_state: Vec<Option<[[f64; 2]; 2]>>,
+    /// Every joint's journal position and velocity `(q, qd)` (m, m/s) at the last open state
+    /// taken (NaN before one): on fixed steps an impact's approach speed is that of the state
+    /// before it ([`entry_speed`]).
+    last_open: Vec<[[f64; 2]; 2]>,
     /// Every joint's deepest separation since it last opened, m (the largest `-penetration`;
     /// infinite before its first contact: a run starts in free flight).
     retreat: Vec<f64>,
@@ -850,7 +850,7 @@ impl Recorder {
             ],
             modes: spec.contact_modes,
             was_closed: vec![false; joints],
-            last_state: vec![None; joints],
+            last_open: vec![[[f64::NAN; 2]; 2]; joints],
             retreat: vec![f64::INFINITY; joints],
             rebound_depth: clearances.iter().map(|c| REBOUND_DEPTH * c.max(0.0)).collect(),
             dt: 0.0,
@@ -891,9 +891,17 @@ impl Recorder {
                     last.duration = t - last.time;
                 }
             }
-            self.retreat[j] = separation(self.retreat[j], self.was_closed[j], pen[j]);
+            if !closed {
+                follow_open(
+                    &mut self.retreat[j],
+                    &mut self.last_open[j],
+                    self.was_closed[j],
+                    pen[j],
+                    q[j],
+                    qd[j],
+                );
+            }
             self.was_closed[j] = closed;
-            self.last_state[j] = Some([q[j], qd[j]]);
         }
     }
 
@@ -983,7 +991,7 @@ impl Recorder {
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed {
                 if !self.was_closed[j] && step > 0 && self.retreat[j] > self.rebound_depth[j] {
-                    enter(e, log, t, p, f, entry_speed(self.last_state[j], q[j], qd[j]));
+                    enter(e, log, t, p, f, entry_speed(self.last_open[j], q[j], qd[j]));
                 } else if !self.was_closed[j] && step > 0 {
                     rebound(e, log, p, f);
                 } else if let Some(last) = open_impact(log) {
@@ -998,9 +1006,17 @@ impl Recorder {
                     last.duration = t - last.time;
                 }
             }
-            self.retreat[j] = separation(self.retreat[j], self.was_closed[j], p);
+            if !closed {
+                follow_open(
+                    &mut self.retreat[j],
+                    &mut self.last_open[j],
+                    self.was_closed[j],
+                    p,
+                    q[j],
+                    qd[j],
+                );
+            }
             self.was_closed[j] = closed;
-            self.last_state[j] = Some([q[j], qd[j]]);
         }
         if !self.histories || !step.is_multiple_of(self.spec_every as u64) {
             return;
@@ -1046,9 +1062,17 @@ impl Recorder {
                 }
                 e.work_to(p, force[j], q[j], false);
             }
-            self.retreat[j] = separation(self.retreat[j], self.was_closed[j], p);
+            if !closed {
+                follow_open(
+                    &mut self.retreat[j],
+                    &mut self.last_open[j],
+                    self.was_closed[j],
+                    p,
+                    q[j],
+                    qd[j],
+                );
+            }
             self.was_closed[j] = closed;
-            self.last_state[j] = Some([q[j], qd[j]]);
         }
     }
 
@@ -1171,16 +1195,13 @@ fn rebound(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, pen: f64, force
     }
 }
 
-/// A joint's deepest separation (m) after a state of penetration `pen` (m), from `retreat` (the
-/// deepest before it) and whether the joint was closed before (`was`): reset at an opening,
-/// growing while open, kept while closed.
-#[inline]
-fn separation(retreat: f64, was: bool, pen: f64) -> f64 {
-    match (pen > 0.0, was) {
-        (true, _) => retreat,
-        (false, true) => -pen,
-        (false, false) => retreat.max(-pen),
-    }
+/// An open state of a joint (penetration `pen <= 0`, m; journal at `q`, m, moving at `qd`, m/s),
+/// the joint closed before it or not (`was`): the deepest separation since the opening, `retreat`
+/// (m; reset at the opening), and the last open state, `last`.
+#[inline(always)]
+fn follow_open(retreat: &mut f64, last: &mut [[f64; 2]; 2], was: bool, pen: f64, q: [f64; 2], qd: [f64; 2]) {
+    *retreat = if was { -pen } else { retreat.max(-pen) };
+    *last = [q, qd];
 }
 
 /// The impact of a log that is still going on (the last one, with no duration yet).
@@ -1189,7 +1210,8 @@ fn open_impact(log: Option<&mut Vec<Impact>>) -> Option<&mut Impact> {
 }
 
 /// The approach speed (m/s) of an impact whose first closed state is `(q, qd)` (m, m/s), taken at
-/// a step end: the normal speed of the last state taken before it (`last`, open), else its own.
+/// a step end: the normal speed of the state taken before it (`last`, open; NaN when there was
+/// none), else its own.
 /// The contact force has acted on the closing state for part of its step, and for a stiff
 /// contact that is much of the approach speed: the crank-pin slider-crank's first impact gave
 /// 1.165, 1.715, 2.001 and 2.101 m/s from the closing state at dt = 1e-5, 2.5e-6, 6.25e-7 and
@@ -1197,10 +1219,11 @@ fn open_impact(log: Option<&mut Vec<Impact>>) -> Option<&mut Impact> {
 /// contact-mode classification keeps the closing state's speed: it divides the episode's peak
 /// penetration, also sampled at the step ends, by it, and the two errors cancel there.)
 #[inline]
-fn entry_speed(last: Option<[[f64; 2]; 2]>, q: [f64; 2], qd: [f64; 2]) -> f64 {
-    match last {
-        Some([q0, qd0]) => normal_speed(q0, qd0),
-        None => normal_speed(q, qd),
+fn entry_speed(last: [[f64; 2]; 2], q: [f64; 2], qd: [f64; 2]) -> f64 {
+    if last[0][0].is_nan() {
+        normal_speed(q, qd)
+    } else {
+        normal_speed(last[0], last[1])
     }
 }
 
