@@ -218,6 +218,10 @@ def test_clearance_outputs_converge_as_the_step_shrinks():
     # (from the first closed state it was 1.165, 1.715, 2.001: slowed by the contact force)
     speed = [j.max_impact_velocity for j in runs]
     assert max(speed) - min(speed) < 5e-3 * speed[2], speed
+    # the natural contact period of the deepest impact: 104.5, 104.3, 104.2 us, ten steps of
+    # the coarsest run
+    period = [j.contact_period for j in runs]
+    assert max(period) - min(period) < 5e-3 * period[2], period
     peak = [j.max_force for j in runs]
     rms = [j.rms_force for j in runs]
     work = [j.dissipated_energy for j in runs]
@@ -255,6 +259,19 @@ def test_the_impact_velocity_of_a_free_flight_is_its_speed(dt):
         # (at 1e-4 s, 7 steps a contact, the bar rebounds across the clearance faster than it
         # came, 0.134 m/s: the energy a fixed step adds at an entry between steps)
         assert j.max_impact_velocity == max(j.impact_log.speed)
+
+
+def test_the_contact_period_is_that_of_an_undamped_linear_impact():
+    # the bar hits the walls at V0 without damping: a half period of m_eff on K, pi sqrt(m/K)
+    # (7.02e-4 s), from its approach speed and deepest penetration; at dt = 1e-6 s the sampled
+    # peak is within (pi dt / T)^2 / 8 of the true one
+    r = bar(damping=0.0).simulate(2.5e-3, 1e-6, iterate=True, record=Record(histories=False))
+    period = math.pi * math.sqrt(M_EFF / K)
+    for name in ("left", "right"):
+        assert r.joint(name).contact_period == pytest.approx(period, rel=1e-4)
+    # no impact yet: NaN
+    r = bar(damping=0.0).simulate(5e-4, 1e-6, record=Record(histories=False))
+    assert math.isnan(r.joint("left").contact_period)
 
 
 def test_study_outputs_include_the_contact_modes_and_the_dissipation():

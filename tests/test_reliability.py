@@ -471,6 +471,10 @@ def test_item4_a_window_without_a_step_is_refused_and_a_valid_one_is_finite():
     rec = flexclear.Record(start=0.00199, contact_modes=True)  # every output of a study
     j = model.simulate(0.002, 1e-5, record=rec, progress=False).joint("bearing")
     for o in study_mod.OUTPUTS:
+        if o == "contact_period":
+            # no impact ends in the 10 us window (the bearing stays closed): undefined, NaN
+            assert j.impacts == 0 and np.isnan(j.contact_period)
+            continue
         assert np.isfinite(getattr(j, o)), o
 
 

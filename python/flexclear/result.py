@@ -207,6 +207,11 @@ class JointResult(_Channels):
         Largest normal approach speed at an impact, m/s: on fixed steps the speed of the last
         state before the step that closes (the closing state has already been slowed by the
         contact force), with ``events=True`` the speed at the crossing.
+    contact_period : float
+        Natural contact period ``pi d / v`` of the impact that penetrated deepest (``v`` its
+        approach speed, ``d`` its largest penetration), s; NaN before an impact has ended. The
+        contact is resolved when ``dt`` is below about a tenth of it: the peak force otherwise
+        depends on the step.
     rms_penetration, rms_force : float
         Root mean square of the penetration (m) and of the force magnitude (N) over every step
         from ``Record.start`` (whatever ``Record.every``).
@@ -258,6 +263,7 @@ class JointResult(_Channels):
     contact_time: float
     max_velocity: float
     max_impact_velocity: float
+    contact_period: float
     rms_penetration: float
     rms_force: float
     free_flight_fraction: Any = float("nan")
@@ -564,6 +570,7 @@ class Result:
             contact_time=ext.contact_time,
             max_velocity=ext.max_velocity,
             max_impact_velocity=ext.max_impact_velocity,
+            contact_period=ext.contact_period,
             rms_penetration=ext.rms_penetration,
             rms_force=ext.rms_force,
             **modes,

@@ -271,6 +271,7 @@ OUTPUTS = {
     "contact_time": "time in contact, s",
     "max_velocity": "peak speed of the journal relative to the bearing, m/s",
     "max_impact_velocity": "peak normal approach speed at an impact, m/s",
+    "contact_period": "natural contact period pi d / v of the deepest impact, s (dt should be below a tenth)",
     "rms_penetration": "RMS of the penetration, m",
     "rms_force": "RMS of the contact force magnitude, N",
     "free_flight_fraction": "fraction of the time open (free flight)",
@@ -314,9 +315,11 @@ _JOINT_PARAMETERS = frozenset(
 )
 #: Outputs that need the runs to track the contact modes (``Record(contact_modes=True)``).
 MODE_OUTPUTS = ("free_flight_fraction", "impact_fraction", "continuous_fraction", "dissipated_energy")
-#: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS` and the raw
-#: count of contact episodes).
-DEFAULT_OUTPUTS = tuple(o for o in OUTPUTS if o not in MODE_OUTPUTS and o != "contact_episodes")
+#: The outputs a study keeps unless told (every output but :data:`MODE_OUTPUTS`, the raw count
+#: of contact episodes and the contact period).
+DEFAULT_OUTPUTS = tuple(
+    o for o in OUTPUTS if o not in MODE_OUTPUTS and o not in ("contact_episodes", "contact_period")
+)
 
 _UNITS = {
     "max_penetration": "m",
@@ -327,6 +330,7 @@ _UNITS = {
     "contact_time": "s",
     "max_velocity": "m/s",
     "max_impact_velocity": "m/s",
+    "contact_period": "s",
     "rms_penetration": "m",
     "rms_force": "N",
     "max_acceleration": "m/s^2",
