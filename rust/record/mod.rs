@@ -932,17 +932,12 @@ impl Recorder {
             } else if self.was_closed[j] {
                 e.impact_opened();
             }
-            if !closed {
-                follow_open(
-                    &mut self.retreat[j],
-                    &mut self.last_open[j],
-                    self.was_closed[j],
-                    pen[j],
-                    q[j],
-                    qd[j],
-                );
-            }
-            self.was_closed[j] = closed;
+            next_status(
+                &mut self.was_closed[j],
+                &mut self.retreat[j],
+                &mut self.last_open[j],
+                [pen[j], q[j][0], q[j][1], qd[j][0], qd[j][1]],
+            );
         }
     }
 
@@ -1051,17 +1046,12 @@ impl Recorder {
                 }
                 e.impact_opened();
             }
-            if !closed {
-                follow_open(
-                    &mut self.retreat[j],
-                    &mut self.last_open[j],
-                    self.was_closed[j],
-                    p,
-                    q[j],
-                    qd[j],
-                );
-            }
-            self.was_closed[j] = closed;
+            next_status(
+                &mut self.was_closed[j],
+                &mut self.retreat[j],
+                &mut self.last_open[j],
+                [p, q[j][0], q[j][1], qd[j][0], qd[j][1]],
+            );
         }
         if !self.histories || !step.is_multiple_of(self.spec_every as u64) {
             return;
@@ -1107,17 +1097,12 @@ impl Recorder {
                 }
                 e.work_to(p, force[j], q[j], false);
             }
-            if !closed {
-                follow_open(
-                    &mut self.retreat[j],
-                    &mut self.last_open[j],
-                    self.was_closed[j],
-                    p,
-                    q[j],
-                    qd[j],
-                );
-            }
-            self.was_closed[j] = closed;
+            next_status(
+                &mut self.was_closed[j],
+                &mut self.retreat[j],
+                &mut self.last_open[j],
+                [p, q[j][0], q[j][1], qd[j][0], qd[j][1]],
+            );
         }
     }
 
@@ -1241,13 +1226,18 @@ fn rebound(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, pen: f64, force
     }
 }
 
-/// An open state of a joint (penetration `pen <= 0`, m; journal at `q`, m, moving at `qd`, m/s),
-/// the joint closed before it or not (`was`): the deepest separation since the opening, `retreat`
-/// (m; reset at the opening), and the last open state, `last`.
+/// A joint's contact status after a state `[pen, qx, qy, qdx, qdy]` (penetration, m; journal
+/// position, m, and velocity, m/s): `was` (closed) follows it, and at an open state the deepest
+/// separation since the opening, `retreat` (m; reset at the opening), and the last open state,
+/// `last`.
 #[inline(always)]
-fn follow_open(retreat: &mut f64, last: &mut [[f64; 2]; 2], was: bool, pen: f64, q: [f64; 2], qd: [f64; 2]) {
-    *retreat = if was { -pen } else { retreat.max(-pen) };
-    *last = [q, qd];
+fn next_status(was: &mut bool, retreat: &mut f64, last: &mut [[f64; 2]; 2], [pen, qx, qy, vx, vy]: [f64; 5]) {
+    let closed = pen > 0.0;
+    if !closed {
+        *retreat = if *was { -pen } else { retreat.max(-pen) };
+        *last = [[qx, qy], [vx, vy]];
+    }
+    *was = closed;
 }
 
 /// The impact of a log that is still going on (the last one, with no duration yet).
