@@ -1028,10 +1028,12 @@ impl Recorder {
             let closed = p > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed {
-                if !self.was_closed[j] && step > 0 && self.retreat[j] > self.rebound_depth[j] {
-                    enter(e, log, t, p, f, entry_speed(self.last_open[j], q[j], qd[j]));
-                } else if !self.was_closed[j] && step > 0 {
-                    rebound(e, log, p, f);
+                if !self.was_closed[j] && step > 0 {
+                    if self.retreat[j] > self.rebound_depth[j] {
+                        enter(e, log, t, p, f, entry_speed(self.last_open[j], q[j], qd[j]));
+                    } else {
+                        rebound(e, log, p, f);
+                    }
                 } else if let Some(last) = open_impact(log) {
                     last.peak_force = last.peak_force.max(f);
                     last.peak_penetration = last.peak_penetration.max(p);
