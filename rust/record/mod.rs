@@ -1250,6 +1250,7 @@ fn open_impact(log: Option<&mut Vec<Impact>>) -> Option<&mut Impact> {
 /// The approach speed (m/s) of an impact whose first closed state is `(q, qd)` (m, m/s), taken at
 /// a step end: the normal speed of the state taken before it (`last`, open; NaN when there was
 /// none), else its own.
+///
 /// The contact force has acted on the closing state for part of its step, and for a stiff
 /// contact that is much of the approach speed: the crank-pin slider-crank's first impact gave
 /// 1.165, 1.715, 2.001 and 2.101 m/s from the closing state at dt = 1e-5, 2.5e-6, 6.25e-7 and

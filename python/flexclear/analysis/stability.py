@@ -341,7 +341,7 @@ def classify_run(build, kw: dict, t_end: float, dt: float, reference: Reference,
     separation is the product of the step Jacobians applied to the initial perturbation, the
     quantity whose growth rate the spectral radius measures; the converged pair carries the
     physical sensitivity, impacts included), or it chatters spuriously (more than ``CHATTER`` x
-    the converged impacts) while its contact is a net energy source
+    the converged run's closings, ``contact_episodes``) while its contact is a net energy source
     (:func:`contact_work_balance` below ``-ACTIVE``): a linear instability that the opening of the
     contact saturates into a bounded, insensitive chatter;
 
@@ -385,10 +385,10 @@ def converged_reference(build, t_end: float, max_steps: int = 4_000_000) -> Refe
     located within the step: without events the peak of a heavily damped contact scatters by
     +-5 % with the step) at ``dt = min(1e-6, 0.05 / omega_c)``, ``omega_c = sqrt(K_B / (m/4))``,
     and at ``dt/2``, halving both while they differ by more than ``ACCURACY / 3`` in max penetration
-    and the finer run stays within ``max_steps``. The max penetration, impacts and contact time
-    come from the finer run, ``convergence`` is the last relative difference; the baseline twin
-    separation is that of the fixed-step pair at ``dt`` (event cuts found to a tolerance would add
-    noise to it)."""
+    and the finer run stays within ``max_steps``. The max penetration, closings
+    (``contact_episodes``, in the field ``impacts``) and contact time come from the finer run,
+    ``convergence`` is the last relative difference; the baseline twin separation is that of the
+    fixed-step pair at ``dt`` (event cuts found to a tolerance would add noise to it)."""
     model = build(0.0)
     p = model.parameters
     wc = math.sqrt(p["bearing_stiffness"] / (p["mass"] / 4))
