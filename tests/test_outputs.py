@@ -261,6 +261,35 @@ def test_the_impact_velocity_of_a_free_flight_is_its_speed(dt):
         assert j.max_impact_velocity == max(j.impact_log.speed)
 
 
+@pytest.mark.parametrize("tol", [1e-2, 1e-3])
+def test_the_impact_velocity_of_a_free_flight_is_its_speed_on_adaptive_steps(tol):
+    # an adaptive step cuts just short of the circle: the approach speed is that of the cut's
+    # state (V0, up to the cut's tolerance), not of the substep after it, which the contact has
+    # slowed
+    r = bar().simulate(4e-3, tol=tol, record=Record(histories=False, impact_log=True))
+    for name in ("left", "right"):
+        j = r.joint(name)
+        assert j.impact_log.speed[0] == pytest.approx(V0, rel=1e-4)
+        # the cut is the crossing: the bar flies CLEARANCE at V0 from the start
+        assert j.impact_log.time[0] == pytest.approx(CLEARANCE / V0, rel=tol)
+
+
+def test_a_mechanisms_impact_velocity_on_adaptive_steps_is_the_converged_one():
+    # the four-bar's first rocker-pin impact (0.15 mm, 1.45 ms): 0.21808 m/s on fixed steps of
+    # 1.5625e-7 s (0.2158, 0.2182, 0.2180 at 1e-5, 2.5e-6, 6.25e-7 s); the substep after the
+    # adaptive cut read 0.197 at tol 1e-3; the cut's state gives 0.2187 and 0.2181 at tol 1e-3
+    # and 1e-4 (within 0.5 %: the cut lies within its tolerance of the circle)
+    def run(**kw):
+        m = fc.scenes.four_bar(clearance_at="rocker_pin", clearance=1.5e-4, bearing_stiffness=5e7)
+        return m.simulate(0.003, record=Record(histories=False, impact_log=True), **kw).joint("rocker_pin")
+
+    fine = run(dt=1.5625e-7).impact_log
+    for tol in (1e-3, 1e-4):
+        log = run(tol=tol).impact_log
+        assert log.speed[0] == pytest.approx(fine.speed[0], rel=5e-3)
+        assert log.time[0] == pytest.approx(fine.time[0], abs=2e-7)
+
+
 def test_the_contact_period_is_that_of_an_undamped_linear_impact():
     # the bar hits the walls at V0 without damping: a half period of m_eff on K, pi sqrt(m/K)
     # (7.02e-4 s), from its approach speed and deepest penetration; at dt = 1e-6 s the sampled
