@@ -1183,7 +1183,15 @@ impl Recorder {
             let (closed, was) = (p > 0.0, self.was_closed[j]);
             e.work_to(p, force[j], q[j], true);
             if closed && !was {
-                e.episode = Some(Episode::new(t, normal_speed(q[j], qd[j]), p, dt));
+                // the state nearer the circle, as for the impact ([`OpenState::nearer`])
+                let closing = OpenState {
+                    t,
+                    pen: p,
+                    q: q[j],
+                    qd: qd[j],
+                };
+                let (entry, speed) = self.last_open[j].nearer(&closing);
+                e.episode = Some(Episode::new(entry, speed, p, dt));
             } else if let Some(ep) = &mut e.episode {
                 ep.last = t;
                 if closed {
@@ -1459,6 +1467,42 @@ mod tests {
         // the approach speed of an impact is that of the state before it (open)
         assert_eq!((log[0].speed, log[1].speed), (1.0, -1.0));
         assert_eq!(e.max_impact_velocity, 1.0);
+    }
+
+    #[test]
+    fn an_impact_between_steps_takes_the_state_nearer_the_circle() {
+        let spec = RecordSpec {
+            histories: false,
+            impacts: true,
+            contact_modes: true,
+            ..RecordSpec::default()
+        };
+        let c = 1e-3;
+        let state = |p: f64, v: f64| ([c + p, 0.0], [v, 0.0]);
+        // an adaptive cut just short of the circle (open, 1 m/s), then the substep after it,
+        // closed and slowed by the contact (0.5 m/s): the impact is the cut's
+        let mut rec = Recorder::new(&spec, &[c], |_, _| 0, 2);
+        let (q, qd) = state(-1e-4, 1.0);
+        rec.record(0, 0.0, 1e-5, &[-1e-4], &[[0.0; 2]], &[q], &[qd], &[]);
+        let (q, qd) = state(-1e-10, 1.0);
+        rec.record_substep(1e-6, &[-1e-10], &[[0.0; 2]], &[q], &[qd]);
+        let (q, qd) = state(5e-8, 0.5);
+        rec.record_substep(2e-6, &[5e-8], &[[-1.0, 0.0]], &[q], &[qd]);
+        let log = &rec.impacts[0].1;
+        assert_eq!((log.len(), log[0].time, log[0].speed), (1, 1e-6, 1.0));
+        let ep = rec.extremes[0].episode.expect("an episode going on");
+        assert_eq!((ep.entry, ep.speed), (1e-6, 1.0));
+        // an event-aware fixed step cuts just past the circle: the closing state is the crossing,
+        // the last open state a step before it
+        let mut rec = Recorder::new(&spec, &[c], |_, _| 0, 2);
+        let (q, qd) = state(-1e-5, 1.2);
+        rec.record(0, 0.0, 1e-5, &[-1e-5], &[[0.0; 2]], &[q], &[qd], &[]);
+        let (q, qd) = state(1e-10, 0.99);
+        rec.record_event(7e-6, &[1e-10], &[[-1e-4, 0.0]], &[q], &[qd]);
+        let log = &rec.impacts[0].1;
+        assert_eq!((log[0].time, log[0].speed), (7e-6, 0.99));
+        let ep = rec.extremes[0].episode.expect("an episode going on");
+        assert_eq!((ep.entry, ep.speed), (7e-6, 0.99));
     }
 
     #[test]
