@@ -28,6 +28,7 @@ from flexclear.study import (
     Values,
     load,
     open_store,
+    write_report,
 )
 from scipy import stats
 
@@ -616,3 +617,53 @@ def test_a_slider_crank_study_runs_through_the_batch_as_single_simulates(batched
 def test_the_batch_refuses_what_is_not_a_mechanism_by_name():
     with pytest.raises(flexclear.InvalidParameterError, match=r"models\[0\].*a Mechanism"):
         flexclear._core.run_batch(["yoke"], [0.01], [1e-5])
+
+
+def _four_bar_study(**kw) -> Study:
+    # the four-bar's rocker pin: first impact near 1.45 ms, natural contact period about 4.3 us
+    return Study(
+        "four_bar",
+        outputs=["max_force", "contact_period"],
+        fixed={"clearance_at": "rocker_pin", "bearing_stiffness": 5e7},
+        vary={"clearance": Uniform(1.4e-4, 1.6e-4)},
+        samples=2,
+        seed=5,
+        t_end=0.003,
+        **kw,
+    )
+
+
+def test_resolution_flags_a_step_too_long_for_the_contact(tmp_path):
+    coarse = _four_bar_study(dt=1e-5).run(threads=1, progress=False)
+    fine = _four_bar_study(dt=2.5e-7).run(threads=1, progress=False)
+    for res in (coarse, fine):
+        assert (res.frame["status"] == "ok").all()
+    # the steps per period are the period over the step the sample ran at
+    steps = coarse.array("rocker_pin.contact_period") / 1e-5
+    a, b = coarse.resolution().loc["rocker_pin"], fine.resolution().loc["rocker_pin"]
+    assert a["impacted"] == 2 and a["median_steps"] == pytest.approx(np.median(steps), rel=1e-12)
+    # 1e-5 s is under two steps a contact; 2.5e-7 s over ten (the period itself is off at 1e-5 s,
+    # the sampled peak penetration deeper than the true one)
+    assert a["median_steps"] < 2 and a["unresolved"] == 2
+    assert b["median_steps"] > 10 and b["unresolved"] == 0
+    write_report(coarse, tmp_path / "coarse")
+    write_report(fine, tmp_path / "fine")
+    text = (tmp_path / "coarse" / "report.md").read_text()
+    assert "## Resolution: steps per contact period" in text and "Unresolved:" in text
+    text = (tmp_path / "fine" / "report.md").read_text()
+    assert "## Resolution: steps per contact period" in text and "Unresolved:" not in text
+
+
+def test_resolution_of_a_tol_study_is_its_pilot(tmp_path):
+    res = _four_bar_study(tol=1e-3, dt=1e-4).run(threads=1, progress=False)
+    assert res.resolution().empty
+    write_report(res, tmp_path)
+    text = (tmp_path / "report.md").read_text()
+    assert "## Resolution: the accuracy pilot" in text
+    for column, value in res.accuracy["accuracy"].items():
+        assert f"| {column} | {value:.3g} |" in text
+    # without contact_period a fixed-step study has no resolution section
+    res = Study("slider_yoke", samples=1, t_end=0.002, dt=1e-5).run(threads=1, progress=False)
+    assert res.resolution().empty
+    write_report(res, tmp_path / "yoke")
+    assert "## Resolution" not in (tmp_path / "yoke" / "report.md").read_text()
