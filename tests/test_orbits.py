@@ -102,3 +102,5 @@ def test_the_four_bar_study_file_runs_from_the_cli(tmp_path):
     )
     assert "## Journal orbits (rocker_pin)" in report and (out / "orbits.png").exists()
     assert "- 4 samples: 4 ok" in report and "| rocker_pin.max_force | 4 |" in report
+    # the file's step resolves the rocker pin's contacts (about 4 us, 28 steps)
+    assert "## Resolution: steps per contact period" in report and "Unresolved:" not in report
