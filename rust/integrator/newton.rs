@@ -931,6 +931,11 @@ pub struct NewtonRun<'a> {
     /// step start instead of the joint's own (its state projected radially): the new side of the
     /// circle at an adaptive step's cut, `NaN` otherwise.
     status_hint: Vec<f64>,
+    /// Whether the state is an adaptive run's output instant interpolated inside an accepted
+    /// step ([`Self::interpolate_output`]): the recorded force is then the law's at that state,
+    /// not the step end's terms applied to it (which, in the step before a cut, are the closed
+    /// ones of the cut's right limit: an open state read the entry's dashpot force).
+    output_interpolated: bool,
     /// Per joint, its law where it is the built-in spring-dashpot
     /// ([`ContactLaw::as_spring_damper`]): evaluated in the step, not through the trait object.
     spring_dampers: Vec<Option<SpringDamper>>,
@@ -1360,6 +1365,7 @@ impl<'a> NewtonRun<'a> {
             woodbury_fits: false,
             split_joints: false,
             status_hint: vec![f64::NAN; mech.joints.len()],
+            output_interpolated: false,
             spring_dampers: mech.joints.iter().map(|j| j.law.as_spring_damper().copied()).collect(),
             episode: vec![None; mech.joints.len()],
             nominal_offset: apart,
@@ -3846,8 +3852,9 @@ impl<'a> NewtonRun<'a> {
                 (self.jq[j], self.jpen[j], self.jforce[j])
             } else {
                 let (q, qd) = self.joint_state(j, &self.y, &self.yd);
-                let mut pen = self.law_terms(j, q, qd).penetration;
-                let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
+                let terms = self.law_terms(j, q, qd);
+                let mut pen = terms.penetration;
+                let mut f = self.recorded_joint_force(j, &terms, q, qd);
                 if let Some(c) = &self.cont {
                     (pen, f) = c.recorded(j, q, self.mech.joints[j].clearance);
                 }
@@ -3868,6 +3875,19 @@ impl<'a> NewtonRun<'a> {
         }
     }
 
+    /// The recorded force (N, on the journal) of joint `j` at state `(q, qd)` (m, m/s), whose law
+    /// terms there are `terms`: the terms that acted in the step applied to the state
+    /// ([`evaluation::recorded_force`]), or at an interpolated output instant
+    /// ([`Self::output_interpolated`]) the law's own force there.
+    #[inline(always)]
+    fn recorded_joint_force(&self, j: usize, terms: &ContactTerms, q: [f64; 2], qd: [f64; 2]) -> [f64; 2] {
+        if self.output_interpolated {
+            terms.force(q, qd)
+        } else {
+            evaluation::recorded_force(&self.contact[j], q, qd)
+        }
+    }
+
     /// Tracks the joints at the current state, time `t` (s): the running extremes, and the
     /// shared recorder, as step `step` of length `dt` (s) or, with `step = None`, at the cut of
     /// an event step. Nothing before [`RecordSpec::start`] counts. With `margin`, each joint's
@@ -3883,7 +3903,7 @@ impl<'a> NewtonRun<'a> {
                 let (q, qd) = self.joint_state(j, &self.y, &self.yd);
                 (q, qd, self.law_terms(j, q, qd))
             };
-            let mut f = evaluation::recorded_force(&self.contact[j], q, qd);
+            let mut f = self.recorded_joint_force(j, &terms, q, qd);
             if let Some(c) = &self.cont {
                 // the continuous-contact model: its status and its normal force (no law)
                 (terms.penetration, f) = c.recorded(j, q, self.mech.joints[j].clearance);
@@ -4353,11 +4373,13 @@ impl<'a> NewtonRun<'a> {
         );
         self.update_frames(t1);
         ad.interpolated = true;
+        self.output_interpolated = true;
     }
 
     /// Puts back the integrated state after an interpolated output ([`Self::interpolate_output`]).
     fn restore_integrated(&mut self, ad: &mut AdaptiveScratch) {
         if std::mem::take(&mut ad.interpolated) {
+            self.output_interpolated = false;
             self.y.copy_from_slice(&ad.end_y);
             self.yd.copy_from_slice(&ad.end_yd);
             self.ydd.copy_from_slice(&ad.end_ydd_restart);
