@@ -1177,7 +1177,6 @@ impl Recorder {
     /// [`Self::record_event`]), before the contact status moves on.
     #[inline(never)]
     fn modes_at_event(&mut self, t: f64, pen: &[f64], force: &[[f64; 2]], q: &[[f64; 2]], qd: &[[f64; 2]]) {
-        let dt = self.dt;
         for (j, e) in self.extremes.iter_mut().enumerate() {
             let p = pen[j];
             let (closed, was) = (p > 0.0, self.was_closed[j]);
@@ -1191,7 +1190,11 @@ impl Recorder {
                     qd: qd[j],
                 };
                 let (entry, speed) = self.last_open[j].nearer(&closing);
-                e.episode = Some(Episode::new(entry, speed, p, dt));
+                // an entry at a cut is located, and so is the exit (a cut, or a substep end
+                // within the tolerance's step): no step of slack for the classification (the
+                // output step's, 1e-5 s, counted a 1e-5 s contact of the four-bar's 4 us period
+                // as an impact)
+                e.episode = Some(Episode::new(entry, speed, p, 0.0));
             } else if let Some(ep) = &mut e.episode {
                 ep.last = t;
                 if closed {
@@ -1503,6 +1506,35 @@ mod tests {
         assert_eq!((log[0].time, log[0].speed), (7e-6, 0.99));
         let ep = rec.extremes[0].episode.expect("an episode going on");
         assert_eq!((ep.entry, ep.speed), (7e-6, 0.99));
+    }
+
+    #[test]
+    fn an_episode_located_by_cuts_is_classified_without_a_steps_slack() {
+        let spec = RecordSpec {
+            histories: false,
+            contact_modes: true,
+            ..RecordSpec::default()
+        };
+        let c = 1e-3;
+        let mut rec = Recorder::new(&spec, &[c], |_, _| 0, 3);
+        let mut at = |k: Option<u64>, t: f64, p: f64, v: f64| {
+            let (q, qd, f) = ([c + p, 0.0], [v, 0.0], [-1e6 * p.max(0.0), 0.0]);
+            match k {
+                Some(k) => rec.record(k, t, 1e-5, &[p], &[f], &[q], &[qd], &[]),
+                None => rec.record_substep(t, &[p], &[f], &[q], &[qd]),
+            }
+        };
+        // entry at a cut at 1 us (1 m/s), peak 1 um: natural period pi 1e-6 s, five of them
+        // 15.7 us; exit at a cut at 21 us: 20 us, continuous contact (with the output step's
+        // 10 us of slack it counted as an impact)
+        at(Some(0), 0.0, -1e-4, 1.0);
+        at(None, 1e-6, -1e-12, 1.0);
+        at(None, 2e-6, 1e-6, 0.0);
+        at(Some(1), 1e-5, 5e-7, -0.1);
+        at(Some(2), 2e-5, 1e-7, -0.1);
+        at(None, 2.1e-5, -1e-12, -0.1);
+        let e = rec.extremes[0];
+        assert_eq!((e.continuous_time, e.impact_time), (2e-5, 0.0));
     }
 
     #[test]
