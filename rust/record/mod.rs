@@ -746,8 +746,8 @@ pub struct Recorder {
     was_closed: Vec<bool>,
     /// Every joint's last open state taken (NaN before one): on fixed steps an impact's approach
     /// speed is that of the state before it ([`entry_speed`]); at an event, that of the state
-    /// nearer the circle ([`OpenState::nearer`]).
-    last_open: Vec<OpenState>,
+    /// nearer the circle ([`JointState::nearer`]).
+    last_open: Vec<JointState>,
     /// Every joint's deepest separation since it last opened, m (the largest `-penetration`;
     /// infinite before its first contact: a run starts in free flight).
     retreat: Vec<f64>,
@@ -886,7 +886,7 @@ impl Recorder {
             ],
             modes: spec.contact_modes,
             was_closed: vec![false; joints],
-            last_open: vec![OpenState::NONE; joints],
+            last_open: vec![JointState::NONE; joints],
             retreat: vec![f64::INFINITY; joints],
             rebound_depth: clearances.iter().map(|c| REBOUND_DEPTH * c.max(0.0)).collect(),
             dt: 0.0,
@@ -916,12 +916,7 @@ impl Recorder {
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed && !self.was_closed[j] {
                 if self.retreat[j] > self.rebound_depth[j] {
-                    let closing = OpenState {
-                        t,
-                        pen: pen[j],
-                        q: q[j],
-                        qd: qd[j],
-                    };
+                    let closing = JointState::at(t, pen[j], q[j], qd[j]);
                     let (te, speed) = self.last_open[j].nearer(&closing);
                     enter(e, log, te, pen[j], fm, speed);
                 } else {
@@ -943,12 +938,7 @@ impl Recorder {
                 &mut self.was_closed[j],
                 &mut self.retreat[j],
                 &mut self.last_open[j],
-                OpenState {
-                    t,
-                    pen: pen[j],
-                    q: q[j],
-                    qd: qd[j],
-                },
+                JointState::at(t, pen[j], q[j], qd[j]),
             );
         }
     }
@@ -1064,12 +1054,7 @@ impl Recorder {
                 &mut self.was_closed[j],
                 &mut self.retreat[j],
                 &mut self.last_open[j],
-                OpenState {
-                    t,
-                    pen: p,
-                    q: q[j],
-                    qd: qd[j],
-                },
+                JointState::at(t, p, q[j], qd[j]),
             );
         }
         if !self.histories || !step.is_multiple_of(self.spec_every as u64) {
@@ -1120,12 +1105,7 @@ impl Recorder {
                 &mut self.was_closed[j],
                 &mut self.retreat[j],
                 &mut self.last_open[j],
-                OpenState {
-                    t,
-                    pen: p,
-                    q: q[j],
-                    qd: qd[j],
-                },
+                JointState::at(t, p, q[j], qd[j]),
             );
         }
     }
@@ -1182,13 +1162,8 @@ impl Recorder {
             let (closed, was) = (p > 0.0, self.was_closed[j]);
             e.work_to(p, force[j], q[j], true);
             if closed && !was {
-                // the state nearer the circle, as for the impact ([`OpenState::nearer`])
-                let closing = OpenState {
-                    t,
-                    pen: p,
-                    q: q[j],
-                    qd: qd[j],
-                };
+                // the state nearer the circle, as for the impact ([`JointState::nearer`])
+                let closing = JointState::at(t, p, q[j], qd[j]);
                 let (entry, speed) = self.last_open[j].nearer(&closing);
                 // an entry at a cut is located, and so is the exit (a cut, or a substep end
                 // within the tolerance's step): no step of slack for the classification (the
@@ -1264,16 +1239,22 @@ fn rebound(e: &mut JointExtremes, log: Option<&mut Vec<Impact>>, pen: f64, force
 /// A joint's state taken by the recorder: time `t` (s), penetration `pen` (m), journal position
 /// `q` (m) and velocity `qd` (m/s).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct OpenState {
+struct JointState {
     t: f64,
     pen: f64,
     q: [f64; 2],
     qd: [f64; 2],
 }
 
-impl OpenState {
+impl JointState {
+    /// The state at `t` (s): penetration `pen` (m), journal position `q` (m), velocity `qd` (m/s).
+    #[inline(always)]
+    fn at(t: f64, pen: f64, q: [f64; 2], qd: [f64; 2]) -> Self {
+        JointState { t, pen, q, qd }
+    }
+
     /// No state yet (all NaN).
-    const NONE: OpenState = OpenState {
+    const NONE: JointState = JointState {
         t: f64::NAN,
         pen: f64::NAN,
         q: [f64::NAN; 2],
@@ -1287,7 +1268,7 @@ impl OpenState {
     /// it, and there the last open state is (the closing state, a substep later, has been slowed
     /// by the contact: the four-bar's first rocker-pin impact read 0.197 m/s at tol 1e-3 against
     /// 0.2181 m/s converged on fixed steps).
-    fn nearer(&self, closing: &OpenState) -> (f64, f64) {
+    fn nearer(&self, closing: &JointState) -> (f64, f64) {
         if -self.pen < closing.pen {
             (self.t, normal_speed(self.q, self.qd))
         } else {
@@ -1300,7 +1281,7 @@ impl OpenState {
 /// the deepest separation since the opening, `retreat` (m; reset at the opening), and the last
 /// open state, `last`.
 #[inline(always)]
-fn next_status(was: &mut bool, retreat: &mut f64, last: &mut OpenState, s: OpenState) {
+fn next_status(was: &mut bool, retreat: &mut f64, last: &mut JointState, s: JointState) {
     let closed = s.pen > 0.0;
     if !closed {
         *retreat = if *was { -s.pen } else { retreat.max(-s.pen) };
@@ -1325,7 +1306,7 @@ fn open_impact(log: Option<&mut Vec<Impact>>) -> Option<&mut Impact> {
 /// contact-mode classification keeps the closing state's speed: it divides the episode's peak
 /// penetration, also sampled at the step ends, by it, and the two errors cancel there.)
 #[inline]
-fn entry_speed(last: OpenState, q: [f64; 2], qd: [f64; 2]) -> f64 {
+fn entry_speed(last: JointState, q: [f64; 2], qd: [f64; 2]) -> f64 {
     if last.pen.is_nan() {
         normal_speed(q, qd)
     } else {
