@@ -2325,7 +2325,7 @@ class StudyResult:
         with an impact), ``median_steps`` (the median over those of ``contact_period /
         dt_used``, the steps per natural contact period) and ``unresolved`` (those with fewer
         than :data:`RESOLVED_STEPS_PER_CONTACT`; their peak force and penetration are lower
-        bounds and their impact speeds and dissipation are off). Empty for a study with ``tol``
+        bounds, and their dissipated energy further off). Empty for a study with ``tol``
         (its steps follow the contact; :attr:`accuracy` is its check) or without the output.
 
         Returns
@@ -2611,9 +2611,8 @@ def _resolution_section(result: StudyResult) -> list[str]:
         lines += [
             "",
             f"Unresolved: fewer than {RESOLVED_STEPS_PER_CONTACT} steps per natural contact period "
-            "(pi d / v of the deepest impact). Their peak forces and penetrations are lower bounds, "
-            "and their impact speeds and dissipated energies are off; run them at a smaller dt or "
-            "with a tol.",
+            "(pi d / v of the deepest impact). Their peak forces and penetrations are lower bounds "
+            "and their dissipated energies further off; run them at a smaller dt or with a tol.",
         ]
     return lines
 
