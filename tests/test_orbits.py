@@ -104,3 +104,16 @@ def test_the_four_bar_study_file_runs_from_the_cli(tmp_path):
     assert "- 4 samples: 4 ok" in report and "| rocker_pin.max_force | 4 |" in report
     # the file's step resolves the rocker pin's contacts (about 4 us, 28 steps)
     assert "## Resolution: steps per contact period" in report and "Unresolved:" not in report
+
+
+def test_the_cli_warns_of_a_step_that_does_not_resolve_the_contacts(tmp_path, capsys):
+    # the four-bar study file at its former dt of 1e-5 s: 1.4 steps a contact
+    report, _ = _reduced_study_report(
+        tmp_path,
+        "four_bar_clearance.toml",
+        ("samples = 128", "samples = 2"),
+        ("dt = 1.5625e-7", "dt = 1e-5"),
+    )
+    assert "Unresolved:" in report
+    err = capsys.readouterr().err
+    assert "warning: 2 of 2 samples take fewer than 10 steps per natural contact period at rocker_pin" in err
