@@ -867,7 +867,10 @@ impl<'m> Lane<'m> {
         }
         let node_dof = |l: usize, node: usize| sys.links[l].offset + 3 * node;
         let clearances: Vec<f64> = sys.joints.iter().map(|j| j.clearance).collect();
-        let rec = Recorder::new(&settings.record, &clearances, node_dof, settings.steps());
+        let mut rec = Recorder::new(&settings.record, &clearances, node_dof, settings.steps());
+        if settings.adaptive.is_some() {
+            rec.weigh_by_time();
+        }
         let reads_u = settings.record.histories && !settings.record.nodes.is_empty();
         Lane {
             model,

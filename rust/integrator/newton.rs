@@ -1423,6 +1423,9 @@ impl<'a> NewtonRun<'a> {
             fric_secant: false,
             cont: None,
         };
+        if settings.adaptive.is_some() {
+            run.rec.weigh_by_time();
+        }
         for (li, ld) in run.links.iter().enumerate() {
             let link = &run.mech.links[li];
             // a beam node's rotation by the largest displacement it makes within an element, a
