@@ -214,7 +214,8 @@ class JointResult(_Channels):
         depends on the step.
     rms_penetration, rms_force : float
         Root mean square of the penetration (m) and of the force magnitude (N) over every step
-        from ``Record.start`` (whatever ``Record.every``).
+        from ``Record.start`` (whatever ``Record.every``); in a ``tol=`` run weighted by time
+        over its accepted steps and output instants, whatever its output grid.
     free_flight_fraction, impact_fraction, continuous_fraction : float
         Fractions (dimensionless, summing to 1) of the time from ``Record.start`` that the joint
         spent open (free flight), in contact episodes classified as impacts, and in continuous
