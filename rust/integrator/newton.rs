@@ -932,7 +932,8 @@ pub struct NewtonRun<'a> {
     /// circle at an adaptive step's cut, `NaN` otherwise.
     status_hint: Vec<f64>,
     /// Whether the state is an adaptive run's output instant interpolated inside an accepted
-    /// step ([`Self::interpolate_output`]): the recorded force is then the law's at that state,
+    /// step ([`Self::interpolate_output`]; the integrated state waits in the adaptive scratch
+    /// until [`Self::restore_integrated`]): the recorded force is then the law's at that state,
     /// not the step end's terms applied to it (which, in the step before a cut, are the closed
     /// ones of the cut's right limit: an open state read the entry's dashpot force).
     output_interpolated: bool,
@@ -4375,14 +4376,12 @@ impl<'a> NewtonRun<'a> {
             &mut self.ydd,
         );
         self.update_frames(t1);
-        ad.interpolated = true;
         self.output_interpolated = true;
     }
 
     /// Puts back the integrated state after an interpolated output ([`Self::interpolate_output`]).
     fn restore_integrated(&mut self, ad: &mut AdaptiveScratch) {
-        if std::mem::take(&mut ad.interpolated) {
-            self.output_interpolated = false;
+        if std::mem::take(&mut self.output_interpolated) {
             self.y.copy_from_slice(&ad.end_y);
             self.yd.copy_from_slice(&ad.end_yd);
             self.ydd.copy_from_slice(&ad.end_ydd_restart);
@@ -4547,7 +4546,6 @@ impl<'a> NewtonRun<'a> {
             t_start: 0.0,
             t_end: steps as f64 * h,
             pending: false,
-            interpolated: false,
             y: vec![0.0; self.n],
             yd: vec![0.0; self.n],
             ydd: vec![0.0; self.n],
@@ -4650,10 +4648,9 @@ struct AdaptiveScratch {
     t_start: f64,
     t_end: f64,
     /// Whether the end of the last accepted step is still to be tracked (it lies past the
-    /// output instant recorded last), and whether the state in the stepper is an interpolated
-    /// output's (the integrated one in `end_*`).
+    /// output instant recorded last). (Whether the state in the stepper is an interpolated
+    /// output's, the integrated one in `end_*`, is [`NewtonRun::output_interpolated`].)
     pending: bool,
-    interpolated: bool,
     /// The start of the trial step (after acceptance: of the last accepted step).
     y: Vec<f64>,
     yd: Vec<f64>,

@@ -963,12 +963,12 @@ impl Recorder {
             if self.weighted {
                 weigh(e, &mut self.last_weighed[j], t, pen[j], fm);
             }
+            let state = JointState::at(t, pen[j], q[j], qd[j]);
             let closed = pen[j] > 0.0;
             let log = self.impact_slot[j].map(|k| &mut self.impacts[k].1);
             if closed && !self.was_closed[j] {
                 if self.retreat[j] > self.rebound_depth[j] {
-                    let closing = JointState::at(t, pen[j], q[j], qd[j]);
-                    let (te, speed) = self.last_open[j].nearer(&closing);
+                    let (te, speed) = self.last_open[j].nearer(&state);
                     enter(e, log, te, pen[j], fm, speed);
                 } else {
                     rebound(e, log, pen[j], fm);
@@ -989,7 +989,7 @@ impl Recorder {
                 &mut self.was_closed[j],
                 &mut self.retreat[j],
                 &mut self.last_open[j],
-                JointState::at(t, pen[j], q[j], qd[j]),
+                state,
             );
         }
     }
