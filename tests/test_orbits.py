@@ -116,4 +116,5 @@ def test_the_cli_warns_of_a_step_that_does_not_resolve_the_contacts(tmp_path, ca
     )
     assert "Unresolved:" in report
     err = capsys.readouterr().err
-    assert "warning: 2 of 2 samples take fewer than 10 steps per natural contact period at rocker_pin" in err
+    assert "warning: Unresolved: 2 of 2 samples take fewer than 10 steps per natural contact period" in err
+    assert "at rocker_pin (median" in err

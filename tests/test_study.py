@@ -646,10 +646,14 @@ def test_resolution_flags_a_step_too_long_for_the_contact(tmp_path):
     # the sampled peak penetration deeper than the true one)
     assert a["median_steps"] < 2 and a["unresolved"] == 2
     assert b["median_steps"] > 10 and b["unresolved"] == 0
+    # one sentence per joint with unresolved samples, the report's and the CLI's
+    (sentence,) = coarse.unresolved()
+    assert sentence.startswith("Unresolved: 2 of 2 samples") and "at rocker_pin (median 1." in sentence
+    assert fine.unresolved() == []
     write_report(coarse, tmp_path / "coarse")
     write_report(fine, tmp_path / "fine")
     text = (tmp_path / "coarse" / "report.md").read_text()
-    assert "## Resolution: steps per contact period" in text and "Unresolved:" in text
+    assert "## Resolution: steps per contact period" in text and sentence in text
     text = (tmp_path / "fine" / "report.md").read_text()
     assert "## Resolution: steps per contact period" in text and "Unresolved:" not in text
 

@@ -324,18 +324,9 @@ def _montecarlo(args) -> int:
 
 def _warn_unresolved(result) -> None:
     """Says on stderr which joints' contacts the fixed step leaves unresolved in some samples
-    (:meth:`flexclear.study.StudyResult.resolution`; the report's Resolution section)."""
-    from .study import RESOLVED_STEPS_PER_CONTACT
-
-    for joint, row in result.resolution().iterrows():
-        if row["unresolved"] > 0:
-            print(
-                f"warning: {int(row['unresolved'])} of {int(row['impacted'])} samples take fewer than "
-                f"{RESOLVED_STEPS_PER_CONTACT} steps per natural contact period at {joint} (median "
-                f"{row['median_steps']:.3g}): their peak forces are lower bounds; a smaller dt or a tol "
-                "resolves them (report: Resolution)",
-                file=sys.stderr,
-            )
+    (:meth:`flexclear.study.StudyResult.unresolved`, as in the report's Resolution section)."""
+    for sentence in result.unresolved():
+        print(f"warning: {sentence} (report: Resolution)", file=sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -2351,6 +2351,22 @@ class StudyResult:
         columns = ["impacted", "median_steps", "unresolved"]
         return pd.DataFrame.from_dict(rows, orient="index", columns=columns)
 
+    def unresolved(self) -> list[str]:
+        """One sentence per joint whose contacts the fixed step leaves unresolved in some samples
+        (:meth:`resolution`): how many, the median steps per contact period, what that means for
+        the outputs and what resolves them. Empty when every sample resolves its contacts (and
+        for a study with ``tol``). The report's Resolution section and ``flexclear montecarlo``'s
+        warnings print these."""
+        return [
+            f"Unresolved: {int(row['unresolved'])} of {int(row['impacted'])} samples take fewer than "
+            f"{RESOLVED_STEPS_PER_CONTACT} steps per natural contact period (pi d / v of the deepest "
+            f"impact) at {joint} (median {row['median_steps']:.3g}): their peak forces and "
+            "penetrations are lower bounds and their dissipated energies further off; a smaller dt "
+            "or a tol resolves them."
+            for joint, row in self.resolution().iterrows()
+            if row["unresolved"] > 0
+        ]
+
     def exceedance(self, output: str, threshold: float, confidence: float = 0.95) -> dict:
         """Probability that ``output`` (``"<joint>.<output>"``, or the bare output name when the
         study has one joint) exceeds ``threshold``, with a Clopper-Pearson interval.
@@ -2607,13 +2623,8 @@ def _resolution_section(result: StudyResult) -> list[str]:
     for joint, row in table.iterrows():
         impacted, unresolved = int(row["impacted"]), int(row["unresolved"])
         lines += [f"| {joint} | {impacted} | {row['median_steps']:.3g} | {unresolved} |"]
-    if (table["unresolved"] > 0).any():
-        lines += [
-            "",
-            f"Unresolved: fewer than {RESOLVED_STEPS_PER_CONTACT} steps per natural contact period "
-            "(pi d / v of the deepest impact). Their peak forces and penetrations are lower bounds "
-            "and their dissipated energies further off; run them at a smaller dt or with a tol.",
-        ]
+    for sentence in result.unresolved():
+        lines += ["", sentence]
     return lines
 
 
