@@ -56,6 +56,26 @@ def main(argv: Optional[list] = None) -> int:
         help="journal orbits of N samples (smallest, median, largest peak force of the first joint), "
         "run again with the journal position recorded (default 3; 0 = none)",
     )
+    cp = sub.add_parser(
+        "compare",
+        help="do two study stores give the same output distributions? (e.g. one study at two steps)",
+        description="Compares the outputs of study store A with those of store B, the reference (e.g. "
+        "the same study file run at a finer dt or a smaller tol): per output the relative difference of "
+        "the median, the 90 % quantile and the mean with bootstrap intervals (over the pairs of samples "
+        "when both ran the same inputs) and the Kolmogorov-Smirnov p-value. Prints a Markdown table.",
+    )
+    cp.add_argument("a", help="study store (the --out folder of flexclear montecarlo)")
+    cp.add_argument("b", help="the reference study store")
+    cp.add_argument("--outputs", nargs="+", default=None, help="output columns (default: all shared)")
+    cp.add_argument("--confidence", type=float, default=0.95, help="interval level (default: %(default)s)")
+    cp.add_argument(
+        "--rtol",
+        type=float,
+        default=0.0,
+        help="relative difference that matters, e.g. 0.02: each output then differs, is within it or is "
+        "undecided (default: %(default)s, any difference shown)",
+    )
+    cp.add_argument("--out", default=None, help="also write the table to this Markdown file")
     su = sub.add_parser(
         "spin-up",
         help="spin-up of a cantilever with and without geometric stiffening; in-plane frequency vs speed",
@@ -211,6 +231,8 @@ def _run(args) -> int:
 
         for i, fr in enumerate(scenes.slider_yoke(elements=args.elements).natural_frequencies(args.count), 1):
             print(f"mode {i}: {fr:.3f} Hz")
+    elif args.command == "compare":
+        return _compare(args)
     elif args.command == "montecarlo":
         return _montecarlo(args)
     elif args.command in ("spin-up", "slider-crank", "four-bar"):
@@ -319,6 +341,22 @@ def _montecarlo(args) -> int:
     print(result.summary().to_string())
     print(f"{result!r}\nreport written to {path}", file=sys.stderr)
     _warn_unresolved(result)
+    return 0
+
+
+def _compare(args) -> int:
+    from pathlib import Path
+
+    from .analysis.distributions import compare, markdown
+    from .study import open_store
+
+    a, b = open_store(args.a), open_store(args.b)
+    table = compare(a, b, outputs=args.outputs, confidence=args.confidence, rtol=args.rtol)
+    lines = [f"A = {args.a}, B = {args.b} (the reference)", "", *markdown(table, args.confidence, args.rtol)]
+    text = "\n".join(lines) + "\n"
+    print(text, end="")
+    if args.out:
+        Path(args.out).write_text(text)
     return 0
 
 

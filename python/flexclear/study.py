@@ -2367,6 +2367,20 @@ class StudyResult:
             if row["unresolved"] > 0
         ]
 
+    def compare(self, reference: StudyResult, **options):
+        """Whether this study's output distributions are those of ``reference`` (e.g. the same
+        study file at a finer step, or ``tol / 10``): per output, the relative differences of the
+        median, the 90 % quantile and the mean with bootstrap intervals (over the pairs when both
+        ran the same inputs), the Kolmogorov-Smirnov p-value and a verdict against ``rtol``
+        (differs, equivalent or undecided). Single samples of a rattling joint are chaotic;
+        their distribution is what a step must resolve. ``options``: ``outputs``,
+        ``quantiles``, ``confidence``, ``rtol``, ``resamples``, ``seed``; see
+        :func:`flexclear.analysis.distributions.compare`, which returns the table (a pandas
+        DataFrame, one row per output)."""
+        from .analysis.distributions import compare
+
+        return compare(self, reference, **options)
+
     def exceedance(self, output: str, threshold: float, confidence: float = 0.95) -> dict:
         """Probability that ``output`` (``"<joint>.<output>"``, or the bare output name when the
         study has one joint) exceeds ``threshold``, with a Clopper-Pearson interval.

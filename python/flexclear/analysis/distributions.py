@@ -1,0 +1,241 @@
+"""Whether two studies of the same mechanism give the same output distributions: a study at a
+coarse step (or a loose ``tol``) against the same study at a finer one, or two designs.
+
+Single samples of a rattling joint are chaotic: a change of the step sequence moves each sample's
+peak force by 5-20 % while the distribution over the samples stays. So a step is fine enough for
+a Monte Carlo study when the *distributions* agree, which :func:`compare` tests: for every output
+the two studies share, the relative difference of chosen quantiles and of the mean, each with a
+bootstrap confidence interval, and the two-sample Kolmogorov-Smirnov p-value. With a relative
+tolerance ``rtol`` each output gets a verdict: it *differs* when an interval lies wholly outside
+``[-rtol, rtol]``, it is *equivalent* when every interval lies inside, and it is *undecided*
+otherwise (more samples would narrow the intervals).
+
+When both studies ran the same inputs (same sample ids with equal varied parameters, e.g. one
+study file run at two steps), the bootstrap resamples the *pairs*: a difference common to every
+sample (a bias of the step) is then measured against the pairs' scatter instead of the
+distributions' spread, which takes far fewer samples to see. Otherwise the two sets are
+resampled independently.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Optional
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+
+#: Bootstrap resamples of :func:`compare` unless asked otherwise.
+RESAMPLES = 2000
+
+
+def compare(
+    a,
+    b,
+    *,
+    outputs: Optional[Sequence[str]] = None,
+    quantiles: Sequence[float] = (0.5, 0.9),
+    confidence: float = 0.95,
+    rtol: float = 0.0,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+):
+    """The output distributions of study result ``a`` against those of ``b`` (the reference).
+
+    Parameters
+    ----------
+    a, b : flexclear.study.StudyResult
+        The completed samples of each enter (``StudyResult.ok``); ``b`` is the reference (e.g.
+        the finer step).
+    outputs : sequence of str, optional
+        Output columns (``"<joint>.<output>"``, bare names for a single joint); default: every
+        output column the two studies share.
+    quantiles : sequence of float
+        Quantiles compared, each in (0, 1). Default: the median and the 90 % quantile.
+    confidence : float
+        Level of the bootstrap intervals, in (0, 1). Default 0.95.
+    rtol : float
+        Relative difference that matters, >= 0 (e.g. 0.02 for 2 %). Default 0: any difference
+        the intervals show.
+    resamples : int
+        Bootstrap resamples, >= 100. Default :data:`RESAMPLES`.
+    seed : int
+        Seed of the bootstrap (the same seed gives the same intervals).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per output. ``n_a``, ``n_b``: the finite values of each; ``paired``: whether the
+        pairs were resampled (the same inputs in both, at least 2 pairs). For each quantile
+        ``q`` (named ``q50``, ``q90``, ...) and for the mean (``mean``): ``<stat>_a``,
+        ``<stat>_b``, the relative difference ``<stat>_diff = <stat>_a / <stat>_b - 1`` and its
+        interval ``<stat>_low``, ``<stat>_high`` (percentile bootstrap; NaN where ``b``'s
+        statistic is 0). ``ks_pvalue``: two-sample Kolmogorov-Smirnov (a small value: the
+        distributions differ somewhere). ``verdict``: ``"differs"`` (some interval wholly outside
+        ``[-rtol, rtol]``), ``"equivalent"`` (every interval inside it) or ``"undecided"``.
+
+    Raises
+    ------
+    InvalidParameterError
+        Naming the parameter: ``a`` or ``b`` not a study result, ``outputs`` naming a column
+        one of them lacks (or none shared), ``quantiles``, ``confidence``, ``rtol``,
+        ``resamples`` out of range.
+    """
+    import pandas as pd
+    from scipy import stats
+
+    from ..study import StudyResult
+
+    for name, r in (("a", a), ("b", b)):
+        if not isinstance(r, StudyResult):
+            raise InvalidParameterError(f"{name} = {type(r).__name__} is not allowed; allowed: a StudyResult")
+    qs = _check_quantiles(quantiles)
+    if not (_real(confidence) and 0 < confidence < 1):
+        raise InvalidParameterError(f"confidence = {confidence!r} is not allowed; allowed: a level in (0, 1)")
+    if not (_real(rtol) and rtol >= 0):
+        raise InvalidParameterError(f"rtol = {rtol!r} is not allowed; allowed: a relative difference >= 0")
+    if isinstance(resamples, bool) or not isinstance(resamples, (int, np.integer)) or resamples < 100:
+        raise InvalidParameterError(f"resamples = {resamples!r} is not allowed; allowed: an integer >= 100")
+    columns = _columns(a, b, outputs)
+    ok_a, ok_b = a.ok, b.ok
+    pairs = _pairs(a, b, ok_a, ok_b)
+    rng = np.random.default_rng(seed)
+    tail = 100 * (1 - confidence) / 2
+    names = [f"q{100 * q:g}" for q in qs] + ["mean"]
+    rows = {}
+    for col in columns:
+        if pairs is not None:
+            x = ok_a.loc[pairs, col].to_numpy(dtype=float)
+            y = ok_b.loc[pairs, col].to_numpy(dtype=float)
+            keep = np.isfinite(x) & np.isfinite(y)
+            x, y = x[keep], y[keep]
+            paired = x.size >= 2
+        else:
+            x = ok_a[col].to_numpy(dtype=float)
+            y = ok_b[col].to_numpy(dtype=float)
+            x, y = x[np.isfinite(x)], y[np.isfinite(y)]
+            paired = False
+        row = {"n_a": int(x.size), "n_b": int(y.size), "paired": paired}
+        if x.size < 2 or y.size < 2:
+            for s in names:
+                row.update({f"{s}_{k}": np.nan for k in ("a", "b", "diff", "low", "high")})
+            row.update(ks_pvalue=np.nan, verdict="undecided")
+            rows[col] = row
+            continue
+        if paired:
+            idx = rng.integers(0, x.size, size=(resamples, x.size))
+            xb, yb = x[idx], y[idx]
+        else:
+            xb = x[rng.integers(0, x.size, size=(resamples, x.size))]
+            yb = y[rng.integers(0, y.size, size=(resamples, y.size))]
+        inside, outside = True, False
+        for s, q in zip(names, [*qs, None]):
+            sa, sb = (np.mean(x), np.mean(y)) if q is None else (np.quantile(x, q), np.quantile(y, q))
+            ba, bb = (
+                (xb.mean(axis=1), yb.mean(axis=1))
+                if q is None
+                else (np.quantile(xb, q, axis=1), np.quantile(yb, q, axis=1))
+            )
+            diff, low, high = np.nan, np.nan, np.nan
+            if sb != 0:
+                diff = sa / sb - 1
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    boot = ba / bb - 1
+                boot = boot[np.isfinite(boot)]
+                if boot.size:
+                    low, high = np.percentile(boot, [tail, 100 - tail])
+            outside = outside or low > rtol or high < -rtol
+            inside = inside and -rtol <= low and high <= rtol
+            row.update({f"{s}_a": sa, f"{s}_b": sb, f"{s}_diff": diff, f"{s}_low": low, f"{s}_high": high})
+        row["ks_pvalue"] = float(stats.ks_2samp(x, y).pvalue)
+        row["verdict"] = "differs" if outside else "equivalent" if inside else "undecided"
+        rows[col] = row
+    return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def markdown(table, confidence: float = 0.95, rtol: float = 0.0) -> list[str]:
+    """Lines of a Markdown table of :func:`compare`'s result (made with ``confidence`` and
+    ``rtol``): per output and statistic the relative difference with its interval (percent), the
+    KS p-value and the verdict."""
+    stats_ = [c[: -len("_diff")] for c in table.columns if c.endswith("_diff")]
+    head = " | ".join(f"{s} a / b - 1 [{100 * confidence:g} % interval]" for s in stats_)
+    lines = [f"| output | n a / b | paired | {head} | KS p | verdict |"]
+    lines.append("|---" * (len(stats_) + 5) + "|")
+    for col, row in table.iterrows():
+        cells = [
+            f"{100 * row[f'{s}_diff']:+.2f} % [{100 * row[f'{s}_low']:+.2f}, {100 * row[f'{s}_high']:+.2f}]"
+            for s in stats_
+        ]
+        verdict = {
+            "differs": f"differs by more than {100 * rtol:g} %" if rtol else "differs",
+            "equivalent": f"within {100 * rtol:g} %" if rtol else "the same",
+            "undecided": "undecided" if rtol else "no difference detected",
+        }[row["verdict"]]
+        lines.append(
+            f"| {col} | {row['n_a']} / {row['n_b']} | {'yes' if row['paired'] else 'no'} | "
+            + " | ".join(cells)
+            + f" | {row['ks_pvalue']:.3g} | {verdict} |"
+        )
+    return lines
+
+
+def _real(x) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and np.isfinite(x)
+
+
+def _check_quantiles(quantiles) -> list[float]:
+    try:
+        qs = [float(q) for q in quantiles]
+    except (TypeError, ValueError):
+        qs = []
+    if not qs or not all(_real(q) and 0 < q < 1 for q in qs):
+        raise InvalidParameterError(
+            f"quantiles = {quantiles!r} is not allowed; allowed: a non-empty sequence of levels in (0, 1)"
+        )
+    return qs
+
+
+def _columns(a, b, outputs) -> list[str]:
+    if outputs is None:
+        shared = [c for c in a.study.output_columns if c in set(b.study.output_columns)]
+        if not shared:
+            raise InvalidParameterError(
+                "outputs = None is not allowed here; allowed: the studies share no output column "
+                f"(a: {list(a.study.output_columns)}, b: {list(b.study.output_columns)})"
+            )
+        return shared
+    if isinstance(outputs, str):
+        outputs = [outputs]
+    columns = []
+    for o in outputs:
+        names = []
+        for r in (a, b):
+            try:
+                names.append(r.study.column(o))
+            except InvalidParameterError:
+                names.append(None)
+        if names[0] is None or names[0] != names[1] or names[0] not in b.frame.columns:
+            raise InvalidParameterError(
+                f"outputs = {o!r} is not allowed; allowed: an output column of both studies "
+                f"(a: {list(a.study.output_columns)}, b: {list(b.study.output_columns)})"
+            )
+        columns.append(names[0])
+    return columns
+
+
+def _pairs(a, b, ok_a, ok_b):
+    """The sample ids both completed with equal varied inputs, or None when the studies do not
+    run the same inputs (a sample id in both with different inputs, or different varied
+    parameters)."""
+    vary = list(a.study.vary)
+    if vary != list(b.study.vary):
+        return None
+    common = ok_a.index.intersection(ok_b.index)
+    if len(common) < 2:
+        return None
+    both = a.frame.index.intersection(b.frame.index)
+    for v in vary:
+        if not np.array_equal(a.frame.loc[both, v].to_numpy(), b.frame.loc[both, v].to_numpy()):
+            return None
+    return common

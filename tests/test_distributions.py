@@ -1,0 +1,165 @@
+"""Comparing two studies' output distributions (flexclear.analysis.distributions.compare,
+StudyResult.compare, ``flexclear compare``).
+
+The statistics are checked on synthetic samples whose distributions are known (the intervals'
+coverage over many repeats, a known shift found, pairing that sees a small bias the spread hides);
+one real pair of studies checks the plumbing (the same study file at two steps is paired)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from flexclear.analysis.distributions import compare, markdown
+from flexclear.cli import main
+from flexclear.errors import InvalidParameterError
+from flexclear.study import Study, StudyResult, Uniform
+
+
+def _study() -> Study:
+    return Study(
+        "slider_crank",
+        outputs=["max_force"],
+        fixed={"clearance_at": "crank_pin"},
+        vary={"clearance": Uniform(1e-4, 5e-4)},
+        samples=2,
+        t_end=0.002,
+        dt=1e-5,
+    )
+
+
+def _result(values, clearance=None) -> StudyResult:
+    """A study result whose completed samples have ``crank_pin.max_force`` = ``values`` (and the
+    varied clearance ``clearance``, default 1e-4 m + sample id * 1e-7 m)."""
+    n = len(values)
+    clearance = 1e-4 + 1e-7 * np.arange(n) if clearance is None else clearance
+    frame = pd.DataFrame(
+        {"clearance": clearance, "status": "ok", "crank_pin.max_force": np.asarray(values, float)},
+        index=pd.Index(np.arange(n), name="sample"),
+    )
+    return StudyResult(_study(), frame, 0.0)
+
+
+def test_identical_studies_differ_by_nothing():
+    x = np.random.default_rng(1).lognormal(0.0, 0.3, 50)
+    t = compare(_result(x), _result(x))
+    row = t.loc["crank_pin.max_force"]
+    assert row["paired"] and row["n_a"] == row["n_b"] == 50
+    for s in ("q50", "q90", "mean"):
+        assert row[f"{s}_diff"] == row[f"{s}_low"] == row[f"{s}_high"] == 0.0
+    assert row["ks_pvalue"] == 1.0 and row["verdict"] == "equivalent"
+    # the statistics are the samples' own
+    assert row["q50_a"] == np.median(x) and row["mean_b"] == pytest.approx(np.mean(x), rel=1e-15)
+
+
+def test_intervals_cover_a_zero_difference_at_their_level():
+    # two independent draws of one distribution (different inputs: unpaired), 200 times: a 95 %
+    # interval of the median's difference must contain 0 in about 95 % of them (a percentile
+    # bootstrap of a median on 80 samples is close to its level; 200 repeats give a binomial
+    # standard error of 1.5 %, so [0.88, 0.995] fails only for a wrong interval)
+    rng = np.random.default_rng(7)
+    hits = 0
+    for k in range(200):
+        a = _result(rng.lognormal(0.0, 0.5, 80), clearance=rng.uniform(1e-4, 5e-4, 80))
+        b = _result(rng.lognormal(0.0, 0.5, 80), clearance=rng.uniform(1e-4, 5e-4, 80))
+        row = compare(a, b, quantiles=[0.5], resamples=400, seed=k).loc["crank_pin.max_force"]
+        assert not row["paired"]
+        hits += row["q50_low"] <= 0 <= row["q50_high"]
+    assert 0.88 <= hits / 200 <= 0.995
+
+
+def test_a_shift_of_the_distribution_is_found_and_measured():
+    rng = np.random.default_rng(3)
+    x = rng.lognormal(0.0, 0.2, 400)
+    y = 1.1 * rng.lognormal(0.0, 0.2, 400)  # the reference 10 % larger: a / b - 1 = -9.1 %
+    row = compare(_result(x), _result(y, clearance=rng.uniform(1e-4, 5e-4, 400))).loc["crank_pin.max_force"]
+    assert not row["paired"] and row["verdict"] == "differs" and row["ks_pvalue"] < 1e-6
+    for s in ("q50", "mean"):
+        assert row[f"{s}_low"] < 1 / 1.1 - 1 < row[f"{s}_high"] < 0
+
+
+def test_pairs_see_a_bias_that_the_spread_hides():
+    # the same 40 inputs at a coarse and a fine "step": the coarse one 1 % low on every sample,
+    # with 0.2 % scatter; the samples' spread (30 %) hides 1 % from an unpaired comparison
+    rng = np.random.default_rng(11)
+    fine = rng.lognormal(0.0, 0.3, 40)
+    coarse = fine * 0.99 * (1 + 0.002 * rng.standard_normal(40))
+    row = compare(_result(coarse), _result(fine)).loc["crank_pin.max_force"]
+    assert row["paired"] and row["verdict"] == "differs"
+    assert row["mean_low"] < -0.01 < row["mean_high"] < -0.009
+    # against a tolerance: the pairs' 1 % bias matters at 0.5 % and is within 5 %
+    for rtol, verdict in ((0.005, "differs"), (0.05, "equivalent")):
+        assert (
+            compare(_result(coarse), _result(fine), rtol=rtol).loc["crank_pin.max_force", "verdict"]
+            == verdict
+        )
+    unpaired = _result(fine, clearance=1e-4 + 1e-8 * np.arange(40))  # other inputs: no pairs
+    row = compare(_result(coarse), unpaired).loc["crank_pin.max_force"]
+    assert not row["paired"] and row["mean_low"] < 0 < row["mean_high"]
+    # unpaired, 40 samples of 30 % spread cannot tell 5 % either way
+    assert row["verdict"] == "undecided"
+    assert compare(_result(coarse), unpaired, rtol=0.05).loc["crank_pin.max_force", "verdict"] == "undecided"
+
+
+def test_failed_samples_and_nan_outputs_are_left_out():
+    x = np.arange(1.0, 11.0)
+    a = _result(x)
+    a.frame.loc[3, "status"] = "diverged"
+    a.frame.loc[3, "crank_pin.max_force"] = np.nan
+    a.frame.loc[5, "crank_pin.max_force"] = np.nan
+    row = compare(a, _result(x)).loc["crank_pin.max_force"]
+    assert row["paired"] and row["n_a"] == row["n_b"] == 8
+    assert row["q50_diff"] == 0.0
+    lines = markdown(compare(a, _result(x)))
+    assert lines[0].startswith("| output | n a / b | paired | q50 a / b - 1 [95 % interval]")
+    assert "| crank_pin.max_force | 8 / 8 | yes | +0.00 % [+0.00, +0.00]" in lines[2]
+    assert lines[2].endswith("| 1 | the same |")
+    a.frame.loc[7, "crank_pin.max_force"] *= 1.5
+    assert markdown(compare(a, _result(x)))[2].endswith("| no difference detected |")
+    assert markdown(compare(a, _result(x), rtol=0.2), rtol=0.2)[2].endswith("| undecided |")
+    assert markdown(compare(a, _result(x), rtol=0.6), rtol=0.6)[2].endswith("| within 60 % |")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"quantiles": [0.5, 1.0]}, "quantiles"),
+        ({"quantiles": []}, "quantiles"),
+        ({"confidence": 1.0}, "confidence"),
+        ({"rtol": -0.01}, "rtol"),
+        ({"resamples": 10}, "resamples"),
+        ({"outputs": ["penetration"]}, "outputs"),
+    ],
+)
+def test_bad_options_name_the_parameter(kwargs, name):
+    x = np.arange(1.0, 5.0)
+    with pytest.raises(InvalidParameterError, match=name):
+        compare(_result(x), _result(x), **kwargs)
+
+
+def test_a_result_is_required():
+    with pytest.raises(InvalidParameterError, match="b = list"):
+        compare(_result([1.0, 2.0]), [1.0, 2.0])
+
+
+def test_one_study_file_at_two_steps_is_paired(tmp_path, capsys):
+    # two samples of the slider-crank for 2 ms (its first impact) at 1e-5 and 5e-6 s: the same
+    # inputs, so paired; the table's statistics are the runs' own
+    study = _study()
+    coarse = study.run(threads=1, progress=False, store=tmp_path / "coarse")
+    fine = Study.from_dict({**study.to_dict(), "dt": 5e-6}).run(
+        threads=1, progress=False, store=tmp_path / "fine"
+    )
+    t = coarse.compare(fine)
+    row = t.loc["crank_pin.max_force"]
+    assert row["paired"] and row["n_a"] == 2
+    x, y = coarse.array("max_force"), fine.array("max_force")
+    assert row["mean_diff"] == pytest.approx(np.mean(x) / np.mean(y) - 1, rel=1e-12)
+    assert row["q50_a"] == np.median(x) and row["q50_b"] == np.median(y)
+    assert (
+        main(["compare", str(tmp_path / "coarse"), str(tmp_path / "fine"), "--out", str(tmp_path / "c.md")])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "| crank_pin.max_force | 2 / 2 | yes |" in out
+    assert (tmp_path / "c.md").read_text() == out
