@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from flexclear.analysis.distributions import compare, markdown
+from flexclear.analysis.distributions import Convergence, compare, convergence, markdown
 from flexclear.cli import main
 from flexclear.errors import InvalidParameterError
 from flexclear.study import Study, StudyResult, Uniform
@@ -163,3 +163,95 @@ def test_one_study_file_at_two_steps_is_paired(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "| crank_pin.max_force | 2 / 2 | yes |" in out
     assert (tmp_path / "c.md").read_text() == out
+
+
+def test_convergence_runs_each_setting_on_the_same_samples_against_the_finest():
+    study = Study.from_dict(
+        {**_study().to_dict(), "samples": 4, "outputs": ["max_force", "max_penetration", "impacts"]}
+    )
+    seen = []
+    c = convergence(study, dts=[5e-6, 1e-5, 2.5e-6], tols=[1e-3], rtol=0.02, threads=1, progress=seen.append)
+    assert seen == ["dt=1e-05", "dt=5e-06", "dt=2.5e-06", "tol=0.001"]
+    # coarsest first, the reference (the smallest step) last
+    assert list(c.results) == ["dt=1e-05", "dt=5e-06", "tol=0.001", "dt=2.5e-06"]
+    assert c.reference == "dt=2.5e-06" and list(c.table.index) == list(c.results)
+    # the tol setting ran without its accuracy pilot (Study.run(pilot=False))
+    assert c.results["tol=0.001"].study.tol == 1e-3 and c.results["tol=0.001"].accuracy is None
+    ref = c.table.loc["dt=2.5e-06"]
+    assert ref["speedup"] == 1.0 and ref["verdict"] == "" and np.isnan(ref["crank_pin.max_force"])
+    for label, r in c.results.items():
+        assert len(r.ok) == 4 and np.array_equal(r.array("clearance"), study.inputs()["clearance"].to_numpy())
+        assert c.table.loc[label, "cpu"] == pytest.approx(r.frame["wall_time"].sum(), rel=1e-12)
+    # the table's numbers are compare's (paired) against the reference
+    t = c.comparisons["dt=1e-05"].loc["crank_pin.max_force"]
+    assert t["paired"] and c.table.loc["dt=1e-05", "crank_pin.max_force"] == t["mean_diff"]
+    # the peak force converges with the step: 5e-6 s nearer the reference than 1e-5 s
+    d = c.table["crank_pin.max_force"]
+    assert abs(d["dt=5e-06"]) < abs(d["dt=1e-05"])
+    # judged by default: the peak force and penetration of the joint
+    assert [k for k in c.table.columns if k.endswith("_verdict")] == [
+        "crank_pin.max_force_verdict",
+        "crank_pin.max_penetration_verdict",
+    ]
+    lines = c.markdown()
+    assert lines[2].startswith(
+        "| setting | CPU s | speedup | crank_pin.max_force | crank_pin.max_penetration |"
+    )
+    assert lines[-1].startswith("Recommended: " if c.recommended else "No setting is shown within 2 %")
+
+
+def test_the_recommendation_is_the_cheapest_equivalent_setting():
+    table = pd.DataFrame(
+        {"cpu": [1.0, 2.0, 3.0, 8.0], "speedup": [8.0, 4.0, 2.67, 1.0]},
+        index=["dt=1e-05", "tol=0.001", "dt=5e-06", "dt=1e-06"],
+    )
+    table["verdict"] = ["differs", "equivalent", "equivalent", ""]
+    assert Convergence({}, "dt=1e-06", {}, table, 0.02, 0.95).recommended == "tol=0.001"
+    table["verdict"] = ["differs", "undecided", "differs", ""]
+    assert Convergence({}, "dt=1e-06", {}, table, 0.02, 0.95).recommended is None
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"dts": [1e-5]}, "dts"),
+        ({"dts": [1e-5, 1e-5]}, "dts"),
+        ({"dts": [1e-5, -1.0]}, "dts"),
+        ({"dts": [1e-5], "tols": [2.0]}, "tols"),
+        ({"dts": [1e-5, 5e-6], "samples": 1}, "samples"),
+    ],
+)
+def test_convergence_names_a_bad_setting(kwargs, name):
+    with pytest.raises(InvalidParameterError, match=name):
+        convergence(_study(), **kwargs)
+
+
+def test_the_converge_command_prints_the_table(tmp_path, capsys):
+    f = tmp_path / "crank.toml"
+    f.write_text(
+        'build = "slider_crank"\nsamples = 8\noutputs = ["max_force", "max_penetration"]\n'
+        '[fixed]\nclearance_at = "crank_pin"\n[run]\nt_end = 0.002\ndt = 1e-5\n'
+        '[vary.clearance]\ndistribution = "uniform"\nlow = 1e-4\nhigh = 5e-4\n'
+    )
+    out_md = tmp_path / "converge.md"
+    assert (
+        main(
+            [
+                "converge",
+                str(f),
+                "--dt",
+                "1e-5",
+                "5e-6",
+                "--samples",
+                "3",
+                "--threads",
+                "1",
+                "--out",
+                str(out_md),
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "against dt=5e-06 over the same 3 samples" in out
+    assert "| dt=1e-05 |" in out and "| dt=5e-06 | " in out and out == out_md.read_text()

@@ -76,6 +76,27 @@ def main(argv: Optional[list] = None) -> int:
         "undecided (default: %(default)s, any difference shown)",
     )
     cp.add_argument("--out", default=None, help="also write the table to this Markdown file")
+    cv = sub.add_parser(
+        "converge",
+        help="which step or tol does a study need? its distributions at each against the finest",
+        description="Runs the first --samples of STUDY.toml at each fixed step of --dt and each tolerance "
+        "of --tol (the same inputs for all), compares each with the finest (the smallest dt, else the "
+        "smallest tol) as flexclear compare does, and prints a Markdown table: CPU time, speedup, the "
+        "paired mean difference of each judged output with its interval, a verdict against --rtol and "
+        "the cheapest setting within it.",
+    )
+    cv.add_argument("study", help="the study file (TOML)")
+    cv.add_argument("--dt", type=float, nargs="+", default=[], help="fixed steps, s")
+    cv.add_argument("--tol", type=float, nargs="+", default=[], help="tolerances")
+    cv.add_argument("--samples", type=int, default=32, help="the first N samples (default: %(default)s)")
+    cv.add_argument(
+        "--outputs", nargs="+", default=None, help="outputs judged (default: peak force and penetration)"
+    )
+    cv.add_argument(
+        "--rtol", type=float, default=0.02, help="relative difference that matters (default: %(default)s)"
+    )
+    cv.add_argument("--threads", type=int, default=0, help="worker threads (default: one per core)")
+    cv.add_argument("--out", default=None, help="also write the report to this Markdown file")
     su = sub.add_parser(
         "spin-up",
         help="spin-up of a cantilever with and without geometric stiffening; in-plane frequency vs speed",
@@ -233,6 +254,8 @@ def _run(args) -> int:
             print(f"mode {i}: {fr:.3f} Hz")
     elif args.command == "compare":
         return _compare(args)
+    elif args.command == "converge":
+        return _converge(args)
     elif args.command == "montecarlo":
         return _montecarlo(args)
     elif args.command in ("spin-up", "slider-crank", "four-bar"):
@@ -354,6 +377,30 @@ def _compare(args) -> int:
     table = compare(a, b, outputs=args.outputs, confidence=args.confidence, rtol=args.rtol)
     lines = [f"A = {args.a}, B = {args.b} (the reference)", "", *markdown(table, args.confidence, args.rtol)]
     text = "\n".join(lines) + "\n"
+    print(text, end="")
+    if args.out:
+        Path(args.out).write_text(text)
+    return 0
+
+
+def _converge(args) -> int:
+    from pathlib import Path
+
+    from .analysis.distributions import convergence
+    from .study import load
+
+    study = load(args.study)
+    result = convergence(
+        study,
+        dts=args.dt,
+        tols=args.tol,
+        samples=args.samples,
+        outputs=args.outputs,
+        rtol=args.rtol,
+        threads=args.threads,
+        progress=lambda label: print(f"running {label}", file=sys.stderr),
+    )
+    text = "\n".join([f"{args.study}: {study.build}", "", *result.markdown()]) + "\n"
     print(text, end="")
     if args.out:
         Path(args.out).write_text(text)

@@ -1031,6 +1031,7 @@ class Study:
         client: Any = None,
         progress: Union[bool, Callable[[int, int], None]] = True,
         lanes: int = 0,
+        pilot: bool = True,
     ) -> StudyResult:
         """Runs the study (or what is left of it in ``store``).
 
@@ -1061,6 +1062,10 @@ class Study:
             matrix and step (e.g. differing only in clearance or bearing law) that record no
             history are stepped together on one thread, sharing one factorization (0 = default,
             8; 1 = every sample alone; at most 8). Results are bitwise the same for any value.
+        pilot : bool
+            Run the accuracy pilot of a study with ``tol`` first (:meth:`pilot`; default True).
+            False leaves :attr:`StudyResult.accuracy` None, e.g. where the study's accuracy is
+            checked otherwise (:func:`flexclear.analysis.distributions.convergence`).
 
         Returns
         -------
@@ -1102,7 +1107,7 @@ class Study:
         t0 = time.perf_counter()
         accuracy = None
         try:
-            if self.tol is not None:
+            if self.tol is not None and pilot:
                 accuracy = store_.read_pilot() if store_ else None
                 if accuracy is None:
                     accuracy = self.pilot(inputs, threads=threads)

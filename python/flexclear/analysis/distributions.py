@@ -239,3 +239,201 @@ def _pairs(a, b, ok_a, ok_b):
         if not np.array_equal(a.frame.loc[both, v].to_numpy(), b.frame.loc[both, v].to_numpy()):
             return None
     return common
+
+
+#: Outputs :func:`convergence` judges by default (per joint): the peak contact force and
+#: penetration, the outputs every clearance study keeps.
+CONVERGENCE_OUTPUTS = ("max_force", "max_penetration")
+
+
+class Convergence:
+    """What :func:`convergence` found: the study at each setting against the finest.
+
+    Attributes
+    ----------
+    results : dict
+        Setting label (``"dt=1e-05"``, ``"tol=0.001"``) -> :class:`~flexclear.study.StudyResult`,
+        coarsest first, the reference last.
+    reference : str
+        The label of the finest setting, against which the others are compared.
+    comparisons : dict
+        Label -> :func:`compare`'s table against the reference (every setting but the reference).
+    table : pandas.DataFrame
+        One row per setting: ``cpu`` (s, the samples' summed run time), ``speedup`` (the
+        reference's CPU time over this one's), per judged output ``<output>`` (the paired mean's
+        relative difference), ``<output>_low``, ``<output>_high`` (its interval) and
+        ``<output>_verdict``, and ``verdict`` (``"differs"`` if one output differs,
+        ``"equivalent"`` if all are, else ``"undecided"``; the reference's row is empty).
+    recommended : str or None
+        The cheapest setting whose verdict is ``"equivalent"``; None if none is.
+    rtol, confidence : float
+        As asked.
+    """
+
+    def __init__(self, results, reference, comparisons, table, rtol, confidence):
+        self.results = results
+        self.reference = reference
+        self.comparisons = comparisons
+        self.table = table
+        self.rtol = rtol
+        self.confidence = confidence
+        ok = table[table["verdict"] == "equivalent"]
+        self.recommended = None if ok.empty else str(ok["cpu"].idxmin())
+
+    def markdown(self) -> list[str]:
+        """Lines of a Markdown report: the table and the recommendation."""
+        outputs = [c[: -len("_verdict")] for c in self.table.columns if c.endswith("_verdict")]
+        n = len(self.results[self.reference].ok)
+        lines = [
+            f"Each setting against {self.reference} over the same {n} samples: the mean of the paired "
+            f"relative differences with its {100 * self.confidence:g} % bootstrap interval; the verdict "
+            f"(within {100 * self.rtol:g} %, differs by more, or undecided) takes the median and the "
+            "90 % quantile too.",
+            "",
+            "| setting | CPU s | speedup | " + " | ".join(outputs) + " | verdict |",
+            "|---" * (len(outputs) + 4) + "|",
+        ]
+        for label, row in self.table.iterrows():
+            if label == self.reference:
+                cells = ["reference"] * len(outputs)
+                verdict = ""
+            else:
+                cells = [
+                    f"{100 * row[o]:+.2f} % [{100 * row[f'{o}_low']:+.2f}, {100 * row[f'{o}_high']:+.2f}]"
+                    for o in outputs
+                ]
+                verdict = row["verdict"]
+            lines.append(
+                f"| {label} | {row['cpu']:.3g} | {row['speedup']:.3g}x | "
+                + " | ".join(cells)
+                + f" | {verdict} |"
+            )
+        lines.append("")
+        if self.recommended is None:
+            lines.append(
+                f"No setting is shown within {100 * self.rtol:g} % of the reference: refine further, "
+                "or run more samples where the verdict is undecided."
+            )
+        else:
+            lines.append(
+                f"Recommended: {self.recommended}, the cheapest within {100 * self.rtol:g} % of the "
+                "reference. The reference's own error is not measured: include a setting finer than "
+                "needed and check that it agrees with the reference."
+            )
+        return lines
+
+
+def convergence(
+    study,
+    *,
+    dts: Sequence[float] = (),
+    tols: Sequence[float] = (),
+    samples: Optional[int] = 32,
+    outputs: Optional[Sequence[str]] = None,
+    rtol: float = 0.02,
+    confidence: float = 0.95,
+    threads: int = 0,
+    progress=None,
+) -> Convergence:
+    """Runs ``study`` at each fixed step of ``dts`` and each tolerance of ``tols`` on the same
+    samples and compares each with the finest (the smallest step if any, else the smallest
+    tolerance): which setting is the cheapest whose output distributions are within ``rtol`` of
+    the reference's?
+
+    Parameters
+    ----------
+    study : flexclear.study.Study
+        The study; its ``dt`` is the output step of the ``tols`` runs.
+    dts : sequence of float
+        Fixed steps, s (each > 0).
+    tols : sequence of float
+        Tolerances (each in (0, 1)); at least two settings in all.
+    samples : int or None
+        The first ``samples`` of the study's design (its seed and design), default 32; None for
+        all of them. Every setting runs the same inputs, so the comparisons are paired.
+    outputs : sequence of str, optional
+        Outputs judged; default the peak force and penetration of every joint
+        (:data:`CONVERGENCE_OUTPUTS`).
+    rtol, confidence : float
+        As in :func:`compare`; default 2 % and 95 %.
+    threads : int
+        Worker threads (0 = one per core).
+    progress : callable, optional
+        ``progress(label)`` before each setting runs.
+
+    Returns
+    -------
+    Convergence
+
+    Raises
+    ------
+    InvalidParameterError
+        Naming ``dts``, ``tols`` or ``samples`` (fewer than two settings, a step or tolerance out
+        of range, fewer than 2 samples), or as :func:`compare`.
+    """
+    import pandas as pd
+
+    from ..study import Study
+
+    if not isinstance(study, Study):
+        raise InvalidParameterError(f"study = {type(study).__name__} is not allowed; allowed: a Study")
+    dts, tols = list(dts), list(tols)
+    if not all(_real(x) and x > 0 for x in dts):
+        raise InvalidParameterError(f"dts = {dts!r} is not allowed; allowed: steps > 0, s")
+    if not all(_real(x) and 0 < x < 1 for x in tols):
+        raise InvalidParameterError(f"tols = {tols!r} is not allowed; allowed: tolerances in (0, 1)")
+    if len(set(dts)) + len(set(tols)) < 2:
+        raise InvalidParameterError(
+            f"dts = {dts!r}, tols = {tols!r} is not allowed; allowed: at least two settings in all"
+        )
+    n = study.samples if samples is None else samples
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise InvalidParameterError(
+            f"samples = {samples!r} is not allowed; allowed: an integer >= 2, or None"
+        )
+    n = min(int(n), study.samples)
+    base = {k: v for k, v in study.to_dict().items() if k != "tol"}
+    base["samples"] = n
+    settings = [(f"dt={x:g}", {**base, "dt": float(x)}) for x in sorted(set(dts), reverse=True)]
+    settings += [(f"tol={x:g}", {**base, "tol": float(x)}) for x in sorted(set(tols), reverse=True)]
+    reference = settings[len(set(dts)) - 1][0] if dts else settings[-1][0]
+    results = {}
+    for label, definition in settings:
+        if progress is not None:
+            progress(label)
+        results[label] = Study.from_dict(definition).run(threads=threads, progress=False, pilot=False)
+    # the reference last
+    results = {k: v for k, v in results.items() if k != reference} | {reference: results[reference]}
+    ref = results[reference]
+    if outputs is None:
+        outputs = [f"{j}.{o}" for j in study.joints for o in CONVERGENCE_OUTPUTS if o in study.outputs]
+    columns = _columns(ref, ref, outputs)
+    comparisons = {
+        label: compare(r, ref, outputs=columns, rtol=rtol, confidence=confidence)
+        for label, r in results.items()
+        if label != reference
+    }
+    cpu_ref = float(ref.frame["wall_time"].sum())
+    rows = {}
+    for label, r in results.items():
+        cpu = float(r.frame["wall_time"].sum())
+        row = {"cpu": cpu, "speedup": cpu_ref / cpu if cpu > 0 else np.nan}
+        t = comparisons.get(label)
+        verdicts = []
+        for col in columns:
+            if t is None:
+                row.update({col: np.nan, f"{col}_low": np.nan, f"{col}_high": np.nan, f"{col}_verdict": ""})
+                continue
+            c = t.loc[col]
+            row.update({col: c["mean_diff"], f"{col}_low": c["mean_low"], f"{col}_high": c["mean_high"]})
+            row[f"{col}_verdict"] = c["verdict"]
+            verdicts.append(c["verdict"])
+        if t is None:
+            row["verdict"] = ""
+        elif "differs" in verdicts:
+            row["verdict"] = "differs"
+        else:
+            row["verdict"] = "equivalent" if all(v == "equivalent" for v in verdicts) else "undecided"
+        rows[label] = row
+    table = pd.DataFrame.from_dict(rows, orient="index")
+    return Convergence(results, reference, comparisons, table, rtol, confidence)
