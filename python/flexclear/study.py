@@ -2367,7 +2367,7 @@ class StudyResult:
             f"{RESOLVED_STEPS_PER_CONTACT} steps per natural contact period (pi d / v of the deepest "
             f"impact) at {joint} (median {row['median_steps']:.3g}): their peak forces and "
             "penetrations are lower bounds and their dissipated energies further off; a smaller dt "
-            "or a tol resolves them."
+            "or a tol resolves them (flexclear converge compares the choices)."
             for joint, row in self.resolution().iterrows()
             if row["unresolved"] > 0
         ]

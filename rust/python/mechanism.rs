@@ -706,11 +706,18 @@ impl PyMechanism {
             let names: Vec<&str> = mech.sliders.iter().map(|s| s.name.as_str()).collect();
             (r.check_grid(&names, t_end, dt, every)).map_err(|e| err(py, e))?;
         }
-        if matches!(crate::plan::Plan::compile(mech, &settings), Ok(p) if p.kind == StepperKind::Constant) {
+        // one plan for the choice of coupling and for the run: the coupling's tolerance does not
+        // enter the plan (the constant stepper's translating model, or the numbering and the
+        // constant-rate check of the moving-frame steppers)
+        let plan = crate::plan::Plan::compile(mech, &settings);
+        if matches!(&plan, Ok(p) if p.kind == StepperKind::Constant) {
             settings.coupling = parse_coupling(py, method, iterate, tol, max_iter, gap_stiffness, gap_damping)?;
         }
         let link_elements: Vec<usize> = mech.links.iter().map(|l| l.section.elements).collect();
-        let (res, pending) = run_detached(py, progress, |control| crate::plan::simulate(mech, &settings, control));
+        let (res, pending) = run_detached(py, progress, |control| {
+            let plan = plan.map_err(crate::run::RunFailure::before_start)?;
+            crate::plan::simulate_planned(mech, &settings, &plan, control)
+        });
         match res {
             Ok(out) => run_output(py, out, &link_elements),
             Err(fail) => {
