@@ -255,3 +255,20 @@ def test_the_converge_command_prints_the_table(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "against dt=5e-06 over the same 3 samples" in out
     assert "| dt=1e-05 |" in out and "| dt=5e-06 | " in out and out == out_md.read_text()
+
+
+def test_event_aware_steps_take_out_the_dissipations_first_order_error():
+    # the first impact (2 ms) of 4 samples: the dissipated energy's plain steps are off at first
+    # order (measured -10.7 % at 1e-5 s, -6.3 % at 5e-6 s against 1.25e-6 s), event-aware steps
+    # at the same dt much less (+4.0 %, +0.4 %)
+    study = Study.from_dict(
+        {**_study().to_dict(), "samples": 4, "outputs": ["max_force", "dissipated_energy"]}
+    )
+    c = convergence(study, dts=[1e-5, 5e-6, 1.25e-6], events=True, threads=1, outputs=["dissipated_energy"])
+    assert list(c.results) == ["dt=1e-05", "dt=1e-05 events", "dt=5e-06", "dt=5e-06 events", "dt=1.25e-06"]
+    assert c.results["dt=5e-06 events"].study.run_options == {"events": True, "iterate": True}
+    d = c.table["crank_pin.dissipated_energy"]
+    for dt in ("1e-05", "5e-06"):
+        assert abs(d[f"dt={dt} events"]) < abs(d[f"dt={dt}"]) / 2
+    # plain steps converge at first order: halving the step about halves the error
+    assert abs(d["dt=5e-06"]) < 0.75 * abs(d["dt=1e-05"])

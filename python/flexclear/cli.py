@@ -95,6 +95,11 @@ def main(argv: Optional[list] = None) -> int:
     cv.add_argument(
         "--rtol", type=float, default=0.02, help="relative difference that matters (default: %(default)s)"
     )
+    cv.add_argument(
+        "--events",
+        action="store_true",
+        help="also each step but the finest with event-aware steps (contact entries and exits cut)",
+    )
     cv.add_argument("--threads", type=int, default=0, help="worker threads (default: one per core)")
     cv.add_argument("--out", default=None, help="also write the report to this Markdown file")
     su = sub.add_parser(
@@ -397,6 +402,7 @@ def _converge(args) -> int:
         samples=args.samples,
         outputs=args.outputs,
         rtol=args.rtol,
+        events=args.events,
         threads=args.threads,
         progress=lambda label: print(f"running {label}", file=sys.stderr),
     )

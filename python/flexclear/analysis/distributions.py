@@ -332,6 +332,7 @@ def convergence(
     outputs: Optional[Sequence[str]] = None,
     rtol: float = 0.02,
     confidence: float = 0.95,
+    events: bool = False,
     threads: int = 0,
     progress=None,
 ) -> Convergence:
@@ -356,6 +357,11 @@ def convergence(
         (:data:`CONVERGENCE_OUTPUTS`).
     rtol, confidence : float
         As in :func:`compare`; default 2 % and 95 %.
+    events : bool
+        Also run each step but the finest with event-aware steps (``run_options`` ``events`` and
+        ``iterate``: the steps that open or close a contact cut at the crossing), labelled
+        ``"dt=1e-05 events"``: they take out the first-order error of the contact's entries and
+        exits (in the dissipated energy, above all) for a few per cent more CPU.
     threads : int
         Worker threads (0 = one per core).
     progress : callable, optional
@@ -394,9 +400,16 @@ def convergence(
     n = min(int(n), study.samples)
     base = {k: v for k, v in study.to_dict().items() if k != "tol"}
     base["samples"] = n
-    settings = [(f"dt={x:g}", {**base, "dt": float(x)}) for x in sorted(set(dts), reverse=True)]
+    steps = sorted(set(dts), reverse=True)
+    settings = []
+    cut = {**(base.get("run_options") or {}), "events": True, "iterate": True}
+    for k, x in enumerate(steps):
+        settings.append((f"dt={x:g}", {**base, "dt": float(x)}))
+        if events and k < len(steps) - 1:
+            settings.append((f"dt={x:g} events", {**base, "dt": float(x), "run_options": cut}))
+    reference = settings[-1][0] if steps else None
     settings += [(f"tol={x:g}", {**base, "tol": float(x)}) for x in sorted(set(tols), reverse=True)]
-    reference = settings[len(set(dts)) - 1][0] if dts else settings[-1][0]
+    reference = reference or settings[-1][0]
     results = {}
     for label, definition in settings:
         if progress is not None:
