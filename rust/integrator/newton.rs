@@ -587,6 +587,43 @@ fn frame_ck(ld: &LinkData, f: &FrameState, out: &mut (Mat6, Mat6)) {
     }
 }
 
+/// The links' part of [`NewtonRun::constant_rate_obstacle`], from the mechanism and the terms its
+/// links carry ([`dofs::link_terms`], in link order): each link's constant frame rate (rad/s), or
+/// why the constant-rate stepper cannot run the model (a rigid link, a frame turning at a
+/// varying rate, geometric terms, or a node pinned or on a slider in a link that turns). The
+/// plan asks it before building a run ([`crate::plan::Plan::compile`]).
+pub(crate) fn links_rate_obstacle(
+    mech: &Mechanism,
+    terms: impl IntoIterator<Item = LinkTerms>,
+) -> std::result::Result<Vec<f64>, String> {
+    let mut rate = Vec::with_capacity(mech.links.len());
+    for (l, t) in mech.links.iter().zip(terms) {
+        if l.rigid.is_some() {
+            return Err(format!(
+                "link {:?} is rigid (its rigid-body terms run on the Newton stepper)",
+                l.name
+            ));
+        }
+        let Some(r) = l.frame.constant_rate() else {
+            return Err(format!("the frame of link {:?} rotates at a varying rate", l.name));
+        };
+        rate.push(r);
+        if t.geometric {
+            return Err(format!(
+                "link {:?} carries geometric terms (K2, K3, D2), which change with its axial force",
+                l.name
+            ));
+        }
+        if t.transformed && r != 0.0 {
+            return Err(format!(
+                "link {:?} rotates and has a node pinned or on a slider, whose transform turns with it",
+                l.name
+            ));
+        }
+    }
+    Ok(rate)
+}
+
 /// Element vector (`u, v, theta` of both nodes) of component `c` (0 displacement, 1 velocity,
 /// 2 acceleration) from the local states of its two nodes (see [`NewtonRun::local`]).
 #[inline]
@@ -1562,31 +1599,10 @@ impl<'a> NewtonRun<'a> {
     /// rate (so that the contact block is `P^T G P` with a constant `P` in the joint's axes), and
     /// the Woodbury solver (`solver="refactor"` asks for refactorization).
     pub fn constant_rate_obstacle(&self) -> Option<String> {
-        let mut rate = Vec::with_capacity(self.links.len());
-        for (l, ld) in self.mech.links.iter().zip(&self.links) {
-            if l.rigid.is_some() {
-                return Some(format!(
-                    "link {:?} is rigid (its rigid-body terms run on the Newton stepper)",
-                    l.name
-                ));
-            }
-            let Some(r) = l.frame.constant_rate() else {
-                return Some(format!("the frame of link {:?} rotates at a varying rate", l.name));
-            };
-            rate.push(r);
-            if ld.active.geometric {
-                return Some(format!(
-                    "link {:?} carries geometric terms (K2, K3, D2), which change with its axial force",
-                    l.name
-                ));
-            }
-            if ld.active.transformed && r != 0.0 {
-                return Some(format!(
-                    "link {:?} rotates and has a node pinned or on a slider, whose transform turns with it",
-                    l.name
-                ));
-            }
-        }
+        let rate = match links_rate_obstacle(self.mech, self.links.iter().map(|ld| ld.active)) {
+            Ok(rate) => rate,
+            Err(why) => return Some(why),
+        };
         if matches!(self.settings.coupling, Coupling::Force) || self.mech.joints.is_empty() {
             return None;
         }

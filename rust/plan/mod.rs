@@ -144,6 +144,14 @@ impl Plan {
     /// ([`NewtonRun::constant_rate_obstacle`]; an invalid model or settings is a reason too, and
     /// the run then fails with that error on the Newton stepper). `dofs`: the plan's numbering.
     fn rate_obstacle(mech: &Mechanism, settings: &Settings, dofs: Option<&Numbered>) -> Option<String> {
+        if let Some(d) = dofs {
+            // the links' obstacles need only the numbering: no run is built for them (a
+            // slider-crank's rod turns at a varying rate)
+            let terms = dofs::link_terms(mech, &d.dofs.nodes);
+            if let Err(why) = crate::integrator::newton::links_rate_obstacle(mech, terms) {
+                return Some(why);
+            }
+        }
         let run = match dofs {
             Some(d) => d.run(mech, settings),
             None => NewtonRun::new(mech, settings),
