@@ -98,6 +98,19 @@ def test_a_single_impact_dissipates_the_analytic_energy():
         assert 2 * j.dissipated_energy / (2 * lost) == pytest.approx(1.0, abs=3e-3)
 
 
+def test_event_aware_iterated_steps_take_out_the_first_order_dissipation_error():
+    # dt 1e-6 s: plain steps -1.74 %, events with the contact iterated -0.14 % (measured); events
+    # with the contact lagged (iterate=False) leave the error as it is (measured -1.74 % too)
+    an = analytic_dissipation()
+    err = {}
+    for key, kw in (("plain", {}), ("events", {"events": True}), ("both", {"events": True, "iterate": True})):
+        j = bar().simulate(3e-3, 1e-6, record=Record(contact_modes=True), **kw).joint("left")
+        assert j.impacts == 1
+        err[key] = abs(j.dissipated_energy / an - 1)
+    assert err["both"] < 0.003 and err["both"] < err["plain"] / 5
+    assert err["events"] == pytest.approx(err["plain"], rel=0.05)
+
+
 def test_a_single_impact_on_adaptive_steps_dissipates_the_analytic_energy():
     # measured -0.44 % at tol 1e-3 and -0.076 % at tol 1e-4: the error falls with the tolerance
     an = analytic_dissipation()
