@@ -141,8 +141,10 @@ impl Plan {
     }
 
     /// Why the constant-rate stepper cannot run `mech` with `settings`
-    /// ([`NewtonRun::constant_rate_obstacle`]; an invalid model or settings is a reason too, and
-    /// the run then fails with that error on the Newton stepper). `dofs`: the plan's numbering.
+    /// ([`NewtonRun::constant_rate_obstacle`]; the links' obstacles are found from the numbering
+    /// alone, [`crate::integrator::newton::links_rate_obstacle`]; where no link is one, an
+    /// invalid model or settings is a reason too, and the run then fails with that error on the
+    /// Newton stepper). `dofs`: the plan's numbering.
     fn rate_obstacle(mech: &Mechanism, settings: &Settings, dofs: Option<&Numbered>) -> Option<String> {
         if let Some(d) = dofs {
             // the links' obstacles need only the numbering: no run is built for them (a

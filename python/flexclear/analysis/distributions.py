@@ -24,6 +24,7 @@ from typing import Optional
 
 import numpy as np
 
+from .._numbers import is_real
 from ..errors import InvalidParameterError
 
 #: Bootstrap resamples of :func:`compare` unless asked otherwise.
@@ -181,7 +182,8 @@ def markdown(table, confidence: float = 0.95, rtol: float = 0.0) -> list[str]:
 
 
 def _real(x) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and np.isfinite(x)
+    """A finite real number (:func:`flexclear._numbers.is_real`, the package's one test)."""
+    return is_real(x) and bool(np.isfinite(x))
 
 
 def _check_quantiles(quantiles) -> list[float]:
