@@ -666,6 +666,8 @@ def test_resolution_of_a_tol_study_is_its_pilot(tmp_path):
     assert "## Resolution: the accuracy pilot" in text
     for column, value in res.accuracy["accuracy"].items():
         assert f"| {column} | {value:.3g} |" in text
+    # the way to the distributions' answer, with this study's tolerances
+    assert "`flexclear converge STUDY.toml --tol 0.001 0.0001`" in text
     # without contact_period a fixed-step study has no resolution section
     res = Study("slider_yoke", samples=1, t_end=0.002, dt=1e-5).run(threads=1, progress=False)
     assert res.resolution().empty

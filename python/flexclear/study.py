@@ -2630,7 +2630,9 @@ def _resolution_section(result: StudyResult) -> list[str]:
             "",
             f"Peak forces and penetrations: {verdict} tol. A joint that rattles is chaotic: its single "
             "samples' peaks move with any change of the step sequence while their distribution stays; "
-            "where they are not within tol, compare the distributions at tol and tol / 10.",
+            "where they are not within tol, compare the distributions at tol and tol / 10 over more "
+            f"samples (`flexclear converge STUDY.toml --tol {pilot['tol']:g} {pilot['tol'] / 10:g}`, "
+            "paired bootstrap intervals).",
         ]
         return lines
     table = result.resolution()
