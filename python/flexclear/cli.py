@@ -373,24 +373,19 @@ def _montecarlo(args) -> int:
 
 
 def _compare(args) -> int:
-    from pathlib import Path
-
     from .analysis.distributions import compare, markdown
     from .study import open_store
 
     a, b = open_store(args.a), open_store(args.b)
     table = compare(a, b, outputs=args.outputs, confidence=args.confidence, rtol=args.rtol)
-    lines = [f"A = {args.a}, B = {args.b} (the reference)", "", *markdown(table, args.confidence, args.rtol)]
-    text = "\n".join(lines) + "\n"
-    print(text, end="")
-    if args.out:
-        Path(args.out).write_text(text)
+    _emit(
+        [f"A = {args.a}, B = {args.b} (the reference)", "", *markdown(table, args.confidence, args.rtol)],
+        args.out,
+    )
     return 0
 
 
 def _converge(args) -> int:
-    from pathlib import Path
-
     from .analysis.distributions import convergence
     from .study import load
 
@@ -406,11 +401,18 @@ def _converge(args) -> int:
         threads=args.threads,
         progress=lambda label: print(f"running {label}", file=sys.stderr),
     )
-    text = "\n".join([f"{args.study}: {study.build}", "", *result.markdown()]) + "\n"
-    print(text, end="")
-    if args.out:
-        Path(args.out).write_text(text)
+    _emit([f"{args.study}: {study.build}", "", *result.markdown()], args.out)
     return 0
+
+
+def _emit(lines: list, out) -> None:
+    """Prints a Markdown report's lines and, with ``out`` (a path), writes the same text there."""
+    from pathlib import Path
+
+    text = "\n".join(lines) + "\n"
+    print(text, end="")
+    if out:
+        Path(out).write_text(text)
 
 
 def _warn_unresolved(result) -> None:

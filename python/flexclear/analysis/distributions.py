@@ -130,7 +130,7 @@ def compare(
         else:
             xb = x[rng.integers(0, x.size, size=(resamples, x.size))]
             yb = y[rng.integers(0, y.size, size=(resamples, y.size))]
-        inside, outside = True, False
+        verdicts = []
         for s, q in zip(names, [*qs, None]):
             sa, sb = (np.mean(x), np.mean(y)) if q is None else (np.quantile(x, q), np.quantile(y, q))
             ba, bb = (
@@ -146,13 +146,29 @@ def compare(
                 boot = boot[np.isfinite(boot)]
                 if boot.size:
                     low, high = np.percentile(boot, [tail, 100 - tail])
-            outside = outside or low > rtol or high < -rtol
-            inside = inside and -rtol <= low and high <= rtol
+            verdicts.append(_interval_verdict(low, high, rtol))
             row.update({f"{s}_a": sa, f"{s}_b": sb, f"{s}_diff": diff, f"{s}_low": low, f"{s}_high": high})
         row["ks_pvalue"] = float(stats.ks_2samp(x, y).pvalue)
-        row["verdict"] = "differs" if outside else "equivalent" if inside else "undecided"
+        row["verdict"] = _combined(verdicts)
         rows[col] = row
     return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def _interval_verdict(low: float, high: float, rtol: float) -> str:
+    """One interval of a relative difference against ``[-rtol, rtol]``: ``"differs"`` wholly
+    outside, ``"equivalent"`` wholly inside, else (or NaN) ``"undecided"``."""
+    if low > rtol or high < -rtol:
+        return "differs"
+    return "equivalent" if -rtol <= low and high <= rtol else "undecided"
+
+
+def _combined(verdicts: Sequence[str]) -> str:
+    """Several verdicts as one: ``"differs"`` if one does, ``"equivalent"`` if all are, else
+    ``"undecided"`` (a statistic's intervals into an output's verdict, an output's into a
+    setting's)."""
+    if "differs" in verdicts:
+        return "differs"
+    return "equivalent" if all(v == "equivalent" for v in verdicts) else "undecided"
 
 
 def markdown(table, confidence: float = 0.95, rtol: float = 0.0) -> list[str]:
@@ -409,9 +425,9 @@ def convergence(
         settings.append((f"dt={x:g}", {**base, "dt": float(x)}))
         if events and k < len(steps) - 1:
             settings.append((f"dt={x:g} events", {**base, "dt": float(x), "run_options": cut}))
-    reference = settings[-1][0] if steps else None
-    settings += [(f"tol={x:g}", {**base, "tol": float(x)}) for x in sorted(set(tols), reverse=True)]
-    reference = reference or settings[-1][0]
+    by_tol = [(f"tol={x:g}", {**base, "tol": float(x)}) for x in sorted(set(tols), reverse=True)]
+    reference = settings[-1][0] if steps else by_tol[-1][0]
+    settings += by_tol
     results = {}
     for label, definition in settings:
         if progress is not None:
@@ -434,21 +450,17 @@ def convergence(
         cpu = float(r.frame["wall_time"].sum())
         row = {"cpu": cpu, "speedup": cpu_ref / cpu if cpu > 0 else np.nan}
         t = comparisons.get(label)
-        verdicts = []
         for col in columns:
-            if t is None:
-                row.update({col: np.nan, f"{col}_low": np.nan, f"{col}_high": np.nan, f"{col}_verdict": ""})
-                continue
-            c = t.loc[col]
-            row.update({col: c["mean_diff"], f"{col}_low": c["mean_low"], f"{col}_high": c["mean_high"]})
-            row[f"{col}_verdict"] = c["verdict"]
-            verdicts.append(c["verdict"])
-        if t is None:
-            row["verdict"] = ""
-        elif "differs" in verdicts:
-            row["verdict"] = "differs"
-        else:
-            row["verdict"] = "equivalent" if all(v == "equivalent" for v in verdicts) else "undecided"
+            c = {} if t is None else t.loc[col]
+            row.update(
+                {
+                    col: c.get("mean_diff", np.nan),
+                    f"{col}_low": c.get("mean_low", np.nan),
+                    f"{col}_high": c.get("mean_high", np.nan),
+                    f"{col}_verdict": c.get("verdict", ""),
+                }
+            )
+        row["verdict"] = "" if t is None else _combined(list(t.loc[columns, "verdict"]))
         rows[label] = row
     table = pd.DataFrame.from_dict(rows, orient="index")
     return Convergence(results, reference, comparisons, table, rtol, confidence)
