@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from flexclear.analysis.distributions import Convergence, compare, convergence, markdown
+from flexclear.analysis.distributions import Convergence, compare, convergence, markdown, plot
 from flexclear.cli import main
 from flexclear.errors import InvalidParameterError
 from flexclear.study import Study, StudyResult, Uniform
@@ -272,3 +272,42 @@ def test_event_aware_steps_take_out_the_dissipations_first_order_error():
         assert abs(d[f"dt={dt} events"]) < abs(d[f"dt={dt}"]) / 2
     # plain steps converge at first order: halving the step about halves the error
     assert abs(d["dt=5e-06"]) < 0.75 * abs(d["dt=1e-05"])
+
+
+def _is_png(path) -> bool:
+    return path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000
+
+
+def test_the_comparison_is_plotted_with_its_intervals_and_both_distributions(tmp_path):
+    rng = np.random.default_rng(3)
+    x = rng.lognormal(0.0, 0.3, 60)
+    a, b = _result(1.1 * x), _result(x)
+    # one output with too few finite values: NaN statistics, plotted without an interval
+    a.frame["crank_pin.max_penetration"] = [np.nan] * 59 + [1.0]
+    b.frame["crank_pin.max_penetration"] = np.linspace(1, 2, 60)
+    table = compare(a, b, outputs=["crank_pin.max_force"], rtol=0.02)
+    paths = plot(table, a, b, tmp_path / "plots", rtol=0.02, names=("coarse", "fine"))
+    assert [p.name for p in paths] == ["compare.png", "compare_ecdf.png"]
+    assert all(_is_png(p) for p in paths)
+    # the forest plot's height follows its rows (outputs x statistics): 3 rows here, 6 with NaNs
+    a.study = b.study = Study.from_dict({**_study().to_dict(), "outputs": ["max_force", "max_penetration"]})
+    both = compare(a, b, rtol=0.02)
+    assert both.loc["crank_pin.max_penetration", "verdict"] == "undecided"
+    taller = plot(both, a, b, tmp_path / "both")[0]
+    from matplotlib.image import imread
+
+    assert imread(taller).shape[0] > imread(paths[0]).shape[0]
+
+
+def test_the_converge_command_plots_the_trade_of_accuracy_for_time(tmp_path, capsys):
+    f = tmp_path / "crank.toml"
+    f.write_text(
+        'build = "slider_crank"\nsamples = 4\noutputs = ["max_force"]\n'
+        '[fixed]\nclearance_at = "crank_pin"\n[run]\nt_end = 0.002\ndt = 1e-5\n'
+        '[vary.clearance]\ndistribution = "uniform"\nlow = 1e-4\nhigh = 5e-4\n'
+    )
+    args = ["converge", str(f), "--dt", "1e-5", "5e-6", "--samples", "3", "--threads", "1"]
+    assert main([*args, "--plots", str(tmp_path / "plots")]) == 0
+    out = capsys.readouterr().out
+    png = tmp_path / "plots" / "convergence.png"
+    assert _is_png(png) and f"![convergence]({png.resolve()})" in out

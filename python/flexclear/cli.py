@@ -76,6 +76,13 @@ def main(argv: Optional[list] = None) -> int:
         "undecided (default: %(default)s, any difference shown)",
     )
     cp.add_argument("--out", default=None, help="also write the table to this Markdown file")
+    cp.add_argument(
+        "--plots",
+        default=None,
+        metavar="FOLDER",
+        help="also save compare.png (the differences with their intervals) and compare_ecdf.png (both "
+        "distributions) there",
+    )
     cv = sub.add_parser(
         "converge",
         help="which step or tol does a study need? its distributions at each against the finest",
@@ -102,6 +109,12 @@ def main(argv: Optional[list] = None) -> int:
     )
     cv.add_argument("--threads", type=int, default=0, help="worker threads (default: one per core)")
     cv.add_argument("--out", default=None, help="also write the report to this Markdown file")
+    cv.add_argument(
+        "--plots",
+        default=None,
+        metavar="FOLDER",
+        help="also save convergence.png there (each setting's difference against its CPU time)",
+    )
     su = sub.add_parser(
         "spin-up",
         help="spin-up of a cantilever with and without geometric stiffening; in-plane frequency vs speed",
@@ -373,15 +386,16 @@ def _montecarlo(args) -> int:
 
 
 def _compare(args) -> int:
-    from .analysis.distributions import compare, markdown
+    from .analysis.distributions import compare, markdown, plot
     from .study import open_store
 
     a, b = open_store(args.a), open_store(args.b)
     table = compare(a, b, outputs=args.outputs, confidence=args.confidence, rtol=args.rtol)
-    _emit(
-        [f"A = {args.a}, B = {args.b} (the reference)", "", *markdown(table, args.confidence, args.rtol)],
-        args.out,
-    )
+    lines = [f"A = {args.a}, B = {args.b} (the reference)", "", *markdown(table, args.confidence, args.rtol)]
+    if args.plots:
+        paths = plot(table, a, b, args.plots, confidence=args.confidence, rtol=args.rtol)
+        lines += ["", *(f"![{p.stem}]({p.resolve()})" for p in paths)]
+    _emit(lines, args.out)
     return 0
 
 
@@ -401,7 +415,10 @@ def _converge(args) -> int:
         threads=args.threads,
         progress=lambda label: print(f"running {label}", file=sys.stderr),
     )
-    _emit([f"{args.study}: {study.build}", "", *result.markdown()], args.out)
+    lines = [f"{args.study}: {study.build}", "", *result.markdown()]
+    if args.plots:
+        lines += ["", *(f"![{p.stem}]({p.resolve()})" for p in result.plot(args.plots))]
+    _emit(lines, args.out)
     return 0
 
 

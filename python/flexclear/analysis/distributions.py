@@ -197,6 +197,108 @@ def markdown(table, confidence: float = 0.95, rtol: float = 0.0) -> list[str]:
     return lines
 
 
+def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, names=("A", "B")) -> list:
+    """Saves :func:`compare`'s ``table`` of studies ``a`` and ``b`` as two PNG files in ``folder``
+    and returns their paths.
+
+    - ``compare.png``: per output and statistic, the relative difference ``a / b - 1`` (%) with
+      its interval, the band ``[-rtol, rtol]`` shaded; an interval wholly outside the band is a
+      difference, one wholly inside it an equivalence.
+    - ``compare_ecdf.png``: per output, the two empirical distribution functions of the completed
+      samples' finite values, with their medians.
+
+    ``names`` label ``a`` and ``b`` (``b`` the reference).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..study import _label, _sci_ticks
+
+    folder = _folder(folder)
+    stats_ = [c[: -len("_diff")] for c in table.columns if c.endswith("_diff")]
+    outputs = list(table.index)
+    rows = [(o, s) for o in outputs for s in stats_]
+    fig, ax = plt.subplots(figsize=(7.5, 1.2 + 0.32 * len(rows)))
+    if rtol > 0:
+        ax.axvspan(-100 * rtol, 100 * rtol, color="C2", alpha=0.15, label=f"within {100 * rtol:g} %")
+    ax.axvline(0.0, color="0.3", lw=0.8)
+    for k, s in enumerate(stats_):
+        ys = [len(rows) - 1 - i for i, (_, st) in enumerate(rows) if st == s]
+        col = table[f"{s}_diff"].to_numpy(float) * 100
+        lo = table[f"{s}_low"].to_numpy(float) * 100
+        hi = table[f"{s}_high"].to_numpy(float) * 100
+        err = np.vstack([col - lo, hi - col])
+        ax.errorbar(
+            col,
+            ys,
+            xerr=np.where(np.isfinite(err), err, 0.0),
+            fmt="o",
+            ms=4,
+            capsize=3,
+            color=f"C{k}",
+            label=s,
+        )
+    for i, (o, s) in enumerate(rows):
+        if not np.isfinite(table.loc[o, f"{s}_diff"]):
+            ax.text(
+                0.0,
+                len(rows) - 1 - i,
+                "  no value (too few finite samples, or b's is 0)",
+                va="center",
+                fontsize=7,
+                color="0.4",
+            )
+    ax.set_ylim(-0.7, len(rows) - 0.3)
+    ax.set_yticks(range(len(rows)))
+    ax.set_yticklabels([f"{o} {s}" for o, s in reversed(rows)], fontsize=8)
+    ax.set_xlabel(f"{names[0]} / {names[1]} - 1 [%], {100 * confidence:g} % bootstrap intervals")
+    ax.grid(True, axis="x", alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    ax.set_title(f"{names[0]} against {names[1]} (the reference)", fontsize=10)
+    fig.tight_layout()
+    paths = [folder / "compare.png"]
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    ncol = min(3, len(outputs))
+    nrow = -(-len(outputs) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
+    for ax, o in zip(axes.flat, outputs):
+        for k, (r, name) in enumerate(((a, names[0]), (b, names[1]))):
+            x = np.sort(r.ok[o].to_numpy(dtype=float))
+            x = x[np.isfinite(x)]
+            if x.size:
+                ax.step(
+                    x,
+                    np.arange(1, x.size + 1) / x.size,
+                    where="post",
+                    color=f"C{k}",
+                    lw=2.4 if k == 0 else 1.2,
+                    label=f"{name} (n = {x.size})",
+                )
+                ax.axvline(np.median(x), color=f"C{k}", ls=":", lw=1)
+        ax.set_xlabel(_label(o))
+        ax.set_ylabel("fraction of samples <= x")
+        _sci_ticks(ax, "x")
+        ax.legend(fontsize=8)
+    for ax in list(axes.flat)[len(outputs) :]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    paths.append(folder / "compare_ecdf.png")
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    return paths
+
+
+def _folder(folder):
+    from pathlib import Path
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
 def _real(x) -> bool:
     """A finite real number (:func:`flexclear._numbers.is_real`, the package's one test)."""
     return is_real(x) and bool(np.isfinite(x))
@@ -339,6 +441,79 @@ class Convergence:
                 "needed and check that it agrees with the reference."
             )
         return lines
+
+    def plot(self, folder) -> list:
+        """Saves ``convergence.png`` in ``folder`` and returns its path: per judged output, each
+        setting's paired mean relative difference from the reference (%, with its interval)
+        against its CPU time (s, log scale), labelled, the band ``[-rtol, rtol]`` shaded and the
+        recommended setting ringed: the trade of accuracy for time at a glance."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.ticker import NullFormatter
+
+        outputs = [c[: -len("_verdict")] for c in self.table.columns if c.endswith("_verdict")]
+        folder = _folder(folder)
+        ncol = min(2, len(outputs))
+        nrow = -(-len(outputs) // ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(5.6 * ncol, 4.0 * nrow), squeeze=False)
+        kinds = {"tol": "C1", "events": "C2", "dt": "C0"}
+        for ax, o in zip(axes.flat, outputs):
+            ax.axhspan(-100 * self.rtol, 100 * self.rtol, color="C2", alpha=0.12)
+            ax.axhline(0.0, color="0.3", lw=0.8)
+            for i, (label, row) in enumerate(self.table.iterrows()):
+                kind = "tol" if label.startswith("tol") else "events" if label.endswith("events") else "dt"
+                x = row["cpu"]
+                if label == self.reference:
+                    ax.plot([x], [0.0], "*", ms=12, color="k")
+                    ax.annotate(
+                        f"{label} (reference)",
+                        (x, 0.0),
+                        textcoords="offset points",
+                        xytext=(4, 6),
+                        fontsize=7,
+                    )
+                    continue
+                y, lo, hi = (100 * row[k] for k in (o, f"{o}_low", f"{o}_high"))
+                if not np.isfinite(y):
+                    continue
+                err = [[y - lo], [hi - y]] if np.isfinite(lo) and np.isfinite(hi) else None
+                ax.errorbar([x], [y], yerr=err, fmt="o", ms=5, capsize=3, color=kinds[kind])
+                if label == self.recommended:
+                    ax.plot([x], [y], "o", ms=13, mfc="none", mec="k")
+                # labels of neighbouring settings above and below their points, apart
+                ax.annotate(
+                    label, (x, y), textcoords="offset points", xytext=(5, 4 if i % 2 else -11), fontsize=7
+                )
+            ax.set_xscale("log")
+            # ticks at the settings' own times (a range of a decade or less gets no labels else)
+            cpus = []
+            for c in sorted(set(self.table["cpu"].to_numpy(float))):
+                if not cpus or c > 1.15 * cpus[-1]:  # labels apart
+                    cpus.append(c)
+            ax.set_xticks(cpus, [f"{c:.3g}" for c in cpus], fontsize=7, rotation=30)
+            ax.xaxis.set_minor_formatter(NullFormatter())
+            ax.margins(x=0.2)
+            ax.set_xlabel("CPU time of the samples [s]")
+            ax.set_ylabel("mean relative difference [%]")
+            ax.set_title(o, fontsize=9)
+            ax.grid(True, which="both", alpha=0.3)
+        for ax in list(axes.flat)[len(outputs) :]:
+            ax.set_visible(False)
+        rec = (
+            "none within the band" if self.recommended is None else f"recommended {self.recommended} (ringed)"
+        )
+        fig.suptitle(
+            f"Against {self.reference}: {100 * self.confidence:g} % intervals, band +-{100 * self.rtol:g} %; "
+            f"{rec}",
+            fontsize=9,
+        )
+        fig.tight_layout(rect=(0, 0, 1, 1 - 0.05 / nrow))
+        path = folder / "convergence.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        return [path]
 
 
 def convergence(
