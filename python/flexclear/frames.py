@@ -11,7 +11,10 @@
 * ``Rotation.fixed(angle)``, ``Rotation.constant(rate, angle0=0)``,
   ``Rotation.spin_up(final_rate, ramp_time, angle0=0)`` (Kane's smooth ramp),
   ``Rotation.harmonic(amplitude, frequency, mean=0, phase=0)``,
-  ``Rotation.tabulated(time, angle, rate=None, accel=None)``: rad, rad/s, s, Hz.
+  ``Rotation.tabulated(time, angle, rate=None, accel=None)``: rad, rad/s, s, Hz. Tabulated
+  angles (and ``motion.tabulated`` origins) are interpolated by quintic Hermite polynomials
+  through the samples' values, rates and accelerations (derived by central differences when not
+  given): a linkage of one's own runs on its links' kinematics tabulated from any solver.
 
 ``frame.at(t)`` gives ``(origin, origin velocity, origin acceleration, angle, rate,
 acceleration)`` at ``t`` (SI); ``frame.rotates`` says whether its angle changes.

@@ -75,7 +75,14 @@ def harmonic(
 
 
 def tabulated(time, position, velocity=None, acceleration=None) -> Motion:
-    """Tabulated motion, linearly interpolated.
+    """Tabulated motion: between two samples the quintic Hermite polynomial through their
+    positions, velocities and accelerations, whose derivatives are the velocity and acceleration
+    (consistent with one another, twice continuously differentiable, error O(h^6) in the
+    sample spacing h); the end samples' values are held outside the table.
+
+    Sampled from a link's exact kinematics every 1e-3 s at 150 rad/s, a mechanism's pins stay
+    closed between the samples to about 1e-10 of its length (the closure check of ``simulate``
+    asks for 1e-7).
 
     Parameters
     ----------

@@ -181,15 +181,16 @@ pub enum Rotation {
         /// Phase, rad.
         phase: f64,
     },
-    /// Tabulated angle, linearly interpolated (see [`AngleTable`]).
+    /// Tabulated angle, interpolated by quintic Hermite polynomials (see [`AngleTable`]).
     Tabulated(AngleTable),
 }
 
 /// Samples of a tabulated angle: times (s), angles (rad), rates (rad/s) and accelerations
-/// (rad/s^2). Angle, rate and acceleration are each interpolated linearly between samples and
-/// held at the end values outside the table (so rate and acceleration are those of the table, not
-/// the derivatives of the interpolated angle). Build it with [`AngleTable::new`] or
-/// [`Rotation::tabulated`].
+/// (rad/s^2). Between two samples the angle is the quintic Hermite polynomial through their
+/// angles, rates and accelerations, and the rate and acceleration are its derivatives
+/// ([`crate::model::motion::quintic_hermite`]: consistent, twice continuously differentiable,
+/// `O(h^6)`); outside the table the end sample's values are held. Build it with
+/// [`AngleTable::new`] or [`Rotation::tabulated`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AngleTable {
     time: Vec<f64>,
@@ -283,11 +284,13 @@ impl AngleTable {
         &self.time
     }
 
-    /// `(angle, rate, accel)` at `t` (s), linearly interpolated, held outside the table.
+    /// `(angle, rate, accel)` at `t` (s): the quintic Hermite interpolant of the interval
+    /// holding `t`, held outside the table.
     fn eval(&self, t: f64) -> (f64, f64, f64) {
         let (i, s) = crate::model::motion::segment(&self.time, t);
-        let lerp = |a: &[f64]| a[i] + s * (a[i + 1] - a[i]);
-        (lerp(&self.angle), lerp(&self.rate), lerp(&self.accel))
+        let two = |a: &[f64]| [a[i], a[i + 1]];
+        let h = self.time[i + 1] - self.time[i];
+        crate::model::motion::quintic_hermite(h, s, two(&self.angle), two(&self.rate), two(&self.accel))
     }
 }
 

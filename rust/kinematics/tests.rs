@@ -169,12 +169,17 @@ fn drivers_match_finite_differences() {
     };
     check_angles("spin-up ramp", |t| spin.at(t), &times(0.01, 0.49, 49));
     check_angles("spin-up after", |t| spin.at(t), &times(0.51, 1.5, 20));
-    // Tabulated: at interior samples of a uniform grid, the central difference of the
-    // interpolant (h << spacing) equals the table's own central difference exactly.
+    // Tabulated: within an interval the rate and acceleration are the derivatives of the
+    // interpolated angle (one quintic; at a sample its third derivative jumps, so the differences
+    // are taken inside the intervals).
     let tt = times(0.0, 1.0, 101);
     let angle: Vec<f64> = tt.iter().map(|t| (3.0 * t).sin()).collect();
     let table = Rotation::tabulated(tt.clone(), angle, None, None).unwrap();
-    check_angles("tabulated", |t| table.at(t), &tt[2..99]);
+    let inside: Vec<f64> = tt[2..99]
+        .iter()
+        .flat_map(|t| [t + 0.0025, t + 0.005, t + 0.0075])
+        .collect();
+    check_angles("tabulated", |t| table.at(t), &inside);
 }
 
 #[test]
@@ -239,20 +244,39 @@ fn tabulated_rotation_validates_and_interpolates() {
     let named = AngleTable::new("hub", vec![0.0, 0.0], vec![0.0; 2], None, None).unwrap_err();
     assert_eq!(err_name(named), "hub.time[1]");
 
+    // derived rates [2, 1.5, 1] and accelerations [-0.5, -0.5, -0.5]: the samples are met; at
+    // the middle of [0, 1] the six Hermite basis polynomials are (1/2, 5/32, 1/64, 1/2, -5/32,
+    // 1/64) in value, (-15/8, -7/16, -1/32, 15/8, -7/16, 1/32) in slope and (0, -3/2, -1/4, 0,
+    // 3/2, -1/4) in curvature, of (0, 2, -0.5, 2, 1.5, -0.5)
     let d = Rotation::tabulated(vec![0.0, 1.0, 2.0], vec![0.0, 2.0, 3.0], None, None).unwrap();
+    assert_eq!(d.at(1.0), (2.0, 1.5, -0.5));
     let (a, r, al) = d.at(0.5);
-    assert_eq!((a, r), (1.0, 1.75)); // rates [2, 1.5, 1]
-    assert_eq!(al, -0.5); // accels [-0.5, -0.5, -0.5]
-    assert_eq!(d.at(-1.0).0, 0.0);
-    assert_eq!(d.at(5.0).0, 3.0);
+    assert!((a - 1.0625).abs() < 1e-15 && (r - 2.21875).abs() < 1e-15 && (al + 0.5).abs() < 1e-15);
+    assert_eq!(d.at(-1.0), (0.0, 2.0, -0.5));
+    assert_eq!(d.at(5.0), (3.0, 1.0, -0.5));
+    // a quintic is reproduced exactly from two samples of its value, rate and acceleration
+    let q = |t: f64| {
+        (
+            1.0 + t - 2.0 * t.powi(3) + 0.5 * t.powi(5),
+            1.0 - 6.0 * t * t + 2.5 * t.powi(4),
+            -12.0 * t + 10.0 * t.powi(3),
+        )
+    };
+    let (q0, q1) = (q(0.0), q(1.5));
     let given = Rotation::tabulated(
-        vec![0.0, 1.0],
-        vec![0.0, 1.0],
-        Some(vec![4.0, 4.0]),
-        Some(vec![9.0, 9.0]),
+        vec![0.0, 1.5],
+        vec![q0.0, q1.0],
+        Some(vec![q0.1, q1.1]),
+        Some(vec![q0.2, q1.2]),
     )
     .unwrap();
-    assert_eq!(given.at(0.3), (0.3, 4.0, 9.0));
+    for t in [0.1, 0.7, 1.2] {
+        let (g, w) = (given.at(t), q(t));
+        assert!(
+            (g.0 - w.0).abs() < 1e-13 && (g.1 - w.1).abs() < 1e-13 && (g.2 - w.2).abs() < 1e-12,
+            "{t}: {g:?} {w:?}"
+        );
+    }
 
     assert!(d.covers("rot", 2.0).is_ok());
     assert_eq!(err_name(d.covers("rot", 2.5).unwrap_err()), "rot.time");
@@ -717,4 +741,56 @@ fn remembered_poses_are_the_solved_ones() {
         assert_eq!(fb.coupler_frame(t), b.coupler_frame(t), "four-bar coupler at {t}");
         assert_eq!(fb.rocker_frame(t), fb.clone().rocker_frame(t), "four-bar rocker at {t}");
     }
+}
+
+#[test]
+fn a_tabulated_motion_follows_its_samples_to_sixth_order_with_consistent_derivatives() {
+    // x = sin(w t), y = cos(w t) / 2 sampled with their exact velocities and accelerations at
+    // spacing h: the quintic Hermite interpolant's error between the samples is O(h^6), so
+    // halving h divides it by about 64; its velocity and acceleration are O(h^5) and O(h^4)
+    let w = 150.0;
+    let exact = |t: f64| {
+        let (s, c) = (w * t).sin_cos();
+        ([s, 0.5 * c], [w * c, -0.5 * w * s], [-w * w * s, -0.5 * w * w * c])
+    };
+    let error = |h: f64| {
+        let n = (0.05 / h).round() as usize + 1;
+        let time: Vec<f64> = (0..n).map(|i| i as f64 * h).collect();
+        let e: Vec<_> = time.iter().map(|&t| exact(t)).collect();
+        let table = Table::new(
+            "m",
+            time.clone(),
+            e.iter().map(|x| x.0).collect(),
+            Some(e.iter().map(|x| x.1).collect()),
+            Some(e.iter().map(|x| x.2).collect()),
+        )
+        .unwrap();
+        let m = Motion::Tabulated(table);
+        let mut worst = [0.0f64; 3];
+        for k in 0..(n - 1) * 7 {
+            let t = k as f64 * h / 7.0;
+            let (got, want) = (m.at(t), exact(t));
+            for (j, (g, x)) in [(got.pos, want.0), (got.vel, want.1), (got.acc, want.2)]
+                .into_iter()
+                .enumerate()
+            {
+                worst[j] = worst[j].max((g[0] - x[0]).abs().max((g[1] - x[1]).abs()));
+            }
+        }
+        worst
+    };
+    let (coarse, fine) = (error(1e-3), error(5e-4));
+    // the bound h^6 w^6 / 46080 (a unit amplitude): 2.5e-10 at 1e-3 s
+    assert!(coarse[0] < 2.5e-10 && coarse[0] > 1e-12, "{coarse:?}");
+    let order = |j: usize| (coarse[j] / fine[j]).log2();
+    assert!((order(0) - 6.0).abs() < 0.3, "value order {}", order(0));
+    assert!((order(1) - 5.0).abs() < 0.4, "velocity order {}", order(1));
+    assert!((order(2) - 4.0).abs() < 0.4, "acceleration order {}", order(2));
+    // a sample is met exactly
+    assert_eq!(
+        Motion::Tabulated(Table::new("m", vec![0.0, 1.0], vec![[1.0, 2.0], [3.0, 4.0]], None, None).unwrap())
+            .at(1.0)
+            .pos,
+        [3.0, 4.0]
+    );
 }

@@ -32,9 +32,62 @@ pub enum Motion {
         /// Phase, rad.
         phase: f64,
     },
-    /// Tabulated motion, linearly interpolated between samples. Velocity and acceleration are
-    /// tabulated too (given by the caller or derived by central differences at construction).
+    /// Tabulated motion: positions, velocities and accelerations at the samples (the last two
+    /// given by the caller or derived by central differences at construction), interpolated by
+    /// the quintic Hermite polynomial of each interval ([`quintic_hermite`]).
     Tabulated(Table),
+}
+
+/// The quintic Hermite interpolant on an interval of length `h` (s) at the fraction `s` in
+/// [0, 1] of it, through the values `y`, first derivatives `v` (per s) and second derivatives `a`
+/// (per s^2) at its two ends: its value, first and second derivative at `s`.
+///
+/// The value, velocity and acceleration of a tabulated motion are this one polynomial and its
+/// derivatives, so they agree with one another (a linear interpolation of each would give a
+/// velocity that is not the position's derivative), and the motion is twice continuously
+/// differentiable across the samples. Its error is `O(h^6)` in the value, `h^6 max|y^(6)| / 46080`
+/// at most: a link of a mechanism tabulated from its exact kinematics at 1e-3 s at 150 rad/s
+/// keeps its pins closed to 1e-10 of its length between the samples.
+#[inline]
+pub(crate) fn quintic_hermite(h: f64, s: f64, y: [f64; 2], v: [f64; 2], a: [f64; 2]) -> (f64, f64, f64) {
+    let (s2, s3) = (s * s, s * s * s);
+    let (s4, s5) = (s3 * s, s3 * s2);
+    // the six basis polynomials (of y0, h v0, h^2 a0, y1, h v1, h^2 a1) and their derivatives in s
+    let b = [
+        [
+            1.0 - 10.0 * s3 + 15.0 * s4 - 6.0 * s5,
+            -30.0 * s2 + 60.0 * s3 - 30.0 * s4,
+            -60.0 * s + 180.0 * s2 - 120.0 * s3,
+        ],
+        [
+            s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5,
+            1.0 - 18.0 * s2 + 32.0 * s3 - 15.0 * s4,
+            -36.0 * s + 96.0 * s2 - 60.0 * s3,
+        ],
+        [
+            0.5 * (s2 - 3.0 * s3 + 3.0 * s4 - s5),
+            0.5 * (2.0 * s - 9.0 * s2 + 12.0 * s3 - 5.0 * s4),
+            0.5 * (2.0 - 18.0 * s + 36.0 * s2 - 20.0 * s3),
+        ],
+        [
+            10.0 * s3 - 15.0 * s4 + 6.0 * s5,
+            30.0 * s2 - 60.0 * s3 + 30.0 * s4,
+            60.0 * s - 180.0 * s2 + 120.0 * s3,
+        ],
+        [
+            -4.0 * s3 + 7.0 * s4 - 3.0 * s5,
+            -12.0 * s2 + 28.0 * s3 - 15.0 * s4,
+            -24.0 * s + 84.0 * s2 - 60.0 * s3,
+        ],
+        [
+            0.5 * (s3 - 2.0 * s4 + s5),
+            0.5 * (3.0 * s2 - 8.0 * s3 + 5.0 * s4),
+            0.5 * (6.0 * s - 24.0 * s2 + 20.0 * s3),
+        ],
+    ];
+    let c = [y[0], h * v[0], h * h * a[0], y[1], h * v[1], h * h * a[1]];
+    let d = |k: usize| (0..6).map(|i| b[i][k] * c[i]).sum::<f64>();
+    (d(0), d(1) / h, d(2) / (h * h))
 }
 
 /// Samples of a tabulated motion. Build it with [`Table::new`].
@@ -130,19 +183,18 @@ impl Table {
         self.time[0]
     }
 
+    /// Position, velocity and acceleration at `t` (s): the quintic Hermite interpolant of the
+    /// interval holding `t` ([`quintic_hermite`]); before the first sample and after the last
+    /// the end sample's values are held.
     fn eval(&self, t: f64) -> Kinematics {
-        let (i, s) = crate::model::motion::segment(&self.time, t);
-        let lerp = |a: &[[f64; 2]]| {
-            [
-                a[i][0] + s * (a[i + 1][0] - a[i][0]),
-                a[i][1] + s * (a[i + 1][1] - a[i][1]),
-            ]
-        };
-        Kinematics {
-            pos: lerp(&self.pos),
-            vel: lerp(&self.vel),
-            acc: lerp(&self.acc),
+        let (i, s) = segment(&self.time, t);
+        let h = self.time[i + 1] - self.time[i];
+        let mut k = Kinematics::default();
+        for c in 0..2 {
+            let two = |a: &[[f64; 2]]| [a[i][c], a[i + 1][c]];
+            (k.pos[c], k.vel[c], k.acc[c]) = quintic_hermite(h, s, two(&self.pos), two(&self.vel), two(&self.acc));
         }
+        k
     }
 }
 
