@@ -35,6 +35,7 @@ from .errors import (
     StoreLockedError,
 )
 from .frames import Frame, Rotation
+from .linkage import Linkage
 from .model import Model
 from .result import ImpactLog, JointResult, LinkResult, NodeResult, Record, Result, SliderResult
 
@@ -46,6 +47,7 @@ __all__ = [
     "InvalidParameterError",
     "JointResult",
     "LinkResult",
+    "Linkage",
     "Model",
     "ModelError",
     "NewmarkStabilityWarning",

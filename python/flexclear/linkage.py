@@ -1,0 +1,426 @@
+"""Rigid-body kinematics of a planar linkage of one's own, solved for the frames of its links.
+
+A mechanism in flexclear moves its links in prescribed frames (:class:`flexclear.Frame`): the
+nominal, rigid motion on which the links deform and the clearance joints rattle. The scenes have
+their frames in closed form (``Frame.slider_crank``, ``Frame.four_bar``); for any other linkage
+of revolute joints and sliders (a six-bar, a quick-return, an offset slider-crank with a rocker),
+:class:`Linkage` solves the loop closures at the instants of a table and returns each link's
+frame as a tabulated one (interpolated by quintic Hermite polynomials through the solved
+positions, velocities and accelerations: error ``O(h^6)`` in the table's spacing ``h``)::
+
+    lk = Linkage()
+    lk.ground("O2", (0.0, 0.0)).ground("O4", (0.254, 0.0))
+    lk.crank("crank", "O2", "A", length=0.0508, driver=Rotation.constant(100.0))
+    lk.point("B", near=(0.2, 0.27))                   # where B is at t = 0, roughly (the branch)
+    lk.link("coupler", "A", "B", length=0.2794)
+    lk.link("rocker", "O4", "B", length=0.2794)
+    frames = lk.frames(t_end=0.1)                      # {"crank": Frame, "coupler": ..., ...}
+
+A link's frame has its origin at the link's first point and its x axis towards the second, so a
+flexible link added with ``Model.add_link(..., frame=frames[name])`` lies from node 0 at the
+first point to its last node at the second; a body (``Model.add_body(name, frame=...)``) has its
+points at the coordinates it was given (a crank's tip at ``(length, 0)``); a slider's frame
+(``Model.add_slider(..., path=...)``) follows its point along the guide.
+
+Positions are solved by Newton's method from the previous instant (from the ``near`` guesses at
+t = 0), velocities and accelerations from the constraints' first and second time derivatives (the
+same Jacobian), so they are exact up to the solver's tolerance, not differences. A linkage that
+cannot be assembled (lengths that do not close, a dead point where the Jacobian is singular) raises
+:class:`flexclear.ModelError` naming the instant.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import motion as _motion
+from .errors import ModelError
+from .frames import Frame, Rotation
+from .motion import _bad, _pair
+
+#: Newton's tolerance on the constraints, as a fraction of the linkage's size.
+TOLERANCE = 1e-13
+#: Largest condition number of the constraint Jacobian before a position counts as a dead point.
+MAX_CONDITION = 1e10
+
+
+class Linkage:
+    """A planar linkage of rigid links joined by revolute joints at named points, with sliders
+    on straight guides, driven by one or more cranks. Units: m, rad, s. See the module's text.
+
+    Every method returns the linkage, so calls chain.
+    """
+
+    def __init__(self) -> None:
+        self._ground: dict[str, tuple[float, float]] = {}
+        self._near: dict[str, tuple[float, float]] = {}
+        # name -> (pivot, tip, length, driver)
+        self._cranks: dict[str, tuple[str, str, float, Rotation]] = {}
+        # name -> {point: (x, y) in the body's frame}, the first two points setting its frame
+        self._bodies: dict[str, dict[str, tuple[float, float]]] = {}
+        # name -> (point, through, direction)
+        self._sliders: dict[str, tuple[str, tuple[float, float], float]] = {}
+
+    # -- building ------------------------------------------------------------------------------
+
+    def ground(self, name: str, at: Sequence[float]) -> Linkage:
+        """A fixed point ``name`` at global ``at`` (m)."""
+        self._new_point(name)
+        self._ground[name] = _point(f"ground {name!r} at", at)
+        return self
+
+    def point(self, name: str, near: Sequence[float]) -> Linkage:
+        """A moving point ``name`` (a joint between links, or a slider's pin), about at global
+        ``near`` (m) at t = 0: the guess from which the assembly is solved, which picks the
+        branch (e.g. a four-bar's open or crossed form)."""
+        self._new_point(name)
+        self._near[name] = _point(f"point {name!r} near", near)
+        return self
+
+    def crank(self, name: str, pivot: str, tip: str, *, length: float, driver: Rotation) -> Linkage:
+        """A driven link ``name`` turning about the ground point ``pivot`` at the angle of
+        ``driver`` (rad, from the global x axis); its tip ``tip`` (a new point) is at ``length``
+        (m) along it. Its frame: origin at the pivot, x axis through the tip."""
+        self._new_link(name)
+        if pivot not in self._ground:
+            raise _bad(f"crank {name!r} pivot", pivot, f"a ground point (have {sorted(self._ground)})")
+        if not isinstance(driver, Rotation):
+            raise _bad(f"crank {name!r} driver", driver, "a flexclear.Rotation")
+        length = _positive(f"crank {name!r} length", length)
+        self._new_point(tip)
+        self._cranks[name] = (pivot, tip, length, driver)
+        return self
+
+    def link(self, name: str, a: str, b: str, *, length: float) -> Linkage:
+        """A binary link ``name`` of ``length`` (m) between points ``a`` and ``b`` (declared
+        before). Its frame: origin at ``a``, x axis towards ``b``."""
+        return self.body(name, {a: (0.0, 0.0), b: (_positive(f"link {name!r} length", length), 0.0)})
+
+    def body(self, name: str, points: Mapping[str, Sequence[float]]) -> Linkage:
+        """A rigid link ``name`` holding two or three of the declared points, each at its
+        coordinates in the link's own frame (m) (a ternary link of a six-bar: three). The
+        frame's angle is that of the line from the first point to the second."""
+        self._new_link(name)
+        if not isinstance(points, Mapping) or not 2 <= len(points) <= 3:
+            raise _bad(f"body {name!r} points", points, "a mapping of 2 or 3 point names to (x, y), m")
+        local = {}
+        for p, xy in points.items():
+            self._known_point(f"body {name!r} point", p)
+            local[p] = _point(f"body {name!r} point {p!r}", xy)
+        first, second = list(local.values())[:2]
+        if math.dist(first, second) <= 0:
+            raise _bad(f"body {name!r} points", points, "its first two points apart (they set its frame)")
+        self._bodies[name] = local
+        return self
+
+    def slider(
+        self, name: str, point: str, *, through: Sequence[float] = (0.0, 0.0), angle: float = 0.0
+    ) -> Linkage:
+        """A slider ``name`` whose pin ``point`` (declared before) moves on the straight guide
+        through ``through`` (m) at global ``angle`` (rad). Its frame: origin at the pin, angle
+        ``angle`` (it does not turn)."""
+        self._new_link(name)
+        self._known_point(f"slider {name!r} point", point)
+        angle = _finite(f"slider {name!r} angle", angle)
+        self._sliders[name] = (point, _point(f"slider {name!r} through", through), angle)
+        return self
+
+    # -- solving -------------------------------------------------------------------------------
+
+    def solve(self, times: Sequence[float]) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Every point's global position (m), velocity (m/s) and acceleration (m/s^2) at the
+        increasing ``times`` (s), each of shape ``(len(times), 2)``, solved in turn from the
+        ``near`` guesses.
+
+        Raises
+        ------
+        InvalidParameterError
+            ``times`` not finite and increasing.
+        ModelError
+            The constraints are not as many as the moving points' coordinates, a point belongs
+            to no link, or at some instant the linkage does not assemble (the lengths do not
+            close, or a dead point).
+        """
+        t = np.asarray(times, dtype=float)
+        if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise _bad("times", times, "finite, strictly increasing times, s")
+        moving = list(self._near)
+        self._check_count(moving)
+        index = {p: k for k, p in enumerate(moving)}
+        scale = max([1e-3, *(abs(c) for xy in [*self._ground.values(), *self._near.values()] for c in xy)])
+        x = np.array([self._near[p] for p in moving], dtype=float).reshape(-1)
+        out = {
+            p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2)))
+            for p in self._all_points()
+        }
+        for k, tk in enumerate(t):
+            known = self._known(tk)
+            x = self._newton(x, known, index, scale, tk)
+            v, a = self._rates(x, known, index, tk)
+            for p in out:
+                if p in index:
+                    i = 2 * index[p]
+                    row = (x[i : i + 2], v[i : i + 2], a[i : i + 2])
+                else:
+                    row = known[p]
+                for arr, val in zip(out[p], row):
+                    arr[k] = val
+        return out
+
+    def frames(self, t_end: float, *, spacing: float = 1e-3, start: float = 0.0) -> dict[str, Frame]:
+        """The frame of every crank, link, body and slider over ``[start, t_end]`` (s), tabulated
+        every ``spacing`` (s; default 1e-3: a mechanism turning at 150 rad/s then keeps its pins
+        closed to about 1e-10 of its size between the samples); the table covers ``t_end``.
+
+        Raises
+        ------
+        InvalidParameterError
+            ``t_end``, ``spacing`` or ``start`` out of range (``0 < spacing``, ``start < t_end``,
+            at most 1e6 samples).
+        ModelError
+            As :meth:`solve`.
+        """
+        t_end = _finite("t_end", t_end)
+        start = _finite("start", start)
+        spacing = _positive("spacing", spacing)
+        if not start < t_end:
+            raise _bad("t_end", t_end, f"a time after start = {start} s")
+        n = math.ceil((t_end - start) / spacing - 1e-9)
+        if n > 10**6:
+            raise _bad("spacing", spacing, f"at least (t_end - start) / 1e6 = {(t_end - start) / 1e6:g} s")
+        times = start + spacing * np.arange(max(n, 1) + 1)
+        sol = self.solve(times)
+        for name, (pivot, tip, _, _) in self._cranks.items():
+            self._check_spacing(name, times, sol[pivot], sol[tip])
+        for name, local in self._bodies.items():
+            p0, p1 = list(local)[:2]
+            self._check_spacing(name, times, sol[p0], sol[p1])
+        frames: dict[str, Frame] = {}
+        for name, (pivot, tip, _, _) in self._cranks.items():
+            frames[name] = _frame(times, sol[pivot], sol[tip], (0.0, 0.0), (1.0, 0.0))
+        for name, local in self._bodies.items():
+            (p0, l0), (p1, l1) = list(local.items())[:2]
+            frames[name] = _frame(times, sol[p0], sol[p1], l0, l1)
+        for name, (point, _, angle) in self._sliders.items():
+            origin = _motion.tabulated(times, *sol[point])
+            frames[name] = Frame.rotating(Rotation.fixed(angle), origin=origin)
+        return frames
+
+    # -- internals -----------------------------------------------------------------------------
+
+    @staticmethod
+    def _check_spacing(name, times, first, second) -> None:
+        """A link may turn at most 1 rad between two samples (the angle is unwrapped between
+        them, and the interpolation's error grows as the sixth power of the turn)."""
+        d, dv = second[0] - first[0], second[1] - first[1]
+        rate = np.abs(d[:, 0] * dv[:, 1] - d[:, 1] * dv[:, 0]) / np.einsum("ij,ij->i", d, d)
+        turn = float(np.max(rate)) * float(times[1] - times[0]) if times.size > 1 else 0.0
+        if turn > 1.0:
+            raise _bad(
+                "spacing",
+                float(times[1] - times[0]),
+                f"at most {float(times[1] - times[0]) / turn:.3g} s: link {name!r} turns at up to "
+                f"{float(np.max(rate)):.4g} rad/s, {turn:.3g} rad a sample (1 at most)",
+            )
+
+    def _all_points(self) -> list[str]:
+        return [*self._ground, *(c[1] for c in self._cranks.values()), *self._near]
+
+    def _new_point(self, name: str) -> None:
+        if not isinstance(name, str) or not name:
+            raise _bad("point name", name, "a non-empty string")
+        if name in self._all_points():
+            raise _bad("point name", name, "a name not used by another point")
+
+    def _known_point(self, what: str, name: str) -> None:
+        if name not in self._all_points():
+            raise _bad(what, name, f"a point declared before (have {self._all_points()})")
+
+    def _new_link(self, name: str) -> None:
+        if not isinstance(name, str) or not name:
+            raise _bad("link name", name, "a non-empty string")
+        if name in self._cranks or name in self._bodies or name in self._sliders:
+            raise _bad("link name", name, "a name not used by another link")
+
+    def _check_count(self, moving: list[str]) -> None:
+        held = {p for local in self._bodies.values() for p in local}
+        held |= {s[0] for s in self._sliders.values()}
+        loose = [p for p in moving if p not in held]
+        if loose:
+            raise ModelError(f"linkage: point(s) {loose} belong to no link")
+        n = len(self._constraints_of(moving))
+        if n != 2 * len(moving):
+            raise ModelError(
+                f"linkage: {n} constraints for {len(moving)} moving points ({2 * len(moving)} coordinates): "
+                "a linkage of mobility one per crank needs as many; "
+                + ("add links or sliders" if n < 2 * len(moving) else "remove a link (over-constrained)")
+            )
+
+    def _constraints_of(self, moving: list[str]) -> list[tuple]:
+        """The constraints: ("d", p, q, length) for two points of a body, one of them moving;
+        ("s", p, through, direction) for a slider's pin."""
+        cons: list[tuple] = []
+        mov = set(moving)
+        for local in self._bodies.values():
+            names = list(local)
+            for i in range(len(names)):
+                for j in range(i + 1, len(names)):
+                    p, q = names[i], names[j]
+                    if p in mov or q in mov:
+                        cons.append(("d", p, q, math.dist(local[p], local[q])))
+        for point, through, angle in self._sliders.values():
+            if point in mov:
+                cons.append(("s", point, through, (math.cos(angle), math.sin(angle))))
+        return cons
+
+    def _known(self, t: float) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Positions, velocities and accelerations of the ground points and crank tips at t."""
+        known = {p: (np.array(xy), np.zeros(2), np.zeros(2)) for p, xy in self._ground.items()}
+        for pivot, tip, length, driver in self._cranks.values():
+            phi, w, al = driver.at(t)
+            c, s = math.cos(phi), math.sin(phi)
+            o = known[pivot][0]
+            known[tip] = (
+                o + length * np.array([c, s]),
+                length * w * np.array([-s, c]),
+                length * (al * np.array([-s, c]) - w * w * np.array([c, s])),
+            )
+        return known
+
+    def _pos(self, x, known, index, p):
+        if p in index:
+            return x[2 * index[p] : 2 * index[p] + 2]
+        return known[p][0]
+
+    def _system(self, x, known, index):
+        """Constraint values (m) and their Jacobian over the moving coordinates."""
+        cons = self._constraints_of(list(index))
+        f = np.zeros(len(cons))
+        jac = np.zeros((len(cons), x.size))
+        for r, c in enumerate(cons):
+            if c[0] == "d":
+                _, p, q, length = c
+                d = self._pos(x, known, index, p) - self._pos(x, known, index, q)
+                # (|d|^2 - L^2) / (2 L): metres, slope d / L
+                f[r] = (d @ d - length * length) / (2 * length)
+                for pt, sign in ((p, 1.0), (q, -1.0)):
+                    if pt in index:
+                        jac[r, 2 * index[pt] : 2 * index[pt] + 2] += sign * d / length
+            else:
+                _, p, through, e = c
+                d = self._pos(x, known, index, p) - np.asarray(through)
+                f[r] = d[0] * e[1] - d[1] * e[0]
+                jac[r, 2 * index[p] : 2 * index[p] + 2] = (e[1], -e[0])
+        return cons, f, jac
+
+    def _newton(self, x, known, index, scale, t):
+        for _ in range(50):
+            _, f, jac = self._system(x, known, index)
+            if np.max(np.abs(f), initial=0.0) <= TOLERANCE * scale:
+                self._check_condition(jac, t)
+                return x
+            try:
+                x = x - np.linalg.solve(jac, f)
+            except np.linalg.LinAlgError:
+                break
+            if not np.all(np.isfinite(x)):
+                break
+        raise ModelError(
+            f"linkage: does not assemble at t = {t:.6g} s (Newton's method found no position within "
+            f"{TOLERANCE * scale:.1e} m: lengths that cannot close, or past a dead point); "
+            "check the lengths and the `near` guesses"
+        )
+
+    def _check_condition(self, jac, t):
+        cond = np.linalg.cond(jac) if jac.size else 1.0
+        if not cond <= MAX_CONDITION:
+            raise ModelError(
+                f"linkage: at a dead point at t = {t:.6g} s (constraint Jacobian condition {cond:.2e}): "
+                "the driver cannot move it through this position"
+            )
+
+    @staticmethod
+    def _known_part(p, which, known, index):
+        """A known point's velocity (``which`` 1) or acceleration (2); zero for a moving one."""
+        return np.zeros(2) if p in index else known[p][which]
+
+    def _rates(self, x, known, index, t):
+        """Velocities and accelerations of the moving coordinates: J v = -J_k v_k and
+        J a = -J_k a_k - (the constraints' terms quadratic in the velocities)."""
+        cons, _, jac = self._system(x, known, index)
+
+        def rel(p, which, u):
+            return u[2 * index[p] : 2 * index[p] + 2] if p in index else known[p][which]
+
+        rhs_v = np.zeros(len(cons))
+        for r, c in enumerate(cons):
+            if c[0] == "d":
+                _, p, q, length = c
+                d = self._pos(x, known, index, p) - self._pos(x, known, index, q)
+                # d/dt of (|d|^2 - L^2) / (2 L) = d . (v_p - v_q) / L: the known points' part
+                vk = self._known_part(p, 1, known, index) - self._known_part(q, 1, known, index)
+                rhs_v[r] = -(d @ vk) / length
+        v = np.linalg.solve(jac, rhs_v)
+        rhs_a = np.zeros(len(cons))
+        for r, c in enumerate(cons):
+            if c[0] == "d":
+                _, p, q, length = c
+                d = self._pos(x, known, index, p) - self._pos(x, known, index, q)
+                dv = rel(p, 1, v) - rel(q, 1, v)
+                ak = self._known_part(p, 2, known, index) - self._known_part(q, 2, known, index)
+                rhs_a[r] = -(d @ ak + dv @ dv) / length
+        a = np.linalg.solve(jac, rhs_a)
+        return v, a
+
+
+def _frame(times, first, second, l0, l1) -> Frame:
+    """The tabulated frame of a link whose points at local ``l0`` and ``l1`` move as ``first``
+    and ``second`` (each positions, velocities, accelerations over ``times``)."""
+    (p0, v0, a0), (p1, v1, a1) = first, second
+    d, dv, da = p1 - p0, v1 - v0, a1 - a0
+    cross = lambda u, w: u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]  # noqa: E731
+    r2 = np.einsum("ij,ij->i", d, d)
+    angle = np.unwrap(np.arctan2(d[:, 1], d[:, 0])) - math.atan2(l1[1] - l0[1], l1[0] - l0[0])
+    rate = cross(d, dv) / r2
+    accel = cross(d, da) / r2 - 2 * rate * np.einsum("ij,ij->i", d, dv) / r2
+    # origin = first - R(angle) l0, differentiated
+    c, s = np.cos(angle), np.sin(angle)
+    rl = np.stack([c * l0[0] - s * l0[1], s * l0[0] + c * l0[1]], axis=1)
+    jrl = np.stack([-rl[:, 1], rl[:, 0]], axis=1)  # the axis J R l0
+    origin = p0 - rl
+    vel = v0 - rate[:, None] * jrl
+    acc = a0 - accel[:, None] * jrl + (rate * rate)[:, None] * rl
+    return Frame.rotating(
+        Rotation.tabulated(times, angle, rate, accel), origin=_motion.tabulated(times, origin, vel, acc)
+    )
+
+
+def _point(name: str, xy: Any) -> tuple[float, float]:
+    p = _pair(name, xy, "m")
+    if not all(math.isfinite(c) for c in p):
+        raise _bad(name, xy, "a pair of finite numbers (x, y), m")
+    return p
+
+
+def _finite(name: str, x: Any) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise _bad(name, x, "a finite number") from None
+    if isinstance(x, bool) or not math.isfinite(v):
+        raise _bad(name, x, "a finite number")
+    return v
+
+
+def _positive(name: str, x: Any) -> float:
+    v = _finite(name, x)
+    if v <= 0:
+        raise _bad(name, x, "a finite number > 0")
+    return v
+
+
+__all__ = ["Linkage", "MAX_CONDITION", "TOLERANCE"]
