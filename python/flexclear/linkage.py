@@ -157,10 +157,16 @@ class Linkage:
             p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2)))
             for p in self._all_points()
         }
+        cons = self._constraints_of(moving)
+        v = a = np.zeros_like(x)
         for k, tk in enumerate(t):
             known = self._known(tk)
-            x = self._newton(x, known, index, scale, tk)
-            v, a = self._rates(x, known, index, tk)
+            if k:
+                # Newton starts from the Taylor step of the last instant's motion
+                h = tk - t[k - 1]
+                x = x + h * v + 0.5 * h * h * a
+            x = self._newton(x, known, index, cons, scale, tk)
+            v, a = self._rates(x, known, index, cons)
             for p in out:
                 if p in index:
                     i = 2 * index[p]
@@ -296,9 +302,9 @@ class Linkage:
             return x[2 * index[p] : 2 * index[p] + 2]
         return known[p][0]
 
-    def _system(self, x, known, index):
-        """Constraint values (m) and their Jacobian over the moving coordinates."""
-        cons = self._constraints_of(list(index))
+    def _system(self, x, known, index, cons):
+        """The values (m) of the constraints ``cons`` and their Jacobian over the moving
+        coordinates."""
         f = np.zeros(len(cons))
         jac = np.zeros((len(cons), x.size))
         for r, c in enumerate(cons):
@@ -315,11 +321,11 @@ class Linkage:
                 d = self._pos(x, known, index, p) - np.asarray(through)
                 f[r] = d[0] * e[1] - d[1] * e[0]
                 jac[r, 2 * index[p] : 2 * index[p] + 2] = (e[1], -e[0])
-        return cons, f, jac
+        return f, jac
 
-    def _newton(self, x, known, index, scale, t):
+    def _newton(self, x, known, index, cons, scale, t):
         for _ in range(50):
-            _, f, jac = self._system(x, known, index)
+            f, jac = self._system(x, known, index, cons)
             if np.max(np.abs(f), initial=0.0) <= TOLERANCE * scale:
                 self._check_condition(jac, t)
                 return x
@@ -348,10 +354,10 @@ class Linkage:
         """A known point's velocity (``which`` 1) or acceleration (2); zero for a moving one."""
         return np.zeros(2) if p in index else known[p][which]
 
-    def _rates(self, x, known, index, t):
+    def _rates(self, x, known, index, cons):
         """Velocities and accelerations of the moving coordinates: J v = -J_k v_k and
         J a = -J_k a_k - (the constraints' terms quadratic in the velocities)."""
-        cons, _, jac = self._system(x, known, index)
+        _, jac = self._system(x, known, index, cons)
 
         def rel(p, which, u):
             return u[2 * index[p] : 2 * index[p] + 2] if p in index else known[p][which]
