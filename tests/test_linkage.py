@@ -236,3 +236,12 @@ def test_bad_input_names_the_parameter(build, parameter):
     with pytest.raises(fc.InvalidParameterError) as e:
         build()
     assert e.value.parameter == parameter
+
+
+def test_the_linkage_is_drawn(tmp_path):
+    path = _watt_six_bar().plot(tmp_path / "six.png", 0.063, poses=4)
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+    with pytest.raises(fc.InvalidParameterError) as e:
+        _four_bar().plot(tmp_path / "x.png", 0.01, poses=0)
+    assert e.value.parameter == "poses"

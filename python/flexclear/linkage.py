@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
@@ -215,6 +215,79 @@ class Linkage:
             origin = _motion.tabulated(times, *sol[point])
             frames[name] = Frame.rotating(Rotation.fixed(angle), origin=origin)
         return frames
+
+    def plot(self, path, t_end: float, *, poses: int = 6, spacing: Optional[float] = None):
+        """Saves a drawing of the linkage to ``path`` (PNG, ...) and returns it: the links at
+        ``poses`` instants evenly over ``[0, t_end]`` (s; the first drawn darkest), the paths of
+        the moving points over the whole interval, the ground points and the sliders' guides. A
+        look at it shows whether the ``near`` guesses picked the intended branch.
+
+        ``spacing`` (s) is that of the points' paths (default ``t_end / 400``).
+
+        Raises
+        ------
+        InvalidParameterError
+            ``t_end``, ``poses`` or ``spacing`` out of range.
+        ModelError
+            As :meth:`solve`.
+        """
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        t_end = _positive("t_end", t_end)
+        if isinstance(poses, bool) or not isinstance(poses, int) or not 1 <= poses <= 100:
+            raise _bad("poses", poses, "an integer in [1, 100]")
+        spacing = t_end / 400 if spacing is None else _positive("spacing", spacing)
+        n = math.ceil(t_end / spacing - 1e-9)
+        if n > 10**6:
+            raise _bad("spacing", spacing, f"at least t_end / 1e6 = {t_end / 1e6:g} s")
+        times = np.linspace(0.0, t_end, n + 1)
+        sol = self.solve(times)
+        fig, ax = plt.subplots(figsize=(7, 5.5))
+        for p in self._near:
+            ax.plot(*sol[p][0].T, lw=0.8, color="0.6")
+        for _, tip, _, _ in self._cranks.values():
+            ax.plot(*sol[tip][0].T, lw=0.8, color="0.6")
+        shown = np.linspace(0, times.size - 1, poses).round().astype(int)
+        for rank, k in enumerate(shown):
+            shade = 0.15 + 0.65 * rank / max(poses - 1, 1)
+            color = (shade, shade, 0.35 + 0.65 * shade)
+            at = {p: xva[0][k] for p, xva in sol.items()}.__getitem__
+            for pivot, tip, _, _ in self._cranks.values():
+                ax.plot(*np.array([at(pivot), at(tip)]).T, "-o", color=color, lw=2.2, ms=3)
+            for local in self._bodies.values():
+                pts = [at(p) for p in local]
+                ring = pts + [pts[0]] if len(pts) == 3 else pts
+                ax.plot(*np.array(ring).T, "-o", color=color, lw=2.2, ms=3)
+            for point, _, _ in self._sliders.values():
+                ax.plot(*at(point), "s", color=color, ms=7, mfc="none")
+        for through, angle in ((s[1], s[2]) for s in self._sliders.values()):
+            e = np.array([math.cos(angle), math.sin(angle)])
+            reach = max(np.abs(np.concatenate([sol[p][0] for p in sol])).max(), 1e-3)
+            line = np.array([np.asarray(through) - 2 * reach * e, np.asarray(through) + 2 * reach * e])
+            ax.plot(*line.T, "--", color="0.4", lw=0.8)
+        for name, xy in self._ground.items():
+            ax.plot(*xy, "^", color="k", ms=9)
+            ax.annotate(name, xy, textcoords="offset points", xytext=(4, -12), fontsize=8)
+        for p in [*self._near, *(c[1] for c in self._cranks.values())]:
+            ax.annotate(p, sol[p][0][0], textcoords="offset points", xytext=(4, 4), fontsize=8)
+        every = np.concatenate([sol[p][0] for p in sol])
+        pad = 0.08 * max(np.ptp(every[:, 0]), np.ptp(every[:, 1]), 1e-3)
+        ax.set_xlim(every[:, 0].min() - pad, every[:, 0].max() + pad)
+        ax.set_ylim(every[:, 1].min() - pad, every[:, 1].max() + pad)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_title(
+            f"{poses} poses over 0 to {t_end:g} s (first darkest); grey: the points' paths", fontsize=9
+        )
+        ax.grid(True, alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        return path
 
     # -- internals -----------------------------------------------------------------------------
 
