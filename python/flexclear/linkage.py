@@ -150,30 +150,23 @@ class Linkage:
             raise _bad("times", times, "finite, strictly increasing times, s")
         moving = list(self._near)
         self._check_count(moving)
-        index = {p: k for k, p in enumerate(moving)}
+        system = _System(self._constraints_of(moving), moving, self._all_points())
         scale = max([1e-3, *(abs(c) for xy in [*self._ground.values(), *self._near.values()] for c in xy)])
-        x = np.array([self._near[p] for p in moving], dtype=float).reshape(-1)
-        out = {
-            p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2)))
-            for p in self._all_points()
-        }
-        cons = self._constraints_of(moving)
-        v = a = np.zeros_like(x)
+        out = {p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2))) for p in system.names}
+        state = np.zeros((3, len(system.names), 2))  # positions, velocities, accelerations
+        state[0, : len(moving)] = [self._near[p] for p in moving]
         for k, tk in enumerate(t):
-            known = self._known(tk)
             if k:
                 # Newton starts from the Taylor step of the last instant's motion
                 h = tk - t[k - 1]
-                x = x + h * v + 0.5 * h * h * a
-            x = self._newton(x, known, index, cons, scale, tk)
-            v, a = self._rates(x, known, index, cons)
-            for p in out:
-                if p in index:
-                    i = 2 * index[p]
-                    row = (x[i : i + 2], v[i : i + 2], a[i : i + 2])
-                else:
-                    row = known[p]
-                for arr, val in zip(out[p], row):
+                state[0] += h * state[1] + 0.5 * h * h * state[2]
+            known = self._known(tk)
+            for i, p in enumerate(system.names[len(moving) :], start=len(moving)):
+                state[:, i] = known[p]
+            system.newton(state[0], scale, tk)
+            system.rates(state)
+            for i, p in enumerate(system.names):
+                for arr, val in zip(out[p], state[:, i]):
                     arr[k] = val
         return out
 
@@ -370,43 +363,66 @@ class Linkage:
             )
         return known
 
-    def _pos(self, x, known, index, p):
-        if p in index:
-            return x[2 * index[p] : 2 * index[p] + 2]
-        return known[p][0]
 
-    def _system(self, x, known, index, cons):
-        """The values (m) of the constraints ``cons`` and their Jacobian over the moving
-        coordinates."""
-        f = np.zeros(len(cons))
-        jac = np.zeros((len(cons), x.size))
-        for r, c in enumerate(cons):
-            if c[0] == "d":
-                _, p, q, length = c
-                d = self._pos(x, known, index, p) - self._pos(x, known, index, q)
-                # (|d|^2 - L^2) / (2 L): metres, slope d / L
-                f[r] = (d @ d - length * length) / (2 * length)
-                for pt, sign in ((p, 1.0), (q, -1.0)):
-                    if pt in index:
-                        jac[r, 2 * index[pt] : 2 * index[pt] + 2] += sign * d / length
-            else:
-                _, p, through, e = c
-                d = self._pos(x, known, index, p) - np.asarray(through)
-                f[r] = d[0] * e[1] - d[1] * e[0]
-                jac[r, 2 * index[p] : 2 * index[p] + 2] = (e[1], -e[0])
-        return f, jac
+class _System:
+    """The constraints of a linkage as arrays over its points (``names``: the moving ones first,
+    then the known ones): distances ``(|x_p - x_q|^2 - L^2) / (2 L)`` and slider lines
+    ``(x_p - x_0) x e``, both in metres."""
 
-    def _newton(self, x, known, index, cons, scale, t):
+    def __init__(self, cons: list[tuple], moving: list[str], points: list[str]) -> None:
+        self.names = [*moving, *(p for p in points if p not in set(moving))]
+        at = {p: i for i, p in enumerate(self.names)}
+        self.moving = len(moving)
+        dist = [c for c in cons if c[0] == "d"]
+        line = [c for c in cons if c[0] == "s"]
+        self.dp = np.array([at[c[1]] for c in dist], dtype=int)
+        self.dq = np.array([at[c[2]] for c in dist], dtype=int)
+        self.length = np.array([c[3] for c in dist], dtype=float)
+        self.sp = np.array([at[c[1]] for c in line], dtype=int)
+        self.s0 = np.array([c[2] for c in line], dtype=float).reshape(-1, 2)
+        self.se = np.array([c[3] for c in line], dtype=float).reshape(-1, 2)
+        self.rows = len(cons)
+
+    def values(self, pos: np.ndarray) -> np.ndarray:
+        d = pos[self.dp] - pos[self.dq]
+        r = pos[self.sp] - self.s0
+        return np.concatenate(
+            [
+                (np.einsum("ij,ij->i", d, d) - self.length**2) / (2 * self.length),
+                r[:, 0] * self.se[:, 1] - r[:, 1] * self.se[:, 0],
+            ]
+        )
+
+    def jacobian(self, pos: np.ndarray) -> np.ndarray:
+        """Over every point's two coordinates (the moving ones' columns first)."""
+        jac = np.zeros((self.rows, len(self.names), 2))
+        n = self.dp.size
+        slope = (pos[self.dp] - pos[self.dq]) / self.length[:, None]
+        jac[np.arange(n), self.dp] = slope
+        jac[np.arange(n), self.dq] = -slope
+        jac[n + np.arange(self.sp.size), self.sp] = np.stack([self.se[:, 1], -self.se[:, 0]], axis=1)
+        return jac.reshape(self.rows, -1)
+
+    def newton(self, pos: np.ndarray, scale: float, t: float) -> None:
+        """Moves the moving points of ``pos`` (in place) onto the constraints."""
+        m = 2 * self.moving
         for _ in range(50):
-            f, jac = self._system(x, known, index, cons)
+            f = self.values(pos)
+            jac = self.jacobian(pos)[:, :m]
             if np.max(np.abs(f), initial=0.0) <= TOLERANCE * scale:
-                self._check_condition(jac, t)
-                return x
+                cond = np.linalg.cond(jac) if jac.size else 1.0
+                if not cond <= MAX_CONDITION:
+                    raise ModelError(
+                        f"linkage: at a dead point at t = {t:.6g} s (constraint Jacobian condition "
+                        f"{cond:.2e}): the driver cannot move it through this position"
+                    )
+                return
             try:
-                x = x - np.linalg.solve(jac, f)
+                step = np.linalg.solve(jac, f)
             except np.linalg.LinAlgError:
                 break
-            if not np.all(np.isfinite(x)):
+            pos[: self.moving] -= step.reshape(-1, 2)
+            if not np.all(np.isfinite(pos)):
                 break
         raise ModelError(
             f"linkage: does not assemble at t = {t:.6g} s (Newton's method found no position within "
@@ -414,46 +430,19 @@ class Linkage:
             "check the lengths and the `near` guesses"
         )
 
-    def _check_condition(self, jac, t):
-        cond = np.linalg.cond(jac) if jac.size else 1.0
-        if not cond <= MAX_CONDITION:
-            raise ModelError(
-                f"linkage: at a dead point at t = {t:.6g} s (constraint Jacobian condition {cond:.2e}): "
-                "the driver cannot move it through this position"
-            )
-
-    @staticmethod
-    def _known_part(p, which, known, index):
-        """A known point's velocity (``which`` 1) or acceleration (2); zero for a moving one."""
-        return np.zeros(2) if p in index else known[p][which]
-
-    def _rates(self, x, known, index, cons):
-        """Velocities and accelerations of the moving coordinates: J v = -J_k v_k and
-        J a = -J_k a_k - (the constraints' terms quadratic in the velocities)."""
-        _, jac = self._system(x, known, index, cons)
-
-        def rel(p, which, u):
-            return u[2 * index[p] : 2 * index[p] + 2] if p in index else known[p][which]
-
-        rhs_v = np.zeros(len(cons))
-        for r, c in enumerate(cons):
-            if c[0] == "d":
-                _, p, q, length = c
-                d = self._pos(x, known, index, p) - self._pos(x, known, index, q)
-                # d/dt of (|d|^2 - L^2) / (2 L) = d . (v_p - v_q) / L: the known points' part
-                vk = self._known_part(p, 1, known, index) - self._known_part(q, 1, known, index)
-                rhs_v[r] = -(d @ vk) / length
-        v = np.linalg.solve(jac, rhs_v)
-        rhs_a = np.zeros(len(cons))
-        for r, c in enumerate(cons):
-            if c[0] == "d":
-                _, p, q, length = c
-                d = self._pos(x, known, index, p) - self._pos(x, known, index, q)
-                dv = rel(p, 1, v) - rel(q, 1, v)
-                ak = self._known_part(p, 2, known, index) - self._known_part(q, 2, known, index)
-                rhs_a[r] = -(d @ ak + dv @ dv) / length
-        a = np.linalg.solve(jac, rhs_a)
-        return v, a
+    def rates(self, state: np.ndarray) -> None:
+        """The moving points' velocities and accelerations in ``state`` (positions, velocities,
+        accelerations; in place) from the constraints' derivatives: ``J_u v_u = -J_k v_k`` and
+        ``J_u a_u = -J_k a_k - |v_p - v_q|^2 / L`` (zero for a slider's line)."""
+        m, mp = 2 * self.moving, self.moving
+        jac = self.jacobian(state[0])
+        ju, jk = jac[:, :m], jac[:, m:]
+        if m == 0:
+            return
+        state[1, :mp] = np.linalg.solve(ju, -jk @ state[1, mp:].reshape(-1)).reshape(-1, 2)
+        dv = state[1, self.dp] - state[1, self.dq]
+        quad = np.concatenate([np.einsum("ij,ij->i", dv, dv) / self.length, np.zeros(self.sp.size)])
+        state[2, :mp] = np.linalg.solve(ju, -jk @ state[2, mp:].reshape(-1) - quad).reshape(-1, 2)
 
 
 def _frame(times, first, second, l0, l1) -> Frame:
