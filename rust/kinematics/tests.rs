@@ -786,6 +786,14 @@ fn a_tabulated_motion_follows_its_samples_to_sixth_order_with_consistent_derivat
     assert!((order(0) - 6.0).abs() < 0.3, "value order {}", order(0));
     assert!((order(1) - 5.0).abs() < 0.4, "velocity order {}", order(1));
     assert!((order(2) - 4.0).abs() < 0.4, "acceleration order {}", order(2));
+    // a span of 1e200 s (h^2 overflows) with zero accelerations stays finite, as do derived rates
+    for (vel, acc) in [(Some(vec![[0.0; 2]; 2]), Some(vec![[0.0; 2]; 2])), (None, None)] {
+        let wide =
+            Motion::Tabulated(Table::new("m", vec![0.0, 1e200], vec![[0.0, 0.0], [1.0, 1.0]], vel, acc).unwrap());
+        let k = wide.at(3e199);
+        assert!(k.pos.iter().chain(&k.vel).chain(&k.acc).all(|x| x.is_finite()), "{k:?}");
+        assert!(k.pos[0] > 0.0 && k.pos[0] < 1.0);
+    }
     // a sample is met exactly
     assert_eq!(
         Motion::Tabulated(Table::new("m", vec![0.0, 1.0], vec![[1.0, 2.0], [3.0, 4.0]], None, None).unwrap())

@@ -85,9 +85,13 @@ pub(crate) fn quintic_hermite(h: f64, s: f64, y: [f64; 2], v: [f64; 2], a: [f64;
             0.5 * (6.0 * s - 24.0 * s2 + 20.0 * s3),
         ],
     ];
-    let c = [y[0], h * v[0], h * h * a[0], y[1], h * v[1], h * h * a[1]];
-    let d = |k: usize| (0..6).map(|i| b[i][k] * c[i]).sum::<f64>();
-    (d(0), d(1) / h, d(2) / (h * h))
+    // the parts of the values, the rates and the accelerations, put together in powers of h
+    // without forming h^2 (a span of 1e200 s with zero accelerations must not give inf * 0)
+    let part = |k: usize, i: usize, x: [f64; 2]| b[i][k] * x[0] + b[i + 3][k] * x[1];
+    let value = part(0, 0, y) + h * (part(0, 1, v) + h * part(0, 2, a));
+    let rate = part(1, 0, y) / h + part(1, 1, v) + h * part(1, 2, a);
+    let accel = (part(2, 0, y) / h + part(2, 1, v)) / h + part(2, 2, a);
+    (value, rate, accel)
 }
 
 /// Samples of a tabulated motion. Build it with [`Table::new`].
