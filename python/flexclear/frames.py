@@ -13,8 +13,10 @@
   ``Rotation.harmonic(amplitude, frequency, mean=0, phase=0)``,
   ``Rotation.tabulated(time, angle, rate=None, accel=None)``: rad, rad/s, s, Hz. Tabulated
   angles (and ``motion.tabulated`` origins) are interpolated by quintic Hermite polynomials
-  through the samples' values, rates and accelerations (derived by central differences when not
-  given): a linkage of one's own runs on its links' kinematics tabulated from any solver.
+  through the samples' values, rates and accelerations (by cubic ones through values and rates
+  when the accelerations are not given; rates by central differences when not given either):
+  a linkage of one's own runs on its links' kinematics tabulated from any solver
+  (:class:`flexclear.Linkage` solves them).
 
 ``frame.at(t)`` gives ``(origin, origin velocity, origin acceleration, angle, rate,
 acceleration)`` at ``t`` (SI); ``frame.rotates`` says whether its angle changes.

@@ -78,7 +78,9 @@ def tabulated(time, position, velocity=None, acceleration=None) -> Motion:
     """Tabulated motion: between two samples the quintic Hermite polynomial through their
     positions, velocities and accelerations, whose derivatives are the velocity and acceleration
     (consistent with one another, twice continuously differentiable, error O(h^6) in the
-    sample spacing h); the end samples' values are held outside the table.
+    sample spacing h); without ``acceleration``, the cubic Hermite polynomial through positions
+    and velocities (velocities by central differences when not given either; it stays near the
+    samples on uneven grids). The end samples' values are held outside the table.
 
     Sampled from a link's exact kinematics every 1e-3 s at 150 rad/s, a mechanism's pins stay
     closed between the samples to about 1e-10 of its length (the closure check of ``simulate``

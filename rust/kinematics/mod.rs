@@ -189,7 +189,8 @@ pub enum Rotation {
 /// (rad/s^2). Between two samples the angle is the quintic Hermite polynomial through their
 /// angles, rates and accelerations, and the rate and acceleration are its derivatives
 /// ([`crate::model::motion::quintic_hermite`]: consistent, twice continuously differentiable,
-/// `O(h^6)`); outside the table the end sample's values are held. Build it with
+/// `O(h^6)`); a table built without accelerations takes the cubic through angles and rates
+/// ([`crate::model::motion::cubic_hermite`]); outside the table the end sample's values are held. Build it with
 /// [`AngleTable::new`] or [`Rotation::tabulated`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AngleTable {
@@ -197,6 +198,8 @@ pub struct AngleTable {
     angle: Vec<f64>,
     rate: Vec<f64>,
     accel: Vec<f64>,
+    /// Whether the accelerations were given (quintic interpolation), not derived (cubic).
+    quintic: bool,
 }
 
 /// [`crate::model::motion::gradient`] of scalar samples.
@@ -256,6 +259,7 @@ impl AngleTable {
                 check_angle_samples(name, label, v, unit)?;
             }
         }
+        let quintic = accel.is_some();
         let rate = rate.unwrap_or_else(|| gradient(&time, &angle));
         let accel = accel.unwrap_or_else(|| gradient(&time, &rate));
         // derived by differences: samples too close for their angles give rates beyond range
@@ -266,6 +270,7 @@ impl AngleTable {
             angle,
             rate,
             accel,
+            quintic,
         })
     }
 
@@ -284,13 +289,14 @@ impl AngleTable {
         &self.time
     }
 
-    /// `(angle, rate, accel)` at `t` (s): the quintic Hermite interpolant of the interval
-    /// holding `t`, held outside the table.
+    /// `(angle, rate, accel)` at `t` (s): the Hermite interpolant of the interval holding `t`
+    /// (quintic with given accelerations, else cubic), held outside the table.
     fn eval(&self, t: f64) -> (f64, f64, f64) {
         let (i, s) = crate::model::motion::segment(&self.time, t);
         let two = |a: &[f64]| [a[i], a[i + 1]];
         let h = self.time[i + 1] - self.time[i];
-        crate::model::motion::quintic_hermite(h, s, two(&self.angle), two(&self.rate), two(&self.accel))
+        let accel = self.quintic.then(|| two(&self.accel));
+        crate::model::motion::hermite(h, s, two(&self.angle), two(&self.rate), accel)
     }
 }
 

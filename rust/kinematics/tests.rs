@@ -244,16 +244,26 @@ fn tabulated_rotation_validates_and_interpolates() {
     let named = AngleTable::new("hub", vec![0.0, 0.0], vec![0.0; 2], None, None).unwrap_err();
     assert_eq!(err_name(named), "hub.time[1]");
 
-    // derived rates [2, 1.5, 1] and accelerations [-0.5, -0.5, -0.5]: the samples are met; at
-    // the middle of [0, 1] the six Hermite basis polynomials are (1/2, 5/32, 1/64, 1/2, -5/32,
-    // 1/64) in value, (-15/8, -7/16, -1/32, 15/8, -7/16, 1/32) in slope and (0, -3/2, -1/4, 0,
-    // 3/2, -1/4) in curvature, of (0, 2, -0.5, 2, 1.5, -0.5)
+    // angles alone (derived rates [2, 1.5, 1]): the cubic Hermite through angles and rates; at
+    // the middle of [0, 1] its basis is (1/2, 1/8, 1/2, -1/8) in value, (-3/2, -1/4, 3/2, -1/4) in
+    // slope and (0, -1, 0, 1) in curvature, of (0, 2, 2, 1.5)
     let d = Rotation::tabulated(vec![0.0, 1.0, 2.0], vec![0.0, 2.0, 3.0], None, None).unwrap();
-    assert_eq!(d.at(1.0), (2.0, 1.5, -0.5));
+    assert_eq!(d.at(1.0).0, 2.0);
+    assert_eq!(d.at(1.0).1, 1.5);
     let (a, r, al) = d.at(0.5);
-    assert!((a - 1.0625).abs() < 1e-15 && (r - 2.21875).abs() < 1e-15 && (al + 0.5).abs() < 1e-15);
-    assert_eq!(d.at(-1.0), (0.0, 2.0, -0.5));
-    assert_eq!(d.at(5.0), (3.0, 1.0, -0.5));
+    assert!((a - 1.0625).abs() < 1e-15 && (r - 2.125).abs() < 1e-15 && (al + 0.5).abs() < 1e-15);
+    // angles on an uneven grid stay near their samples: the cubic's largest angle here is the
+    // largest sample, 1 rad, where a quintic through the accelerations derived from the derived
+    // rates reaches 86 rad (over 2000 random uneven grids of 3 to 6 samples in [-1, 1]: 3e4
+    // against the cubic's 1.25)
+    let uneven = Rotation::tabulated(vec![0.0, 1e-3, 5.0, 10.0], vec![0.0, 1.0, 0.0, 0.0], None, None).unwrap();
+    let swing = (0..=100_000)
+        .map(|k| uneven.at(k as f64 * 1e-4).0.abs())
+        .fold(0.0, f64::max);
+    assert!(swing <= 1.0 + 1e-12, "{swing}");
+    // held outside: the end angle and rate, the cubic's end curvature
+    assert_eq!((d.at(-1.0).0, d.at(-1.0).1), (0.0, 2.0));
+    assert_eq!((d.at(5.0).0, d.at(5.0).1), (3.0, 1.0));
     // a quintic is reproduced exactly from two samples of its value, rate and acceleration
     let q = |t: f64| {
         (

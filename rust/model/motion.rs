@@ -34,7 +34,9 @@ pub enum Motion {
     },
     /// Tabulated motion: positions, velocities and accelerations at the samples (the last two
     /// given by the caller or derived by central differences at construction), interpolated by
-    /// the quintic Hermite polynomial of each interval ([`quintic_hermite`]).
+    /// the quintic Hermite polynomial of each interval when the accelerations were given
+    /// ([`quintic_hermite`]), else by the cubic through positions and velocities
+    /// ([`cubic_hermite`]).
     Tabulated(Table),
 }
 
@@ -94,6 +96,40 @@ pub(crate) fn quintic_hermite(h: f64, s: f64, y: [f64; 2], v: [f64; 2], a: [f64;
     (value, rate, accel)
 }
 
+/// The cubic Hermite interpolant on an interval of length `h` (s) at the fraction `s` in [0, 1]
+/// of it, through the values `y` and first derivatives `v` (per s) at its two ends: its value,
+/// first and second derivative at `s` (the second is linear in `s` and jumps at the ends). What a
+/// table without accelerations interpolates by: the quintic through derived accelerations can
+/// swing far outside its samples where their spacing varies (central differences of central
+/// differences over uneven intervals), the cubic stays within about `h |v|` of them.
+#[inline]
+pub(crate) fn cubic_hermite(h: f64, s: f64, y: [f64; 2], v: [f64; 2]) -> (f64, f64, f64) {
+    let s2 = s * s;
+    let s3 = s2 * s;
+    let (h00, h10, h01, h11) = (
+        2.0 * s3 - 3.0 * s2 + 1.0,
+        s3 - 2.0 * s2 + s,
+        3.0 * s2 - 2.0 * s3,
+        s3 - s2,
+    );
+    let (d00, d10, d11) = (6.0 * s2 - 6.0 * s, 3.0 * s2 - 4.0 * s + 1.0, 3.0 * s2 - 2.0 * s);
+    let (e00, e10, e11) = (12.0 * s - 6.0, 6.0 * s - 4.0, 6.0 * s - 2.0);
+    let value = h00 * y[0] + h01 * y[1] + h * (h10 * v[0] + h11 * v[1]);
+    let rate = d00 * (y[0] - y[1]) / h + d10 * v[0] + d11 * v[1];
+    let accel = (e00 * (y[0] - y[1]) / h + e10 * v[0] + e11 * v[1]) / h;
+    (value, rate, accel)
+}
+
+/// A tabulated sample interval's interpolant: [`quintic_hermite`] when the table was given its
+/// accelerations, else [`cubic_hermite`] (values and rates).
+#[inline]
+pub(crate) fn hermite(h: f64, s: f64, y: [f64; 2], v: [f64; 2], a: Option<[f64; 2]>) -> (f64, f64, f64) {
+    match a {
+        Some(a) => quintic_hermite(h, s, y, v, a),
+        None => cubic_hermite(h, s, y, v),
+    }
+}
+
 /// Samples of a tabulated motion. Build it with [`Table::new`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
@@ -101,6 +137,8 @@ pub struct Table {
     pos: Vec<[f64; 2]>,
     vel: Vec<[f64; 2]>,
     acc: Vec<[f64; 2]>,
+    /// Whether the accelerations were given (quintic interpolation), not derived (cubic).
+    quintic: bool,
 }
 
 /// Central differences (one-sided at the ends) of the samples `y` over the strictly increasing
@@ -125,7 +163,8 @@ pub(crate) fn gradient<const D: usize>(t: &[f64], y: &[[f64; D]]) -> Vec<[f64; D
 
 impl Table {
     /// Builds a table from strictly increasing times (s) and positions (m); velocity (m/s) and
-    /// acceleration (m/s^2) are derived by central differences when not given.
+    /// acceleration (m/s^2) are derived by central differences when not given. With the
+    /// accelerations given it is interpolated by [`quintic_hermite`], else by [`cubic_hermite`].
     ///
     /// Fails with [`Error::InvalidParameter`] if fewer than 2 samples, non-increasing or
     /// non-finite times, or arrays of different lengths.
@@ -169,12 +208,19 @@ impl Table {
                 check_samples(name, label, a)?;
             }
         }
+        let quintic = acc.is_some();
         let vel = vel.unwrap_or_else(|| gradient(&time, &pos));
         let acc = acc.unwrap_or_else(|| gradient(&time, &vel));
         // derived by differences: samples too close for their positions give rates beyond range
         check_samples(name, "velocity (from the positions)", &vel)?;
         check_samples(name, "acceleration (from the positions)", &acc)?;
-        Ok(Table { time, pos, vel, acc })
+        Ok(Table {
+            time,
+            pos,
+            vel,
+            acc,
+            quintic,
+        })
     }
 
     /// Last tabulated time, s.
@@ -187,8 +233,8 @@ impl Table {
         self.time[0]
     }
 
-    /// Position, velocity and acceleration at `t` (s): the quintic Hermite interpolant of the
-    /// interval holding `t` ([`quintic_hermite`]); before the first sample and after the last
+    /// Position, velocity and acceleration at `t` (s): the Hermite interpolant of the interval
+    /// holding `t` ([`hermite`]); before the first sample and after the last
     /// the end sample's values are held.
     fn eval(&self, t: f64) -> Kinematics {
         let (i, s) = segment(&self.time, t);
@@ -196,7 +242,8 @@ impl Table {
         let mut k = Kinematics::default();
         for c in 0..2 {
             let two = |a: &[[f64; 2]]| [a[i][c], a[i + 1][c]];
-            (k.pos[c], k.vel[c], k.acc[c]) = quintic_hermite(h, s, two(&self.pos), two(&self.vel), two(&self.acc));
+            let acc = self.quintic.then(|| two(&self.acc));
+            (k.pos[c], k.vel[c], k.acc[c]) = hermite(h, s, two(&self.pos), two(&self.vel), acc);
         }
         k
     }
