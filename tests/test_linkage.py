@@ -230,6 +230,8 @@ def test_a_linkage_that_cannot_move_or_close_says_so():
         (lambda: _four_bar().frames(0.1, spacing=0.02), "spacing"),  # 2 rad of crank a sample
         (lambda: _four_bar().frames(-1.0), "t_end"),
         (lambda: _four_bar().solve([0.0, 0.0]), "times"),
+        (lambda: _four_bar().slot("s", "B", "O2", "O4"), "slot 's' b"),
+        (lambda: _four_bar().slot("s", "B", "A", "B"), "slot 's' point"),
     ],
 )
 def test_bad_input_names_the_parameter(build, parameter):
@@ -245,3 +247,65 @@ def test_the_linkage_is_drawn(tmp_path):
     with pytest.raises(fc.InvalidParameterError) as e:
         _four_bar().plot(tmp_path / "x.png", 0.01, poses=0)
     assert e.value.parameter == "poses"
+
+
+def _crank_shaper(rate: float = 20.0) -> Linkage:
+    """A crank-shaper (m): the crank O2-A turns a slotted lever O4-B through a block at A sliding
+    in its slot; the rod B-C drives the ram C on a guide at height 0.35."""
+    lk = Linkage().ground("O4", (0.0, 0.0)).ground("O2", (0.0, 0.1))
+    lk.crank("crank", "O2", "A", length=0.05, driver=Rotation.constant(rate))
+    lk.point("B", near=(0.13, 0.27)).body("lever", {"O4": (0.0, 0.0), "B": (0.3, 0.0)})
+    lk.slot("block", "A", "O4", "B")
+    lk.point("C", near=(0.05, 0.35)).link("rod", "B", "C", length=0.25)
+    lk.slider("ram", "C", through=(0.0, 0.35), angle=0.0)
+    return lk
+
+
+def test_a_slotted_lever_follows_its_block_and_a_crank_shaper_runs():
+    # The lever's angle is that of the block's pin A = O2 + r (cos wt, sin wt) seen from O4:
+    # theta = atan2(0.1 + r sin wt, r cos wt), rate (A x A') / |A|^2; the block turns with the
+    # lever, its origin at A. Tables every 1e-3 s at 20 rad/s: measured within 4e-10.
+    w = 20.0
+    frames = _crank_shaper(w).frames(0.4)
+    for t in np.linspace(0.0, 0.4, 301):
+        a = np.array([0.05 * math.cos(w * t), 0.1 + 0.05 * math.sin(w * t)])
+        ad = 0.05 * w * np.array([-math.sin(w * t), math.cos(w * t)])
+        _, _, _, angle, rate, _ = frames["lever"].at(t)
+        block = frames["block"].at(t)
+        assert abs((angle - math.atan2(a[1], a[0]) + math.pi) % (2 * math.pi) - math.pi) < 1e-9
+        assert rate == pytest.approx((a[0] * ad[1] - a[1] * ad[0]) / (a @ a), abs=1e-8)
+        assert abs(block[3] - angle) < 1e-12 and np.max(np.abs(np.array(block[0]) - a)) < 1e-10
+    # the shaper's rod, flexible, with a clearance joint at the lever's tip B and pinned to the ram
+    m = fc.Model()
+    for body in ("crank", "lever"):
+        m.add_body(body, frame=frames[body])
+    m.add_slider("ram", mass=2.0, path=frames["ram"])
+    m.add_link(
+        "rod", length=0.25, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11,
+        frame=frames["rod"],
+    )  # fmt: skip
+    m.add_joint(
+        "lever_pin", "rod", 0, body="lever", point=(0.3, 0.0), clearance=2e-4, stiffness=5e7, damping=500.0
+    )
+    m.add_pin("ram_pin", "rod", 6, slider="ram")
+    res = m.simulate(0.35, 1e-5, record=fc.Record(histories=False))
+    j = res.joint("lever_pin")
+    assert res.complete and j.impacts > 0 and 0 < j.max_force < 1e5
+
+
+def test_a_block_in_a_slot_along_a_crank():
+    # an inverted slider-crank: the rocker O4-P (0.35 m) ends in a block sliding along the crank's
+    # line O2-A; P stays on the line and at the rocker's length, and its velocity and acceleration
+    # are the differences of its positions (1e-6 s: truncation and round-off about 1e-5 m/s^2)
+    lk = Linkage().ground("O2", (0.0, 0.0)).ground("O4", (0.3, 0.0))
+    lk.crank("crank", "O2", "A", length=0.1, driver=Rotation.constant(10.0))
+    lk.point("P", near=(-0.05, 0.01)).link("rocker", "O4", "P", length=0.35)
+    lk.slot("block", "P", "O2", "A")
+    s = lk.solve(np.linspace(0.0, 0.6, 61))
+    p, a = s["P"][0], s["A"][0]
+    assert np.max(np.abs(p[:, 0] * a[:, 1] - p[:, 1] * a[:, 0])) < 1e-15
+    assert np.max(np.abs(np.hypot(p[:, 0] - 0.3, p[:, 1]) - 0.35)) < 1e-13
+    h = 1e-6
+    q = lk.solve([0.3 - h, 0.3, 0.3 + h])["P"]
+    assert np.allclose((q[0][2] - q[0][0]) / (2 * h), q[1][1], rtol=0, atol=1e-8)
+    assert np.allclose((q[0][2] - 2 * q[0][1] + q[0][0]) / h**2, q[2][1], rtol=0, atol=1e-4)

@@ -64,6 +64,8 @@ class Linkage:
         self._bodies: dict[str, dict[str, tuple[float, float]]] = {}
         # name -> (point, through, direction)
         self._sliders: dict[str, tuple[str, tuple[float, float], float]] = {}
+        # name -> (point, a, b): the point on the line through points a and b of a link
+        self._slots: dict[str, tuple[str, str, str]] = {}
 
     # -- building ------------------------------------------------------------------------------
 
@@ -127,6 +129,25 @@ class Linkage:
         self._known_point(f"slider {name!r} point", point)
         angle = _finite(f"slider {name!r} angle", angle)
         self._sliders[name] = (point, _point(f"slider {name!r} through", through), angle)
+        return self
+
+    def slot(self, name: str, point: str, a: str, b: str) -> Linkage:
+        """A block ``name`` whose pin ``point`` slides along the line through the points ``a``
+        and ``b`` of a moving link (a slotted lever, as in a quick-return or a crank-shaper); the
+        three points declared before, ``a`` and ``b`` apart on one link. Its frame: origin at the
+        pin, x axis along the line from ``a`` to ``b`` (the block turns with the lever)."""
+        self._new_link(name)
+        for what, p in (("point", point), ("a", a), ("b", b)):
+            self._known_point(f"slot {name!r} {what}", p)
+        if self._span(a, b) is None:
+            raise _bad(
+                f"slot {name!r} b",
+                b,
+                f"a point of the same link as a = {a!r} (the line must turn with a link)",
+            )
+        if point in (a, b):
+            raise _bad(f"slot {name!r} point", point, "a point other than a and b")
+        self._slots[name] = (point, a, b)
         return self
 
     # -- solving -------------------------------------------------------------------------------
@@ -204,6 +225,10 @@ class Linkage:
         for name, local in self._bodies.items():
             (p0, l0), (p1, l1) = list(local.items())[:2]
             frames[name] = _frame(times, sol[p0], sol[p1], l0, l1)
+        for name, (point, a, b) in self._slots.items():
+            frames[name] = _frame(
+                times, sol[point], _shifted(sol[point], sol[a], sol[b]), (0.0, 0.0), (1.0, 0.0)
+            )
         for name, (point, _, angle) in self._sliders.items():
             origin = _motion.tabulated(times, *sol[point])
             frames[name] = Frame.rotating(Rotation.fixed(angle), origin=origin)
@@ -256,6 +281,8 @@ class Linkage:
                 ax.plot(*np.array(ring).T, "-o", color=color, lw=2.2, ms=3)
             for point, _, _ in self._sliders.values():
                 ax.plot(*at(point), "s", color=color, ms=7, mfc="none")
+            for point, _, _ in self._slots.values():
+                ax.plot(*at(point), "D", color=color, ms=6, mfc="none")
         for through, angle in ((s[1], s[2]) for s in self._sliders.values()):
             e = np.array([math.cos(angle), math.sin(angle)])
             reach = max(np.abs(np.concatenate([sol[p][0] for p in sol])).max(), 1e-3)
@@ -315,12 +342,12 @@ class Linkage:
     def _new_link(self, name: str) -> None:
         if not isinstance(name, str) or not name:
             raise _bad("link name", name, "a non-empty string")
-        if name in self._cranks or name in self._bodies or name in self._sliders:
+        if name in self._cranks or name in self._bodies or name in self._sliders or name in self._slots:
             raise _bad("link name", name, "a name not used by another link")
 
     def _check_count(self, moving: list[str]) -> None:
         held = {p for local in self._bodies.values() for p in local}
-        held |= {s[0] for s in self._sliders.values()}
+        held |= {s[0] for s in self._sliders.values()} | {s[0] for s in self._slots.values()}
         loose = [p for p in moving if p not in held]
         if loose:
             raise ModelError(f"linkage: point(s) {loose} belong to no link")
@@ -334,7 +361,8 @@ class Linkage:
 
     def _constraints_of(self, moving: list[str]) -> list[tuple]:
         """The constraints: ("d", p, q, length) for two points of a body, one of them moving;
-        ("s", p, through, direction) for a slider's pin."""
+        ("s", p, through, direction) for a slider's pin; ("l", p, a, b, |b - a|) for a slot's
+        pin on the line through a and b."""
         cons: list[tuple] = []
         mov = set(moving)
         for local in self._bodies.values():
@@ -347,7 +375,20 @@ class Linkage:
         for point, through, angle in self._sliders.values():
             if point in mov:
                 cons.append(("s", point, through, (math.cos(angle), math.sin(angle))))
+        for point, a, b in self._slots.values():
+            cons.append(("l", point, a, b, self._span(a, b)))
         return cons
+
+    def _span(self, a: str, b: str) -> Optional[float]:
+        """The distance (m) between points ``a`` and ``b`` of one link (a body or a crank), or
+        None when no link holds both."""
+        for local in self._bodies.values():
+            if a in local and b in local:
+                return math.dist(local[a], local[b])
+        for pivot, tip, length, _ in self._cranks.values():
+            if {a, b} == {pivot, tip}:
+                return length
+        return None
 
     def _known(self, t: float) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Positions, velocities and accelerations of the ground points and crank tips at t."""
@@ -366,8 +407,8 @@ class Linkage:
 
 class _System:
     """The constraints of a linkage as arrays over its points (``names``: the moving ones first,
-    then the known ones): distances ``(|x_p - x_q|^2 - L^2) / (2 L)`` and slider lines
-    ``(x_p - x_0) x e``, both in metres."""
+    then the known ones): distances ``(|x_p - x_q|^2 - L^2) / (2 L)``, slider lines
+    ``(x_p - x_0) x e`` and slots ``(x_p - x_a) x (x_b - x_a) / |x_b - x_a|``, all in metres."""
 
     def __init__(self, cons: list[tuple], moving: list[str], points: list[str]) -> None:
         self.names = [*moving, *(p for p in points if p not in set(moving))]
@@ -381,6 +422,9 @@ class _System:
         self.sp = np.array([at[c[1]] for c in line], dtype=int)
         self.s0 = np.array([c[2] for c in line], dtype=float).reshape(-1, 2)
         self.se = np.array([c[3] for c in line], dtype=float).reshape(-1, 2)
+        slot = [c for c in cons if c[0] == "l"]
+        self.lp, self.la, self.lb = (np.array([at[c[k]] for c in slot], dtype=int) for k in (1, 2, 3))
+        self.llen = np.array([c[4] for c in slot], dtype=float)
         self.rows = len(cons)
 
     def values(self, pos: np.ndarray) -> np.ndarray:
@@ -390,6 +434,7 @@ class _System:
             [
                 (np.einsum("ij,ij->i", d, d) - self.length**2) / (2 * self.length),
                 r[:, 0] * self.se[:, 1] - r[:, 1] * self.se[:, 0],
+                _cross(pos[self.lp] - pos[self.la], pos[self.lb] - pos[self.la]) / self.llen,
             ]
         )
 
@@ -401,6 +446,15 @@ class _System:
         jac[np.arange(n), self.dp] = slope
         jac[np.arange(n), self.dq] = -slope
         jac[n + np.arange(self.sp.size), self.sp] = np.stack([self.se[:, 1], -self.se[:, 0]], axis=1)
+        # a slot's (P - A) x (B - A) / L: d/dP = (w_y, -w_x) / L, d/dB = (-u_y, u_x) / L, d/dA the
+        # negative sum (u = P - A, w = B - A)
+        rows = n + self.sp.size + np.arange(self.lp.size)
+        u, w = pos[self.lp] - pos[self.la], pos[self.lb] - pos[self.la]
+        dp = np.stack([w[:, 1], -w[:, 0]], axis=1) / self.llen[:, None]
+        db = np.stack([-u[:, 1], u[:, 0]], axis=1) / self.llen[:, None]
+        jac[rows, self.lp] += dp
+        jac[rows, self.lb] += db
+        jac[rows, self.la] -= dp + db
         return jac.reshape(self.rows, -1)
 
     def newton(self, pos: np.ndarray, scale: float, t: float) -> None:
@@ -441,8 +495,26 @@ class _System:
             return
         state[1, :mp] = np.linalg.solve(ju, -jk @ state[1, mp:].reshape(-1)).reshape(-1, 2)
         dv = state[1, self.dp] - state[1, self.dq]
-        quad = np.concatenate([np.einsum("ij,ij->i", dv, dv) / self.length, np.zeros(self.sp.size)])
+        du = state[1, self.lp] - state[1, self.la]
+        dw = state[1, self.lb] - state[1, self.la]
+        quad = np.concatenate(
+            [
+                np.einsum("ij,ij->i", dv, dv) / self.length,
+                np.zeros(self.sp.size),
+                2 * _cross(du, dw) / self.llen,
+            ]
+        )
         state[2, :mp] = np.linalg.solve(ju, -jk @ state[2, mp:].reshape(-1) - quad).reshape(-1, 2)
+
+
+def _cross(u: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Row-wise ``u x w`` of arrays of 2-vectors."""
+    return u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+
+
+def _shifted(p, a, b):
+    """The motion (positions, velocities, accelerations) of ``p + (b - a)``."""
+    return tuple(p[k] + b[k] - a[k] for k in range(3))
 
 
 def _frame(times, first, second, l0, l1) -> Frame:
@@ -450,11 +522,10 @@ def _frame(times, first, second, l0, l1) -> Frame:
     and ``second`` (each positions, velocities, accelerations over ``times``)."""
     (p0, v0, a0), (p1, v1, a1) = first, second
     d, dv, da = p1 - p0, v1 - v0, a1 - a0
-    cross = lambda u, w: u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]  # noqa: E731
     r2 = np.einsum("ij,ij->i", d, d)
     angle = np.unwrap(np.arctan2(d[:, 1], d[:, 0])) - math.atan2(l1[1] - l0[1], l1[0] - l0[0])
-    rate = cross(d, dv) / r2
-    accel = cross(d, da) / r2 - 2 * rate * np.einsum("ij,ij->i", d, dv) / r2
+    rate = _cross(d, dv) / r2
+    accel = _cross(d, da) / r2 - 2 * rate * np.einsum("ij,ij->i", d, dv) / r2
     # origin = first - R(angle) l0, differentiated
     c, s = np.cos(angle), np.sin(angle)
     rl = np.stack([c * l0[0] - s * l0[1], s * l0[0] + c * l0[1]], axis=1)
