@@ -1,7 +1,7 @@
 """Fuzzing flexclear through its public API.
 
 A *case* is plain JSON data (so a failing case is reproducible from the file it is written to):
-``{"kind": "model" | "scene" | "study", ...}``, made by :func:`generate` from ``(seed, index)``
+``{"kind": "model" | "scene" | "study" | "linkage", ...}``, made by :func:`generate` from ``(seed, index)``
 alone. Objects of the API are tagged dicts: ``{"$rotation": [method, kwargs]}``,
 ``{"$motion": [function, kwargs]}``, ``{"$frame": [method, kwargs]}``, ``{"$record": kwargs}``,
 ``{"$dist": [class, args]}``, ``{"$tuple": [...]}``. Non-finite floats are JSON's ``NaN`` and
@@ -726,12 +726,93 @@ _OUTPUT_NAMES = (
 )
 
 
+def _linkage_case(g: _Gen) -> dict:
+    """A :class:`flexclear.Linkage` (a four-bar, an offset slider-crank, a Watt six-bar or a
+    crank-shaper, each with its numbers drawn about a working design) solved for its frames, and
+    a short run of a flexible link on them with a clearance joint."""
+    w = {"$rotation": ["constant", {"rate": g.num(1.0, 300.0)}]}
+    topo = g.r.choice(["four_bar", "slider_crank", "six_bar", "shaper"])
+    if topo == "four_bar":
+        ops = [
+            ["ground", "O2", [0.0, 0.0], {}],
+            ["ground", "O4", [g.num(0.2, 0.3), 0.0], {}],
+            ["crank", "crank", "O2", "A", {"length": g.num(0.03, 0.06), "driver": w}],
+            ["point", "B", {"near": [g.num(0.1, 0.2), g.choice([0.26, -0.26], [0.0])]}],
+            ["link", "coupler", "A", "B", {"length": g.num(0.25, 0.3)}],
+            ["link", "rocker", "O4", "B", {"length": g.num(0.25, 0.3)}],
+        ]
+        flexible, ends = "coupler", (("crank", "crank", "A"), ("rocker", "rocker", "B"))
+    elif topo == "slider_crank":
+        ops = [
+            ["ground", "O", [0.0, 0.0], {}],
+            ["crank", "crank", "O", "A", {"length": g.num(0.05, 0.2), "driver": w}],
+            ["point", "B", {"near": [g.num(0.3, 0.6), 0.0]}],
+            ["link", "rod", "A", "B", {"length": g.num(0.25, 0.5)}],
+            [
+                "slider",
+                "slider",
+                "B",
+                {"through": [0.0, g.num(-0.02, 0.02, log=False)], "angle": g.num(-0.1, 0.1, log=False)},
+            ],
+        ]
+        flexible, ends = "rod", (("crank", "crank", "A"), ("slider", None, "B"))
+    elif topo == "six_bar":
+        ops = [
+            ["ground", "O2", [0.0, 0.0], {}],
+            ["ground", "O4", [0.254, 0.0], {}],
+            ["ground", "O6", [g.num(0.43, 0.47), 0.05], {}],
+            ["crank", "crank", "O2", "A", {"length": g.num(0.04, 0.055), "driver": w}],
+            ["point", "B", {"near": [0.15, 0.26]}],
+            ["point", "C", {"near": [0.14, 0.06]}],
+            ["point", "D", {"near": [0.35, 0.2]}],
+            ["link", "coupler", "A", "B", {"length": 0.2794}],
+            [
+                "body",
+                "rocker",
+                {"points": {"O4": [0.0, 0.0], "B": [0.2794, 0.0], "C": [0.1, g.num(0.06, 0.1)]}},
+            ],
+            ["link", "rod", "C", "D", {"length": g.num(0.24, 0.26)}],
+            ["link", "output", "O6", "D", {"length": 0.15}],
+        ]
+        flexible, ends = "rod", (("rocker", "rocker", "C"), ("output", "output", "D"))
+    else:
+        ops = [
+            ["ground", "O4", [0.0, 0.0], {}],
+            ["ground", "O2", [0.0, g.num(0.08, 0.12)], {}],
+            ["crank", "crank", "O2", "A", {"length": g.num(0.03, 0.06), "driver": w}],
+            ["point", "B", {"near": [0.13, 0.27]}],
+            ["body", "lever", {"points": {"O4": [0.0, 0.0], "B": [0.3, 0.0]}}],
+            ["slot", "block", "A", "O4", "B", {}],
+            ["point", "C", {"near": [0.05, 0.35]}],
+            ["link", "rod", "B", "C", {"length": g.num(0.2, 0.3)}],
+            ["slider", "ram", "C", {"through": [0.0, 0.35], "angle": 0.0}],
+        ]
+        flexible, ends = "rod", (("lever", "lever", "B"), ("ram", None, "C"))
+    return {
+        "kind": "linkage",
+        "ops": ops,
+        "t_end": g.num(0.005, 0.1),
+        "spacing": g.num(2e-4, 3e-3),
+        "flexible": flexible,
+        "ends": ends,
+        "clearance": g.num(1e-5, 5e-4),
+        "run": g.maybe(0.3),
+    }
+
+
 def generate(seed: int, index: int) -> dict:
     """Case ``index`` of campaign ``seed`` (depends on nothing else)."""
     rng = random.Random(f"flexclear-fuzz:{seed}:{index}")
     # hostility per case: 3 in 7 cases wholly sane (most of those run to the end), the rest
     # from a few hostile values among ~40 to nearly all hostile
     hostility = rng.choice([0.0, 0.0, 0.0, 0.01, 0.03, 0.1, 0.3])
+    # 1 case in 20 a linkage, drawn from a stream of its own (the other cases of a campaign are
+    # those it had before linkages were fuzzed)
+    side = random.Random(f"flexclear-fuzz-linkage:{seed}:{index}")
+    if side.random() < 0.05:
+        case = _linkage_case(_Gen(side, hostility))
+        case["id"] = f"{seed}:{index}"
+        return case
     g = _Gen(rng, hostility)
     kind = rng.choices(["model", "scene", "study"], weights=[5, 4, 1])[0]
     case = {"model": _model_case, "scene": _scene_case, "study": _study_case}[kind](g)
@@ -922,6 +1003,65 @@ def check_result(res) -> list[str]:
     return bad
 
 
+def _run_linkage(case: dict) -> list[str]:
+    """Solves a linkage case's frames, checks them finite at 7 instants (and the table's times
+    given back), and with ``run`` simulates its flexible link on them for up to 5 ms with a
+    clearance joint at its first end and a pin at the other."""
+    import flexclear
+    import numpy as np
+
+    lk = flexclear.Linkage()
+    for op in case["ops"]:
+        name, *args, kw = op
+        args = [tuple(a) if isinstance(a, list) else a for a in args]
+        kw = _decode(kw)
+        if "points" in kw and isinstance(kw["points"], dict):
+            kw = {
+                **kw,
+                "points": {k: tuple(v) if isinstance(v, list) else v for k, v in kw["points"].items()},
+            }
+        getattr(lk, name)(*args, **kw)
+    frames = lk.frames(case["t_end"], spacing=case["spacing"])
+    bad: list[str] = []
+    for name, f in frames.items():
+        for t in np.linspace(0.0, float(case["t_end"]), 7):
+            _nonfinite(
+                f"frames[{name!r}].at({t:g})", [*f.at(t)[0], *f.at(t)[1], *f.at(t)[2], *f.at(t)[3:]], bad
+            )
+    if case["run"] and not bad:
+        link = case["flexible"]
+        length = next(op[-1]["length"] for op in case["ops"] if op[0] == "link" and op[1] == link)
+        m = flexclear.Model()
+        for body, frame, _ in case["ends"]:
+            if frame is not None:
+                m.add_body(body, frame=frames[frame])
+            else:
+                m.add_slider(body, mass=0.1, path=frames[body])
+        m.add_link(link, length=length, elements=4, youngs_modulus=7e10, density=2700.0, area=8e-5,
+                   inertia=7e-11, frame=frames[link])  # fmt: skip
+        points = lk.solve([0.0])
+        for k, (body, frame, point) in enumerate(case["ends"]):
+            node = 0 if k == 0 else 4
+            if frame is None:
+                m.add_pin(f"end{k}", link, node, slider=body)
+                continue
+            # the end's point in the body's frame at t = 0
+            o, _, _, angle, _, _ = frames[frame].at(0.0)
+            d = points[point][0][0] - np.asarray(o)
+            local = (
+                d[0] * np.cos(angle) + d[1] * np.sin(angle),
+                -d[0] * np.sin(angle) + d[1] * np.cos(angle),
+            )
+            if k == 0:
+                m.add_joint(f"end{k}", link, node, body=body, point=local, clearance=case["clearance"],
+                            stiffness=5e7, damping=500.0)  # fmt: skip
+            else:
+                m.add_pin(f"end{k}", link, node, body=body, point=local)
+        res = m.simulate(min(float(case["t_end"]), 5e-3), 1e-5, progress=False)
+        bad += check_result(res)
+    return bad
+
+
 def _run_study(case: dict, workdir: str) -> list[str]:
     import numpy as np
     from flexclear import study
@@ -981,6 +1121,9 @@ def execute(case: dict, workdir: Optional[str] = None) -> dict:
         try:
             if case["kind"] == "_selftest":
                 out = {"outcome": "ok", "detail": ""}
+            elif case["kind"] == "linkage":
+                bad = _run_linkage(case)
+                out = {"outcome": "nan" if bad else "ok", "detail": "; ".join(bad[:8])}
             elif case["kind"] == "study":
                 bad = _run_study(case, workdir or tempfile.gettempdir())
                 out = {"outcome": "nan" if bad else "ok", "detail": "; ".join(bad[:8])}
