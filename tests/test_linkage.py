@@ -231,6 +231,11 @@ def test_a_linkage_that_cannot_move_or_close_says_so():
         (lambda: _four_bar().frames(-1.0), "t_end"),
         (lambda: _four_bar().solve([0.0, 0.0]), "times"),
         (lambda: _four_bar().slot("s", "B", "O2", "O4"), "slot 's' b"),
+        (lambda: _four_bar().link("l", "A", "A", length=0.1), "link 'l' b"),
+        (
+            lambda: _four_bar().body("t", {"A": (0.0, 0.0), "B": (0.1, 0.0), "O4": (0.1, 0.0)}),
+            "body 't' points",
+        ),
         (lambda: _four_bar().slot("s", "B", "A", "B"), "slot 's' point"),
     ],
 )

@@ -100,6 +100,8 @@ class Linkage:
     def link(self, name: str, a: str, b: str, *, length: float) -> Linkage:
         """A binary link ``name`` of ``length`` (m) between points ``a`` and ``b`` (declared
         before). Its frame: origin at ``a``, x axis towards ``b``."""
+        if a == b:
+            raise _bad(f"link {name!r} b", b, f"a point other than a = {a!r}")
         return self.body(name, {a: (0.0, 0.0), b: (_positive(f"link {name!r} length", length), 0.0)})
 
     def body(self, name: str, points: Mapping[str, Sequence[float]]) -> Linkage:
@@ -113,9 +115,11 @@ class Linkage:
         for p, xy in points.items():
             self._known_point(f"body {name!r} point", p)
             local[p] = _point(f"body {name!r} point {p!r}", xy)
-        first, second = list(local.values())[:2]
-        if math.dist(first, second) <= 0:
-            raise _bad(f"body {name!r} points", points, "its first two points apart (they set its frame)")
+        xy = list(local.values())
+        if any(math.dist(xy[i], xy[j]) <= 0 for i in range(len(xy)) for j in range(i + 1, len(xy))):
+            raise _bad(
+                f"body {name!r} points", points, "points apart from one another (the first two set its frame)"
+            )
         self._bodies[name] = local
         return self
 
