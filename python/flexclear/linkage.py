@@ -218,21 +218,15 @@ class Linkage:
             raise _bad("spacing", spacing, f"at least (t_end - start) / 1e6 = {(t_end - start) / 1e6:g} s")
         times = start + spacing * np.arange(max(n, 1) + 1)
         sol = self.solve(times)
-        for name, (pivot, tip, _, _) in self._cranks.items():
-            self._check_spacing(name, times, sol[pivot], sol[tip])
-        for name, local in self._bodies.items():
-            p0, p1 = list(local)[:2]
-            self._check_spacing(name, times, sol[p0], sol[p1])
         frames: dict[str, Frame] = {}
         for name, (pivot, tip, _, _) in self._cranks.items():
-            frames[name] = _frame(times, sol[pivot], sol[tip], (0.0, 0.0), (1.0, 0.0))
+            frames[name] = _frame(name, times, sol[pivot], sol[tip], (0.0, 0.0), (1.0, 0.0))
         for name, local in self._bodies.items():
             (p0, l0), (p1, l1) = list(local.items())[:2]
-            frames[name] = _frame(times, sol[p0], sol[p1], l0, l1)
+            frames[name] = _frame(name, times, sol[p0], sol[p1], l0, l1)
         for name, (point, a, b) in self._slots.items():
-            frames[name] = _frame(
-                times, sol[point], _shifted(sol[point], sol[a], sol[b]), (0.0, 0.0), (1.0, 0.0)
-            )
+            shifted = _shifted(sol[point], sol[a], sol[b])
+            frames[name] = _frame(name, times, sol[point], shifted, (0.0, 0.0), (1.0, 0.0))
         for name, (point, _, angle) in self._sliders.items():
             origin = _motion.tabulated(times, *sol[point])
             frames[name] = Frame.rotating(Rotation.fixed(angle), origin=origin)
@@ -314,21 +308,6 @@ class Linkage:
         return path
 
     # -- internals -----------------------------------------------------------------------------
-
-    @staticmethod
-    def _check_spacing(name, times, first, second) -> None:
-        """A link may turn at most 1 rad between two samples (the angle is unwrapped between
-        them, and the interpolation's error grows as the sixth power of the turn)."""
-        d, dv = second[0] - first[0], second[1] - first[1]
-        rate = np.abs(d[:, 0] * dv[:, 1] - d[:, 1] * dv[:, 0]) / np.einsum("ij,ij->i", d, d)
-        turn = float(np.max(rate)) * float(times[1] - times[0]) if times.size > 1 else 0.0
-        if turn > 1.0:
-            raise _bad(
-                "spacing",
-                float(times[1] - times[0]),
-                f"at most {float(times[1] - times[0]) / turn:.3g} s: link {name!r} turns at up to "
-                f"{float(np.max(rate)):.4g} rad/s, {turn:.3g} rad a sample (1 at most)",
-            )
 
     def _all_points(self) -> list[str]:
         return [*self._ground, *(c[1] for c in self._cranks.values()), *self._near]
@@ -521,14 +500,27 @@ def _shifted(p, a, b):
     return tuple(p[k] + b[k] - a[k] for k in range(3))
 
 
-def _frame(times, first, second, l0, l1) -> Frame:
-    """The tabulated frame of a link whose points at local ``l0`` and ``l1`` move as ``first``
-    and ``second`` (each positions, velocities, accelerations over ``times``)."""
+def _frame(name: str, times, first, second, l0, l1) -> Frame:
+    """The tabulated frame of link ``name`` whose points at local ``l0`` and ``l1`` move as
+    ``first`` and ``second`` (each positions, velocities, accelerations over ``times``).
+
+    Raises InvalidParameterError (``spacing``) when the link turns more than 1 rad between two
+    samples: the angle is unwrapped between them, and the interpolation's error grows as the
+    sixth power of the turn."""
     (p0, v0, a0), (p1, v1, a1) = first, second
     d, dv, da = p1 - p0, v1 - v0, a1 - a0
     r2 = np.einsum("ij,ij->i", d, d)
-    angle = np.unwrap(np.arctan2(d[:, 1], d[:, 0])) - math.atan2(l1[1] - l0[1], l1[0] - l0[0])
     rate = _cross(d, dv) / r2
+    h = float(times[1] - times[0]) if len(times) > 1 else 0.0
+    fastest = float(np.max(np.abs(rate)))
+    if fastest * h > 1.0:
+        raise _bad(
+            "spacing",
+            h,
+            f"at most {1 / fastest:.3g} s: link {name!r} turns at up to {fastest:.4g} rad/s, "
+            f"{fastest * h:.3g} rad a sample (1 at most)",
+        )
+    angle = np.unwrap(np.arctan2(d[:, 1], d[:, 0])) - math.atan2(l1[1] - l0[1], l1[0] - l0[0])
     accel = _cross(d, da) / r2 - 2 * rate * np.einsum("ij,ij->i", d, dv) / r2
     # origin = first - R(angle) l0, differentiated
     c, s = np.cos(angle), np.sin(angle)
