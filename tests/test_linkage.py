@@ -228,6 +228,8 @@ def test_a_linkage_that_cannot_move_or_close_says_so():
         (lambda: _four_bar().link("coupler", "A", "B", length=0.2794), "link name"),
         (lambda: _four_bar().frames(0.1, spacing=0.0), "spacing"),
         (lambda: _four_bar().frames(0.1, spacing=0.02), "spacing"),  # 2 rad of crank a sample
+        (lambda: _four_bar().frames(0.1, spacing=5e-324), "spacing"),  # fuzz case 71:27521
+        (lambda: _four_bar().plot("x.png", 0.1, spacing=5e-324), "spacing"),
         (lambda: _four_bar().frames(-1.0), "t_end"),
         (lambda: _four_bar().solve([0.0, 0.0]), "times"),
         (lambda: _four_bar().slot("s", "B", "O2", "O4"), "slot 's' b"),

@@ -213,9 +213,10 @@ class Linkage:
         spacing = _positive("spacing", spacing)
         if not start < t_end:
             raise _bad("t_end", t_end, f"a time after start = {start} s")
-        n = math.ceil((t_end - start) / spacing - 1e-9)
-        if n > 10**6:
+        count = (t_end - start) / spacing
+        if not count <= 1e6:  # inf for a spacing of 5e-324 s
             raise _bad("spacing", spacing, f"at least (t_end - start) / 1e6 = {(t_end - start) / 1e6:g} s")
+        n = math.ceil(count - 1e-9)
         times = start + spacing * np.arange(max(n, 1) + 1)
         sol = self.solve(times)
         frames: dict[str, Frame] = {}
@@ -256,9 +257,10 @@ class Linkage:
         if isinstance(poses, bool) or not isinstance(poses, int) or not 1 <= poses <= 100:
             raise _bad("poses", poses, "an integer in [1, 100]")
         spacing = t_end / 400 if spacing is None else _positive("spacing", spacing)
-        n = math.ceil(t_end / spacing - 1e-9)
-        if n > 10**6:
+        count = t_end / spacing
+        if not count <= 1e6:
             raise _bad("spacing", spacing, f"at least t_end / 1e6 = {t_end / 1e6:g} s")
+        n = math.ceil(count - 1e-9)
         times = np.linspace(0.0, t_end, n + 1)
         sol = self.solve(times)
         fig, ax = plt.subplots(figsize=(7, 5.5))
