@@ -61,6 +61,16 @@ def test_the_four_bars_frames_are_its_closed_form_ones():
     assert np.all(between < np.array([1e-11, 1e-11, 1e-7, 1e-7, 1e-4, 1e-4, 1e-9, 5e-6, 3e-2])), between
 
 
+def test_the_table_ends_at_t_end():
+    # 0.0105 s at 1e-3 s: samples 0, 1e-3, ..., 1e-2 and 0.0105 (a shorter last interval); a
+    # spacing longer than the run gives the two ends (0.5 rad of crank apart here)
+    frames = _four_bar().frames(0.0105)
+    closed = Frame.four_bar(0.254, 0.0508, 0.2794, 0.2794, DRIVER, "coupler")
+    assert np.all(np.abs(_state(frames["coupler"], 0.0105) - _state(closed, 0.0105))[[0, 1, 6]] < 1e-14)
+    far = _four_bar().frames(0.005, spacing=1e300)
+    assert np.all(np.isfinite(_state(far["coupler"], 0.0025)))
+
+
 def test_the_other_branch_is_the_crossed_four_bar():
     # B guessed below the ground line: the crossed form, the closed form's branch -1
     frames = _four_bar(near_b=(0.2, -0.25)).frames(0.05)
@@ -201,6 +211,10 @@ def test_a_linkage_that_cannot_move_or_close_says_so():
     loose = Linkage().ground("O", (0.0, 0.0)).point("P", near=(1.0, 0.0))
     with pytest.raises(fc.ModelError, match="belong to no link"):
         loose.frames(0.1)
+    # a driver whose angle overflows within the table (fuzz case 71:157221: 1e20 rad/s)
+    fast = Linkage().ground("O", (0.0, 0.0)).crank("c", "O", "A", length=0.1, driver=Rotation.constant(1e20))
+    with pytest.raises(fc.ModelError, match="crank 'c'.s driver gives angle"):
+        fast.solve([0.0, 1e300])
     over = _four_bar().link("extra", "O2", "B", length=0.3)
     with pytest.raises(fc.ModelError, match="3 constraints for 1 moving points"):
         over.frames(0.1)

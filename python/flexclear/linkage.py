@@ -179,12 +179,18 @@ class Linkage:
         scale = max([1e-3, *(abs(c) for xy in [*self._ground.values(), *self._near.values()] for c in xy)])
         out = {p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2))) for p in system.names}
         state = np.zeros((3, len(system.names), 2))  # positions, velocities, accelerations
-        state[0, : len(moving)] = [self._near[p] for p in moving]
+        state[0, : len(moving)] = np.array([self._near[p] for p in moving], dtype=float).reshape(
+            len(moving), 2
+        )
         for k, tk in enumerate(t):
             if k:
                 # Newton starts from the Taylor step of the last instant's motion
                 h = tk - t[k - 1]
-                state[0] += h * state[1] + 0.5 * h * h * state[2]
+                mp = len(moving)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    guess = state[0, :mp] + h * state[1, :mp] + 0.5 * h * h * state[2, :mp]
+                if np.all(np.isfinite(guess)):  # else from the last positions (a huge step)
+                    state[0, :mp] = guess
             known = self._known(tk)
             for i, p in enumerate(system.names[len(moving) :], start=len(moving)):
                 state[:, i] = known[p]
@@ -218,6 +224,8 @@ class Linkage:
             raise _bad("spacing", spacing, f"at least (t_end - start) / 1e6 = {(t_end - start) / 1e6:g} s")
         n = math.ceil(count - 1e-9)
         times = start + spacing * np.arange(max(n, 1) + 1)
+        # the table ends at t_end (its last interval shorter where spacing does not divide it)
+        times[-1] = min(times[-1], t_end)
         sol = self.solve(times)
         frames: dict[str, Frame] = {}
         for name, (pivot, tip, _, _) in self._cranks.items():
@@ -378,8 +386,13 @@ class Linkage:
     def _known(self, t: float) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Positions, velocities and accelerations of the ground points and crank tips at t."""
         known = {p: (np.array(xy), np.zeros(2), np.zeros(2)) for p, xy in self._ground.items()}
-        for pivot, tip, length, driver in self._cranks.values():
+        for name, (pivot, tip, length, driver) in self._cranks.items():
             phi, w, al = driver.at(t)
+            if not all(math.isfinite(x) for x in (phi, w, al)):
+                raise ModelError(
+                    f"linkage: crank {name!r}'s driver gives angle {phi}, rate {w}, acceleration {al} at "
+                    f"t = {t:.6g} s: finite values needed"
+                )
             c, s = math.cos(phi), math.sin(phi)
             o = known[pivot][0]
             known[tip] = (
@@ -440,7 +453,7 @@ class _System:
         jac[rows, self.lp] += dp
         jac[rows, self.lb] += db
         jac[rows, self.la] -= dp + db
-        return jac.reshape(self.rows, -1)
+        return jac.reshape(self.rows, 2 * len(self.names))
 
     def newton(self, pos: np.ndarray, scale: float, t: float) -> None:
         """Moves the moving points of ``pos`` (in place) onto the constraints."""
