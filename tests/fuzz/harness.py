@@ -884,16 +884,24 @@ def _build_model(case: dict):
     if case["kind"] == "scene":
         return getattr(flexclear.scenes, case["scene"])(**_decode(case["kwargs"]))
     m = flexclear.Model()
-    for op in case["ops"]:
+    _replay(m, case["ops"])
+    return m
+
+
+def _replay(target, ops: list) -> None:
+    """Calls ``target.<name>(*args, **kwargs)`` for every op ``[name, *args, kwargs]`` of a case
+    (a Model's or a Linkage's building calls): list arguments, and the list values of the
+    keywords ``target``, ``point`` and ``points``, as tuples; tagged API objects decoded."""
+    for op in ops:
         name, *args, kw = op
         args = [tuple(a) if isinstance(a, list) else a for a in args]
         kw = _decode(kw)
-        if "target" in kw and isinstance(kw["target"], list):
-            kw["target"] = tuple(kw["target"])
-        if "point" in kw and isinstance(kw["point"], list):
-            kw["point"] = tuple(kw["point"])
-        getattr(m, name)(*args, **kw)
-    return m
+        for key in ("target", "point"):
+            if isinstance(kw.get(key), list):
+                kw[key] = tuple(kw[key])
+        if isinstance(kw.get("points"), dict):
+            kw["points"] = {k: tuple(v) if isinstance(v, list) else v for k, v in kw["points"].items()}
+        getattr(target, name)(*args, **kw)
 
 
 def _act(model, action: dict) -> Any:
@@ -1011,16 +1019,7 @@ def _run_linkage(case: dict) -> list[str]:
     import numpy as np
 
     lk = flexclear.Linkage()
-    for op in case["ops"]:
-        name, *args, kw = op
-        args = [tuple(a) if isinstance(a, list) else a for a in args]
-        kw = _decode(kw)
-        if "points" in kw and isinstance(kw["points"], dict):
-            kw = {
-                **kw,
-                "points": {k: tuple(v) if isinstance(v, list) else v for k, v in kw["points"].items()},
-            }
-        getattr(lk, name)(*args, **kw)
+    _replay(lk, case["ops"])
     frames = lk.frames(case["t_end"], spacing=case["spacing"])
     bad: list[str] = []
     for name, f in frames.items():
