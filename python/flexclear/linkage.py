@@ -194,8 +194,7 @@ class Linkage:
             known = self._known(tk)
             for i, p in enumerate(system.names[len(moving) :], start=len(moving)):
                 state[:, i] = known[p]
-            system.newton(state[0], scale, tk)
-            system.rates(state)
+            system.rates(state, system.newton(state[0], scale, tk))
             for i, p in enumerate(system.names):
                 for arr, val in zip(out[p], state[:, i]):
                     arr[k] = val
@@ -424,6 +423,11 @@ class _System:
         self.lp, self.la, self.lb = (np.array([at[c[k]] for c in slot], dtype=int) for k in (1, 2, 3))
         self.llen = np.array([c[4] for c in slot], dtype=float)
         self.rows = len(cons)
+        # the rows of each kind, and the Jacobian's constant part (the guides' lines)
+        self.rd = np.arange(self.dp.size)
+        self.rl = self.dp.size + self.sp.size + np.arange(self.lp.size)
+        self.base = np.zeros((self.rows, len(self.names), 2))
+        self.base[self.dp.size + np.arange(self.sp.size), self.sp] = self.se[:, ::-1] * (1.0, -1.0)
 
     def values(self, pos: np.ndarray) -> np.ndarray:
         d = pos[self.dp] - pos[self.dq]
@@ -438,29 +442,29 @@ class _System:
 
     def jacobian(self, pos: np.ndarray) -> np.ndarray:
         """Over every point's two coordinates (the moving ones' columns first)."""
-        jac = np.zeros((self.rows, len(self.names), 2))
-        n = self.dp.size
+        jac = self.base.copy()
         slope = (pos[self.dp] - pos[self.dq]) / self.length[:, None]
-        jac[np.arange(n), self.dp] = slope
-        jac[np.arange(n), self.dq] = -slope
-        jac[n + np.arange(self.sp.size), self.sp] = np.stack([self.se[:, 1], -self.se[:, 0]], axis=1)
+        jac[self.rd, self.dp] = slope
+        jac[self.rd, self.dq] = -slope
         # a slot's (P - A) x (B - A) / L: d/dP = (w_y, -w_x) / L, d/dB = (-u_y, u_x) / L, d/dA the
         # negative sum (u = P - A, w = B - A)
-        rows = n + self.sp.size + np.arange(self.lp.size)
-        u, w = pos[self.lp] - pos[self.la], pos[self.lb] - pos[self.la]
-        dp = np.stack([w[:, 1], -w[:, 0]], axis=1) / self.llen[:, None]
-        db = np.stack([-u[:, 1], u[:, 0]], axis=1) / self.llen[:, None]
-        jac[rows, self.lp] += dp
-        jac[rows, self.lb] += db
-        jac[rows, self.la] -= dp + db
+        if self.lp.size:
+            u, w = pos[self.lp] - pos[self.la], pos[self.lb] - pos[self.la]
+            dp = w[:, ::-1] * (1.0, -1.0) / self.llen[:, None]
+            db = u[:, ::-1] * (-1.0, 1.0) / self.llen[:, None]
+            jac[self.rl, self.lp] += dp
+            jac[self.rl, self.lb] += db
+            jac[self.rl, self.la] -= dp + db
         return jac.reshape(self.rows, 2 * len(self.names))
 
-    def newton(self, pos: np.ndarray, scale: float, t: float) -> None:
-        """Moves the moving points of ``pos`` (in place) onto the constraints."""
+    def newton(self, pos: np.ndarray, scale: float, t: float) -> np.ndarray:
+        """Moves the moving points of ``pos`` (in place) onto the constraints; returns the
+        Jacobian there (over every coordinate)."""
         m = 2 * self.moving
         for _ in range(50):
             f = self.values(pos)
-            jac = self.jacobian(pos)[:, :m]
+            full = self.jacobian(pos)
+            jac = full[:, :m]
             if np.max(np.abs(f), initial=0.0) <= TOLERANCE * scale:
                 cond = np.linalg.cond(jac) if jac.size else 1.0
                 if not cond <= MAX_CONDITION:
@@ -468,7 +472,7 @@ class _System:
                         f"linkage: at a dead point at t = {t:.6g} s (constraint Jacobian condition "
                         f"{cond:.2e}): the driver cannot move it through this position"
                     )
-                return
+                return full
             try:
                 step = np.linalg.solve(jac, f)
             except np.linalg.LinAlgError:
@@ -482,12 +486,12 @@ class _System:
             "check the lengths and the `near` guesses"
         )
 
-    def rates(self, state: np.ndarray) -> None:
+    def rates(self, state: np.ndarray, jac: np.ndarray) -> None:
         """The moving points' velocities and accelerations in ``state`` (positions, velocities,
-        accelerations; in place) from the constraints' derivatives: ``J_u v_u = -J_k v_k`` and
-        ``J_u a_u = -J_k a_k - |v_p - v_q|^2 / L`` (zero for a slider's line)."""
+        accelerations; in place) from the constraints' derivatives with their Jacobian ``jac``
+        at the positions: ``J_u v_u = -J_k v_k`` and ``J_u a_u = -J_k a_k - g`` (``g`` the terms
+        quadratic in the velocities)."""
         m, mp = 2 * self.moving, self.moving
-        jac = self.jacobian(state[0])
         ju, jk = jac[:, :m], jac[:, m:]
         if m == 0:
             return
