@@ -181,7 +181,8 @@ pub enum Rotation {
         /// Phase, rad.
         phase: f64,
     },
-    /// Tabulated angle, interpolated by quintic Hermite polynomials (see [`AngleTable`]).
+    /// Tabulated angle, interpolated by Hermite polynomials (quintic with accelerations given,
+    /// else cubic; see [`AngleTable`]).
     Tabulated(AngleTable),
 }
 
@@ -190,8 +191,8 @@ pub enum Rotation {
 /// angles, rates and accelerations, and the rate and acceleration are its derivatives
 /// ([`crate::model::motion::quintic_hermite`]: consistent, twice continuously differentiable,
 /// `O(h^6)`); a table built without accelerations takes the cubic through angles and rates
-/// ([`crate::model::motion::cubic_hermite`]); outside the table the end sample's values are held. Build it with
-/// [`AngleTable::new`] or [`Rotation::tabulated`].
+/// ([`crate::model::motion::cubic_hermite`]); outside the table the end sample's values are
+/// held. Build it with [`AngleTable::new`] or [`Rotation::tabulated`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AngleTable {
     time: Vec<f64>,
