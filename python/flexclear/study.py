@@ -373,6 +373,21 @@ def _sci_ticks(ax, axis: str) -> None:
     ax.ticklabel_format(axis=axis, style="sci", scilimits=(-3, 5), useOffset=False)
 
 
+def _panel_grid(count: int, ncol: int, size: tuple[float, float]):
+    """A figure of ``count`` panels in rows of up to ``ncol``, each ``size`` (width, height)
+    inches: the figure, its panels in reading order and its number of rows; the grid's places
+    past ``count`` are hidden. (The caller has chosen matplotlib's backend.)"""
+    import matplotlib.pyplot as plt
+
+    ncol = min(ncol, count)
+    nrow = math.ceil(count / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(size[0] * ncol, size[1] * nrow), squeeze=False)
+    panels = list(axes.flat)
+    for ax in panels[count:]:
+        ax.set_visible(False)
+    return fig, panels[:count], nrow
+
+
 def _label(name: str) -> str:
     """``name [unit]`` for a parameter or an output column (``"<joint>.<output>"``: the output's
     unit)."""
@@ -2433,16 +2448,12 @@ class StudyResult:
         ok = self.ok
         outs = self.study.output_columns
         paths = []
-        ncol = min(3, len(outs))
-        nrow = math.ceil(len(outs) / ncol)
-        fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
-        for ax, o in zip(axes.flat, outs):
+        fig, panels, nrow = _panel_grid(len(outs), 3, (4.2, 3.2))
+        for ax, o in zip(panels, outs):
             ax.hist(ok[o].to_numpy(dtype=float), bins=40, color="C0")
             ax.set_xlabel(_label(o))
             ax.set_ylabel("samples")
             _sci_ticks(ax, "x")
-        for ax in list(axes.flat)[len(outs) :]:
-            ax.set_visible(False)
         fig.suptitle(f"{self.study.build}: {len(ok)} samples ({len(self.failed)} failed)")
         # room above the top row for the title
         fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / (3.2 * nrow)))
@@ -2450,8 +2461,8 @@ class StudyResult:
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
         for k in self.study.vary:
-            fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
-            for ax, o in zip(axes.flat, outs):
+            fig, panels, _ = _panel_grid(len(outs), 3, (4.2, 3.2))
+            for ax, o in zip(panels, outs):
                 ax.plot(ok[k], ok[o], ".", ms=2, alpha=0.6)
                 bad = self.failed
                 if len(bad):
@@ -2459,8 +2470,6 @@ class StudyResult:
                 ax.set_xlabel(_label(k))
                 ax.set_ylabel(_label(o))
                 _sci_ticks(ax, "both")
-            for ax in list(axes.flat)[len(outs) :]:
-                ax.set_visible(False)
             fig.tight_layout()
             paths.append(folder / f"outputs_vs_{k}.png")
             fig.savefig(paths[-1], dpi=110)

@@ -214,7 +214,7 @@ def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, na
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..study import _label, _sci_ticks
+    from ..study import _label, _panel_grid, _sci_ticks
 
     folder = _folder(folder)
     stats_ = [c[: -len("_diff")] for c in table.columns if c.endswith("_diff")]
@@ -261,10 +261,8 @@ def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, na
     paths = [folder / "compare.png"]
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
-    ncol = min(3, len(outputs))
-    nrow = -(-len(outputs) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
-    for ax, o in zip(axes.flat, outputs):
+    fig, panels, _ = _panel_grid(len(outputs), 3, (4.2, 3.2))
+    for ax, o in zip(panels, outputs):
         for k, (r, name) in enumerate(((a, names[0]), (b, names[1]))):
             x = np.sort(r.ok[o].to_numpy(dtype=float))
             x = x[np.isfinite(x)]
@@ -282,8 +280,6 @@ def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, na
         ax.set_ylabel("fraction of samples <= x")
         _sci_ticks(ax, "x")
         ax.legend(fontsize=8)
-    for ax in list(axes.flat)[len(outputs) :]:
-        ax.set_visible(False)
     fig.tight_layout()
     paths.append(folder / "compare_ecdf.png")
     fig.savefig(paths[-1], dpi=110)
@@ -453,13 +449,13 @@ class Convergence:
         import matplotlib.pyplot as plt
         from matplotlib.ticker import NullFormatter
 
+        from ..study import _panel_grid
+
         outputs = [c[: -len("_verdict")] for c in self.table.columns if c.endswith("_verdict")]
         folder = _folder(folder)
-        ncol = min(2, len(outputs))
-        nrow = -(-len(outputs) // ncol)
-        fig, axes = plt.subplots(nrow, ncol, figsize=(5.6 * ncol, 4.0 * nrow), squeeze=False)
+        fig, panels, nrow = _panel_grid(len(outputs), 2, (5.6, 4.0))
         kinds = {"tol": "C1", "events": "C2", "dt": "C0"}
-        for ax, o in zip(axes.flat, outputs):
+        for ax, o in zip(panels, outputs):
             ax.axhspan(-100 * self.rtol, 100 * self.rtol, color="C2", alpha=0.12)
             ax.axhline(0.0, color="0.3", lw=0.8)
             for i, (label, row) in enumerate(self.table.iterrows()):
@@ -499,8 +495,6 @@ class Convergence:
             ax.set_ylabel("mean relative difference [%]")
             ax.set_title(o, fontsize=9)
             ax.grid(True, which="both", alpha=0.3)
-        for ax in list(axes.flat)[len(outputs) :]:
-            ax.set_visible(False)
         rec = (
             "none within the band" if self.recommended is None else f"recommended {self.recommended} (ringed)"
         )
