@@ -174,8 +174,9 @@ class Linkage:
         if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise _bad("times", times, "finite, strictly increasing times, s")
         moving = list(self._near)
-        self._check_count(moving)
-        system = _System(self._constraints_of(moving), moving, self._all_points())
+        cons = self._constraints_of(moving)
+        self._check_count(moving, cons)
+        system = _System(cons, moving, self._all_points())
         scale = max([1e-3, *(abs(c) for xy in [*self._ground.values(), *self._near.values()] for c in xy)])
         out = {p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2))) for p in system.names}
         state = np.zeros((3, len(system.names), 2))  # positions, velocities, accelerations
@@ -218,10 +219,7 @@ class Linkage:
         spacing = _positive("spacing", spacing)
         if not start < t_end:
             raise _bad("t_end", t_end, f"a time after start = {start} s")
-        count = (t_end - start) / spacing
-        if not count <= 1e6:  # inf for a spacing of 5e-324 s
-            raise _bad("spacing", spacing, f"at least (t_end - start) / 1e6 = {(t_end - start) / 1e6:g} s")
-        n = math.ceil(count - 1e-9)
+        n = _intervals(t_end - start, spacing)
         times = start + spacing * np.arange(max(n, 1) + 1)
         # the table ends at t_end (its last interval shorter where spacing does not divide it)
         times[-1] = min(times[-1], t_end)
@@ -264,11 +262,7 @@ class Linkage:
         if isinstance(poses, bool) or not isinstance(poses, int) or not 1 <= poses <= 100:
             raise _bad("poses", poses, "an integer in [1, 100]")
         spacing = t_end / 400 if spacing is None else _positive("spacing", spacing)
-        count = t_end / spacing
-        if not count <= 1e6:
-            raise _bad("spacing", spacing, f"at least t_end / 1e6 = {t_end / 1e6:g} s")
-        n = math.ceil(count - 1e-9)
-        times = np.linspace(0.0, t_end, n + 1)
+        times = np.linspace(0.0, t_end, _intervals(t_end, spacing) + 1)
         sol = self.solve(times)
         fig, ax = plt.subplots(figsize=(7, 5.5))
         for p in self._near:
@@ -290,9 +284,10 @@ class Linkage:
                 ax.plot(*at(point), "s", color=color, ms=7, mfc="none")
             for point, _, _ in self._slots.values():
                 ax.plot(*at(point), "D", color=color, ms=6, mfc="none")
+        every = np.concatenate([sol[p][0] for p in sol])
+        reach = max(np.abs(every).max(), 1e-3)
         for through, angle in ((s[1], s[2]) for s in self._sliders.values()):
             e = np.array([math.cos(angle), math.sin(angle)])
-            reach = max(np.abs(np.concatenate([sol[p][0] for p in sol])).max(), 1e-3)
             line = np.array([np.asarray(through) - 2 * reach * e, np.asarray(through) + 2 * reach * e])
             ax.plot(*line.T, "--", color="0.4", lw=0.8)
         for name, xy in self._ground.items():
@@ -300,7 +295,6 @@ class Linkage:
             ax.annotate(name, xy, textcoords="offset points", xytext=(4, -12), fontsize=8)
         for p in [*self._near, *(c[1] for c in self._cranks.values())]:
             ax.annotate(p, sol[p][0][0], textcoords="offset points", xytext=(4, 4), fontsize=8)
-        every = np.concatenate([sol[p][0] for p in sol])
         pad = 0.08 * max(np.ptp(every[:, 0]), np.ptp(every[:, 1]), 1e-3)
         ax.set_xlim(every[:, 0].min() - pad, every[:, 0].max() + pad)
         ax.set_ylim(every[:, 1].min() - pad, every[:, 1].max() + pad)
@@ -337,13 +331,13 @@ class Linkage:
         if name in self._cranks or name in self._bodies or name in self._sliders or name in self._slots:
             raise _bad("link name", name, "a name not used by another link")
 
-    def _check_count(self, moving: list[str]) -> None:
+    def _check_count(self, moving: list[str], cons: list[tuple]) -> None:
         held = {p for local in self._bodies.values() for p in local}
         held |= {s[0] for s in self._sliders.values()} | {s[0] for s in self._slots.values()}
         loose = [p for p in moving if p not in held]
         if loose:
             raise ModelError(f"linkage: point(s) {loose} belong to no link")
-        n = len(self._constraints_of(moving))
+        n = len(cons)
         if n != 2 * len(moving):
             raise ModelError(
                 f"linkage: {n} constraints for {len(moving)} moving points ({2 * len(moving)} coordinates): "
@@ -551,6 +545,16 @@ def _frame(name: str, times, first, second, l0, l1) -> Frame:
     return Frame.rotating(
         Rotation.tabulated(times, angle, rate, accel), origin=_motion.tabulated(times, origin, vel, acc)
     )
+
+
+def _intervals(span: float, spacing: float) -> int:
+    """The intervals of ``spacing`` (s) that cover ``span`` (s); at most 1e6, else an
+    InvalidParameterError naming ``spacing`` (counted as a float first: a spacing of 5e-324 s
+    makes it infinite)."""
+    count = span / spacing
+    if not count <= 1e6:
+        raise _bad("spacing", spacing, f"at least (t_end - start) / 1e6 = {span / 1e6:g} s")
+    return math.ceil(count - 1e-9)
 
 
 def _point(name: str, xy: Any) -> tuple[float, float]:
