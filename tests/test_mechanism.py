@@ -296,7 +296,8 @@ def _tabulated_frames(h: float, t_end: float):
     t = np.arange(0.0, t_end + h, h)
 
     def frames(link: str) -> Frame:
-        at = [_analytic_frames(link).at(x) for x in t]
+        analytic = _analytic_frames(link)
+        at = [analytic.at(x) for x in t]
         o, v, a, angle, rate, accel = (np.array([s[k] for s in at]) for k in range(6))
         return Frame.rotating(
             Rotation.tabulated(t, angle, rate, accel), origin=fc.motion.tabulated(t, o, v, a)
