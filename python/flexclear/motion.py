@@ -109,13 +109,13 @@ def tabulated(time, position, velocity=None, acceleration=None) -> Motion:
         arr = floats(name, a, "(n, 2)")
         if arr.ndim != 2 or arr.shape[1] != 2:
             raise _bad(name, a, f"an array of shape (n, 2), m (here {arr.shape})")
-        return [tuple(r) for r in arr]
+        return list(map(tuple, arr.tolist()))
 
     t = floats("time", time, "(n,)")
     if t.ndim != 1:
         raise _bad("time", time, f"a 1-D array of times, s (here shape {t.shape})")
     return _core.Motion.tabulated(
-        [float(x) for x in t],
+        t.tolist(),
         pairs("position", position),
         pairs("velocity", velocity),
         pairs("acceleration", acceleration),
