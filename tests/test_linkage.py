@@ -215,6 +215,13 @@ def test_a_linkage_that_cannot_move_or_close_says_so():
     fast = Linkage().ground("O", (0.0, 0.0)).crank("c", "O", "A", length=0.1, driver=Rotation.constant(1e20))
     with pytest.raises(fc.ModelError, match="crank 'c'.s driver gives angle"):
         fast.solve([0.0, 1e300])
+    # a crank too short for its angle to be resolved (fuzz case 73:13747: 1e-300 m; the
+    # tabulated angle's rate came out NaN and was refused as the table's `rate[0]`)
+    tiny = Linkage().ground("O2", (0.0, 0.0)).ground("O4", (0.254, 0.0))
+    tiny.crank("crank", "O2", "A", length=1e-300, driver=DRIVER).point("B", near=(0.15, 0.26))
+    tiny.link("coupler", "A", "B", length=0.2794).link("rocker", "O4", "B", length=0.2794)
+    with pytest.raises(fc.ModelError, match=r"link 'crank' has no finite frame at t = 0 s"):
+        tiny.frames(0.01)
     over = _four_bar().link("extra", "O2", "B", length=0.3)
     with pytest.raises(fc.ModelError, match="3 constraints for 1 moving points"):
         over.frames(0.1)

@@ -25,6 +25,7 @@ __all__ = [
     "spin_up",
     "spin_up_data",
     "run_batch",
+    "solve_linkage",
     "NormalLaw",
     "CoulombFriction",
     "LuGreFriction",
@@ -32,6 +33,8 @@ __all__ = [
     "TRUNCATION_FRACTION",
     "MAX_ITER",
     "REBOUND_DEPTH",
+    "LINKAGE_TOLERANCE",
+    "LINKAGE_MAX_CONDITION",
     "__version__",
 ]
 
@@ -46,6 +49,11 @@ MAX_ITER: int
 #: A closing is an impact after a separation deeper than this fraction of the radial clearance;
 #: after a shallower one it is a rebound of the impact going on.
 REBOUND_DEPTH: float
+#: Newton's tolerance on a linkage's constraints, as a fraction of the linkage's size.
+LINKAGE_TOLERANCE: float
+#: Largest condition number of a linkage's constraint Jacobian before a position counts as a
+#: dead point.
+LINKAGE_MAX_CONDITION: float
 
 @final
 class Motion:
@@ -538,6 +546,21 @@ def spin_up(
     rotation: Optional[Rotation],
 ) -> Mechanism: ...
 def spin_up_data() -> dict[str, dict[str, float]]: ...
+def solve_linkage(
+    times: npt.ArrayLike,
+    near: list[float],
+    moving: int,
+    points: int,
+    distances: list[tuple[int, int, float]],
+    lines: list[tuple[int, tuple[float, float], tuple[float, float]]],
+    slots: list[tuple[int, int, int, float]],
+    ground: list[tuple[int, tuple[float, float]]],
+    cranks: list[tuple[str, tuple[float, float], int, float, Rotation]],
+    scale: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Positions (m), velocities (m/s) and accelerations (m/s^2) of a linkage's points at
+    ``times`` (s), each of shape ``(len(times), points, 2)`` (``flexclear.Linkage.solve``)."""
+
 def run_batch(
     models: list[Mechanism],
     t_end: list[float],

@@ -37,15 +37,16 @@ from typing import Any, Optional
 
 import numpy as np
 
+from . import _core
 from . import motion as _motion
 from .errors import ModelError
 from .frames import Frame, Rotation
 from .motion import _bad, _pair
 
 #: Newton's tolerance on the constraints, as a fraction of the linkage's size.
-TOLERANCE = 1e-13
+TOLERANCE: float = _core.LINKAGE_TOLERANCE
 #: Largest condition number of the constraint Jacobian before a position counts as a dead point.
-MAX_CONDITION = 1e10
+MAX_CONDITION: float = _core.LINKAGE_MAX_CONDITION
 
 
 class Linkage:
@@ -176,30 +177,22 @@ class Linkage:
         moving = list(self._near)
         cons = self._constraints_of(moving)
         self._check_count(moving, cons)
-        system = _System(cons, moving, self._all_points())
+        names = [*moving, *(p for p in self._all_points() if p not in self._near)]
+        at = {p: i for i, p in enumerate(names)}
         scale = max([1e-3, *(abs(c) for xy in [*self._ground.values(), *self._near.values()] for c in xy)])
-        out = {p: (np.empty((t.size, 2)), np.empty((t.size, 2)), np.empty((t.size, 2))) for p in system.names}
-        state = np.zeros((3, len(system.names), 2))  # positions, velocities, accelerations
-        state[0, : len(moving)] = np.array([self._near[p] for p in moving], dtype=float).reshape(
-            len(moving), 2
+        pos, vel, acc = _core.solve_linkage(
+            np.ascontiguousarray(t),
+            [c for p in moving for c in self._near[p]],
+            len(moving),
+            len(names),
+            [(at[c[1]], at[c[2]], c[3]) for c in cons if c[0] == "d"],
+            [(at[c[1]], c[2], c[3]) for c in cons if c[0] == "s"],
+            [(at[c[1]], at[c[2]], at[c[3]], c[4]) for c in cons if c[0] == "l"],
+            [(at[p], xy) for p, xy in self._ground.items()],
+            [(name, self._ground[c[0]], at[c[1]], c[2], c[3]) for name, c in self._cranks.items()],
+            scale,
         )
-        for k, tk in enumerate(t):
-            if k:
-                # Newton starts from the Taylor step of the last instant's motion
-                h = tk - t[k - 1]
-                mp = len(moving)
-                with np.errstate(over="ignore", invalid="ignore"):
-                    guess = state[0, :mp] + h * state[1, :mp] + 0.5 * h * h * state[2, :mp]
-                if np.all(np.isfinite(guess)):  # else from the last positions (a huge step)
-                    state[0, :mp] = guess
-            known = self._known(tk)
-            for i, p in enumerate(system.names[len(moving) :], start=len(moving)):
-                state[:, i] = known[p]
-            system.rates(state, system.newton(state[0], scale, tk))
-            for i, p in enumerate(system.names):
-                for arr, val in zip(out[p], state[:, i]):
-                    arr[k] = val
-        return out
+        return {p: tuple(np.ascontiguousarray(a[:, i]) for a in (pos, vel, acc)) for p, i in at.items()}
 
     def frames(self, t_end: float, *, spacing: float = 1e-3, start: float = 0.0) -> dict[str, Frame]:
         """The frame of every crank, link, body and slider over ``[start, t_end]`` (s), tabulated
@@ -212,7 +205,9 @@ class Linkage:
             ``t_end``, ``spacing`` or ``start`` out of range (``0 < spacing``, ``start < t_end``,
             at most 1e6 samples).
         ModelError
-            As :meth:`solve`.
+            As :meth:`solve`, or a link whose frame is not finite at some instant (its two points
+            closer than double precision resolves, or rates beyond it), naming the link and the
+            instant.
         """
         t_end = _finite("t_end", t_end)
         start = _finite("start", start)
@@ -376,132 +371,6 @@ class Linkage:
                 return length
         return None
 
-    def _known(self, t: float) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Positions, velocities and accelerations of the ground points and crank tips at t."""
-        known = {p: (np.array(xy), np.zeros(2), np.zeros(2)) for p, xy in self._ground.items()}
-        for name, (pivot, tip, length, driver) in self._cranks.items():
-            phi, w, al = driver.at(t)
-            if not all(math.isfinite(x) for x in (phi, w, al)):
-                raise ModelError(
-                    f"linkage: crank {name!r}'s driver gives angle {phi}, rate {w}, acceleration {al} at "
-                    f"t = {t:.6g} s: finite values needed"
-                )
-            c, s = math.cos(phi), math.sin(phi)
-            o = known[pivot][0]
-            known[tip] = (
-                o + length * np.array([c, s]),
-                length * w * np.array([-s, c]),
-                length * (al * np.array([-s, c]) - w * w * np.array([c, s])),
-            )
-        return known
-
-
-class _System:
-    """The constraints of a linkage as arrays over its points (``names``: the moving ones first,
-    then the known ones): distances ``(|x_p - x_q|^2 - L^2) / (2 L)``, slider lines
-    ``(x_p - x_0) x e`` and slots ``(x_p - x_a) x (x_b - x_a) / |x_b - x_a|``, all in metres."""
-
-    def __init__(self, cons: list[tuple], moving: list[str], points: list[str]) -> None:
-        self.names = [*moving, *(p for p in points if p not in set(moving))]
-        at = {p: i for i, p in enumerate(self.names)}
-        self.moving = len(moving)
-        dist = [c for c in cons if c[0] == "d"]
-        line = [c for c in cons if c[0] == "s"]
-        self.dp = np.array([at[c[1]] for c in dist], dtype=int)
-        self.dq = np.array([at[c[2]] for c in dist], dtype=int)
-        self.length = np.array([c[3] for c in dist], dtype=float)
-        self.sp = np.array([at[c[1]] for c in line], dtype=int)
-        self.s0 = np.array([c[2] for c in line], dtype=float).reshape(-1, 2)
-        self.se = np.array([c[3] for c in line], dtype=float).reshape(-1, 2)
-        slot = [c for c in cons if c[0] == "l"]
-        self.lp, self.la, self.lb = (np.array([at[c[k]] for c in slot], dtype=int) for k in (1, 2, 3))
-        self.llen = np.array([c[4] for c in slot], dtype=float)
-        self.rows = len(cons)
-        # the rows of each kind, and the Jacobian's constant part (the guides' lines)
-        self.rd = np.arange(self.dp.size)
-        self.rl = self.dp.size + self.sp.size + np.arange(self.lp.size)
-        self.base = np.zeros((self.rows, len(self.names), 2))
-        self.base[self.dp.size + np.arange(self.sp.size), self.sp] = self.se[:, ::-1] * (1.0, -1.0)
-
-    def values(self, pos: np.ndarray) -> np.ndarray:
-        d = pos[self.dp] - pos[self.dq]
-        r = pos[self.sp] - self.s0
-        return np.concatenate(
-            [
-                (np.einsum("ij,ij->i", d, d) - self.length**2) / (2 * self.length),
-                r[:, 0] * self.se[:, 1] - r[:, 1] * self.se[:, 0],
-                _cross(pos[self.lp] - pos[self.la], pos[self.lb] - pos[self.la]) / self.llen,
-            ]
-        )
-
-    def jacobian(self, pos: np.ndarray) -> np.ndarray:
-        """Over every point's two coordinates (the moving ones' columns first)."""
-        jac = self.base.copy()
-        slope = (pos[self.dp] - pos[self.dq]) / self.length[:, None]
-        jac[self.rd, self.dp] = slope
-        jac[self.rd, self.dq] = -slope
-        # a slot's (P - A) x (B - A) / L: d/dP = (w_y, -w_x) / L, d/dB = (-u_y, u_x) / L, d/dA the
-        # negative sum (u = P - A, w = B - A)
-        if self.lp.size:
-            u, w = pos[self.lp] - pos[self.la], pos[self.lb] - pos[self.la]
-            dp = w[:, ::-1] * (1.0, -1.0) / self.llen[:, None]
-            db = u[:, ::-1] * (-1.0, 1.0) / self.llen[:, None]
-            jac[self.rl, self.lp] += dp
-            jac[self.rl, self.lb] += db
-            jac[self.rl, self.la] -= dp + db
-        return jac.reshape(self.rows, 2 * len(self.names))
-
-    def newton(self, pos: np.ndarray, scale: float, t: float) -> np.ndarray:
-        """Moves the moving points of ``pos`` (in place) onto the constraints; returns the
-        Jacobian there (over every coordinate)."""
-        m = 2 * self.moving
-        for _ in range(50):
-            f = self.values(pos)
-            full = self.jacobian(pos)
-            jac = full[:, :m]
-            if np.max(np.abs(f), initial=0.0) <= TOLERANCE * scale:
-                cond = np.linalg.cond(jac) if jac.size else 1.0
-                if not cond <= MAX_CONDITION:
-                    raise ModelError(
-                        f"linkage: at a dead point at t = {t:.6g} s (constraint Jacobian condition "
-                        f"{cond:.2e}): the driver cannot move it through this position"
-                    )
-                return full
-            try:
-                step = np.linalg.solve(jac, f)
-            except np.linalg.LinAlgError:
-                break
-            pos[: self.moving] -= step.reshape(-1, 2)
-            if not np.all(np.isfinite(pos)):
-                break
-        raise ModelError(
-            f"linkage: does not assemble at t = {t:.6g} s (Newton's method found no position within "
-            f"{TOLERANCE * scale:.1e} m: lengths that cannot close, or past a dead point); "
-            "check the lengths and the `near` guesses"
-        )
-
-    def rates(self, state: np.ndarray, jac: np.ndarray) -> None:
-        """The moving points' velocities and accelerations in ``state`` (positions, velocities,
-        accelerations; in place) from the constraints' derivatives with their Jacobian ``jac``
-        at the positions: ``J_u v_u = -J_k v_k`` and ``J_u a_u = -J_k a_k - g`` (``g`` the terms
-        quadratic in the velocities)."""
-        m, mp = 2 * self.moving, self.moving
-        ju, jk = jac[:, :m], jac[:, m:]
-        if m == 0:
-            return
-        state[1, :mp] = np.linalg.solve(ju, -jk @ state[1, mp:].reshape(-1)).reshape(-1, 2)
-        dv = state[1, self.dp] - state[1, self.dq]
-        du = state[1, self.lp] - state[1, self.la]
-        dw = state[1, self.lb] - state[1, self.la]
-        quad = np.concatenate(
-            [
-                np.einsum("ij,ij->i", dv, dv) / self.length,
-                np.zeros(self.sp.size),
-                2 * _cross(du, dw) / self.llen,
-            ]
-        )
-        state[2, :mp] = np.linalg.solve(ju, -jk @ state[2, mp:].reshape(-1) - quad).reshape(-1, 2)
-
 
 def _cross(u: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Row-wise ``u x w`` of arrays of 2-vectors."""
@@ -517,13 +386,25 @@ def _frame(name: str, times, first, second, l0, l1) -> Frame:
     """The tabulated frame of link ``name`` whose points at local ``l0`` and ``l1`` move as
     ``first`` and ``second`` (each positions, velocities, accelerations over ``times``).
 
-    Raises InvalidParameterError (``spacing``) when the link turns more than 1 rad between two
-    samples: the angle is unwrapped between them, and the interpolation's error grows as the
-    sixth power of the turn."""
+    Raises ModelError naming the link and the instant where its angle, rate or angular
+    acceleration is not finite (two points closer than double precision resolves, e.g. a crank
+    1e-300 m long), and InvalidParameterError (``spacing``) when the link turns more than 1 rad
+    between two samples: the angle is unwrapped between them, and the interpolation's error grows
+    as the sixth power of the turn."""
     (p0, v0, a0), (p1, v1, a1) = first, second
-    d, dv, da = p1 - p0, v1 - v0, a1 - a0
-    r2 = np.einsum("ij,ij->i", d, d)
-    rate = _cross(d, dv) / r2
+    with np.errstate(all="ignore"):
+        d, dv, da = p1 - p0, v1 - v0, a1 - a0
+        r2 = np.einsum("ij,ij->i", d, d)
+        rate = _cross(d, dv) / r2
+        accel = _cross(d, da) / r2 - 2 * rate * np.einsum("ij,ij->i", d, dv) / r2
+    bad = ~(np.isfinite(rate) & np.isfinite(accel) & (r2 > 0))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ModelError(
+            f"linkage: link {name!r} has no finite frame at t = {times[k]:.6g} s (its points "
+            f"{math.sqrt(r2[k]) if np.isfinite(r2[k]) else r2[k]:.3g} m apart, their relative speed "
+            f"{float(np.hypot(*dv[k])):.3g} m/s): lengths or rates beyond double precision"
+        )
     h = float(times[1] - times[0]) if len(times) > 1 else 0.0
     fastest = float(np.max(np.abs(rate)))
     if fastest * h > 1.0:
@@ -534,7 +415,6 @@ def _frame(name: str, times, first, second, l0, l1) -> Frame:
             f"{fastest * h:.3g} rad a sample (1 at most)",
         )
     angle = np.unwrap(np.arctan2(d[:, 1], d[:, 0])) - math.atan2(l1[1] - l0[1], l1[0] - l0[0])
-    accel = _cross(d, da) / r2 - 2 * rate * np.einsum("ij,ij->i", d, dv) / r2
     # origin = first - R(angle) l0, differentiated
     c, s = np.cos(angle), np.sin(angle)
     rl = np.stack([c * l0[0] - s * l0[1], s * l0[0] + c * l0[1]], axis=1)

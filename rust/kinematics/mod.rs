@@ -621,6 +621,7 @@ impl<P> PartialEq for PoseMemo<P> {
 }
 
 mod four_bar;
+pub mod linkage;
 mod slider_crank;
 #[cfg(test)]
 mod tests;

@@ -1,12 +1,13 @@
 //! Python bindings (`flexclear._core`), behind the `python` feature: the only code that knows
 //! about Python. One module per concept: the one model class (`Mechanism` and its runs) in
-//! `mechanism.rs`, the bundled scenes that build it in `scenes.rs`, motions and frames in `motion.rs`, the batch in
+//! `mechanism.rs`, the bundled scenes that build it in `scenes.rs`, motions and frames in `motion.rs`, the linkage kinematics in `linkage.rs`, the batch in
 //! `batch.rs`, run outputs in `output.rs`, contact laws in `contact.rs`, errors in `errors.rs`;
 //! here the module and the parsers they share.
 
 mod batch;
 mod contact;
 mod errors;
+mod linkage;
 mod mechanism;
 mod motion;
 mod output;
@@ -106,8 +107,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenes::spin_up, m)?)?;
     m.add_function(wrap_pyfunction!(scenes::spin_up_data, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(linkage::solve_linkage, m)?)?;
     contact::register(m)?;
     m.add("RETRY_MIN_STEP_RATIO", crate::batch::RETRY_MIN_STEP_RATIO)?;
+    m.add("LINKAGE_TOLERANCE", crate::kinematics::linkage::TOLERANCE)?;
+    m.add("LINKAGE_MAX_CONDITION", crate::kinematics::linkage::MAX_CONDITION)?;
     m.add("TRUNCATION_FRACTION", crate::run::TRUNCATION_FRACTION)?;
     m.add("MAX_ITER", crate::run::MAX_ITER)?;
     m.add("REBOUND_DEPTH", crate::record::REBOUND_DEPTH)?;
