@@ -92,27 +92,29 @@ def test_an_offset_slider_crank_with_its_slider():
     assert np.all(worst < np.array([5e-11, 5e-11, 5e-7, 5e-7, 1e-2, 1e-2, 1e-9, 1e-5, 1e-1])), worst
 
 
+def _flexible(frames, bodies, link, length, joint, pin) -> fc.Model:
+    """A model on ``frames``: rigid ``bodies``, the flexible ``link`` of ``length`` (m; 6
+    elements, aluminium), a clearance joint ``(name, body, point)`` at its node 0 and a pin
+    ``(name, body, point)`` at its node 6 (points in the bodies' frames, m)."""
+    m = fc.Model()
+    for body in bodies:
+        m.add_body(body, frame=frames[body])
+    m.add_link(
+        link, length=length, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5,
+        inertia=6.78e-11, frame=frames[link],
+    )  # fmt: skip
+    name, body, point = joint
+    m.add_joint(name, link, 0, body=body, point=point, clearance=2.5e-4, stiffness=5e7, damping=500.0)
+    m.add_pin(pin[0], link, 6, body=pin[1], point=pin[2])
+    return m
+
+
 def _model(frames) -> fc.Model:
     """The README's four-bar model (flexible coupler, clearance at the crank pin) on ``frames``."""
-    fb = fc.Model()
-    fb.add_body("crank", frame=frames["crank"])
-    fb.add_body("rocker", frame=frames["rocker"])
-    fb.add_link(
-        "coupler", length=0.2794, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5,
-        inertia=6.78e-11, frame=frames["coupler"],
+    return _flexible(
+        frames, ("crank", "rocker"), "coupler", 0.2794, ("crank_pin", "crank", (0.0508, 0.0)),
+        ("rocker_pin", "rocker", (0.2794, 0.0)),
     )  # fmt: skip
-    fb.add_joint(
-        "crank_pin",
-        "coupler",
-        0,
-        body="crank",
-        point=(0.0508, 0.0),
-        clearance=2.5e-4,
-        stiffness=5e7,
-        damping=500.0,
-    )
-    fb.add_pin("rocker_pin", "coupler", 6, body="rocker", point=(0.2794, 0.0))
-    return fb
 
 
 def test_a_four_bar_run_on_the_linkages_frames_is_the_closed_forms_run():
@@ -164,24 +166,10 @@ def test_a_six_bar_keeps_its_lengths_and_runs_with_a_clearance_joint():
     )
     # a flexible rod C-D with a clearance joint at C on the ternary rocker, pinned to the output
     frames = six.frames(0.03)
-    m = fc.Model()
-    for body in ("crank", "coupler", "rocker", "output"):
-        m.add_body(body, frame=frames[body])
-    m.add_link(
-        "rod", length=0.25, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11,
-        frame=frames["rod"],
+    m = _flexible(
+        frames, ("crank", "coupler", "rocker", "output"), "rod", 0.25, ("rocker_pin", "rocker", (0.1, 0.08)),
+        ("output_pin", "output", (0.15, 0.0)),
     )  # fmt: skip
-    m.add_joint(
-        "rocker_pin",
-        "rod",
-        0,
-        body="rocker",
-        point=(0.1, 0.08),
-        clearance=2.5e-4,
-        stiffness=5e7,
-        damping=500.0,
-    )
-    m.add_pin("output_pin", "rod", 6, body="output", point=(0.15, 0.0))
     res = m.simulate(0.03, 1e-5)
     j = res.joint("rocker_pin")
     assert res.complete and j.impacts > 0 and 0 < j.max_force < 1e4
