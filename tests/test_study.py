@@ -423,6 +423,45 @@ def test_study_file_errors_are_clear(tmp_path):
         load(p)
 
 
+def test_a_study_files_own_builder_is_found_next_to_it(tmp_path, monkeypatch):
+    # a user's linkage module beside the study file, run from elsewhere: the `flexclear`
+    # command does not search the current directory, so the file's folder is searched
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "my_quick_return.py").write_text(
+        "import flexclear as fc\n"
+        "from flexclear import Linkage, Rotation\n"
+        "def build(clearance=2e-4, speed=40.0):\n"
+        "    lk = Linkage().ground('O2', (0.0, 0.0)).ground('O4', (0.254, 0.0))\n"
+        "    lk.crank('crank', 'O2', 'A', length=0.0508, driver=Rotation.constant(speed))\n"
+        "    lk.point('B', near=(0.15, 0.26))\n"
+        "    lk.link('coupler', 'A', 'B', length=0.2794).link('rocker', 'O4', 'B', length=0.2794)\n"
+        "    f = lk.frames(0.004)\n"
+        "    m = fc.Model()\n"
+        "    m.add_body('crank', frame=f['crank']).add_body('rocker', frame=f['rocker'])\n"
+        "    m.add_link('coupler', length=0.2794, elements=4, youngs_modulus=7.1e10, density=2710.0,\n"
+        "               area=8.06e-5, inertia=6.78e-11, frame=f['coupler'])\n"
+        "    m.add_joint('crank_pin', 'coupler', 0, body='crank', point=(0.0508, 0.0),\n"
+        "                clearance=clearance, stiffness=5e7, damping=500.0)\n"
+        "    m.add_pin('rocker_pin', 'coupler', 4, body='rocker', point=(0.2794, 0.0))\n"
+        "    return m\n"
+    )
+    study_file = folder / "study.toml"
+    study_file.write_text(
+        'build = "my_quick_return:build"\nsamples = 3\nt_end = 0.004\ndt = 1e-5\n'
+        "[vary]\nspeed = [30.0, 40.0, 50.0]\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    res = load(study_file).run(threads=1, progress=False)
+    assert list(res.frame["status"]) == ["ok"] * 3
+    assert np.all(res.frame["crank_pin.max_force"] > 0)
+    # a module that is nowhere says where it was looked for
+    study_file.write_text('build = "not_a_module_anywhere:build"\nsamples = 1\n[vary]\nspeed = [30.0]\n')
+    with pytest.raises(flexclear.InvalidParameterError, match="cannot be imported.*in its own folder"):
+        load(study_file)
+
+
 # -- outputs ---------------------------------------------------------------------------------------
 
 

@@ -32,6 +32,7 @@ import contextlib
 import dataclasses
 import hashlib
 import importlib
+import importlib.util
 import inspect
 import json
 import math
@@ -436,7 +437,10 @@ def _resolve_build(build: Union[str, Callable]) -> tuple[str, Callable]:
         for part in qual.split("."):
             obj = getattr(obj, part)
     except (ImportError, AttributeError) as e:
-        raise InvalidParameterError(f"build = {text!r} cannot be imported: {e}") from None
+        raise InvalidParameterError(
+            f"build = {text!r} cannot be imported: {e} (a module of your own must be on sys.path, e.g. "
+            "through PYTHONPATH; a study file also finds it in its own folder or the current directory)"
+        ) from None
     if not callable(obj):
         raise InvalidParameterError(f"build = {text!r} is not callable")
     return text, obj
@@ -2507,11 +2511,38 @@ class StudyResult:
         )
 
 
+def _find_builder(build: Any, folder: Path) -> None:
+    """Makes a study file's ``"module:function"`` builder importable the way a script's own
+    modules are: when ``module`` is not found on ``sys.path``, the study file's folder, then the
+    current directory, is put in front of it where the module's file or package is there (the
+    ``flexclear`` command, unlike ``python -m``, does not search the current directory). Dask
+    workers started from this process inherit the path; remote ones need the module installed."""
+    if not isinstance(build, str) or ":" not in build:
+        return
+    top = build.partition(":")[0].split(".")[0]
+    if not top.isidentifier():
+        return
+    try:
+        if importlib.util.find_spec(top) is not None:
+            return
+    except (ImportError, ValueError):
+        return
+    import sys
+
+    for place in (folder.resolve(), Path.cwd()):
+        if (place / f"{top}.py").is_file() or (place / top / "__init__.py").is_file():
+            if str(place) not in sys.path:
+                sys.path.insert(0, str(place))
+            importlib.invalidate_caches()
+            return
+
+
 def load(path: Union[str, os.PathLike]) -> Study:
     """A study from a TOML file or a store's ``study.json``.
 
     A study file holds :class:`Study`'s arguments at top level (``build``: a scene name or
-    ``"module:function"``; ``samples``,
+    ``"module:function"``, the module found as installed, else next to the study file or in the
+    current directory; ``samples``,
     ``design``, ``seed``, ``outputs``, ...), the run settings in ``[run]`` (``t_end``, ``dt``,
     ``method``, ``start``, ``retries``, ...), fixed scene keywords in ``[fixed]``, one entry per
     varied parameter in ``[vary]`` (a list, or a table with ``distribution`` and its
@@ -2547,6 +2578,7 @@ def load(path: Union[str, os.PathLike]) -> Study:
     both = sorted(set(data) & set(run))
     if both:
         raise InvalidParameterError(f"{path}: {both} given both at top level and in [run]")
+    _find_builder(data.get("build"), path.parent)
     study = Study.from_dict({**data, **run})
     thresholds = dict(report.get("thresholds", {}))
     for k, v in thresholds.items():
