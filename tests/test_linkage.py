@@ -277,6 +277,24 @@ def _crank_shaper(rate: float = 20.0) -> Linkage:
     return lk
 
 
+def _shaper_model(frames) -> fc.Model:
+    """The crank-shaper's model by hand: its rod flexible, a clearance joint at the lever's tip
+    B, pinned to the ram (2 kg)."""
+    m = fc.Model()
+    for body in ("crank", "lever"):
+        m.add_body(body, frame=frames[body])
+    m.add_slider("ram", mass=2.0, path=frames["ram"])
+    m.add_link(
+        "rod", length=0.25, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11,
+        frame=frames["rod"],
+    )  # fmt: skip
+    m.add_joint(
+        "lever_pin", "rod", 0, body="lever", point=(0.3, 0.0), clearance=2e-4, stiffness=5e7, damping=500.0
+    )
+    m.add_pin("ram_pin", "rod", 6, slider="ram")
+    return m
+
+
 def test_a_slotted_lever_follows_its_block_and_a_crank_shaper_runs():
     # The lever's angle is that of the block's pin A = O2 + r (cos wt, sin wt) seen from O4:
     # theta = atan2(0.1 + r sin wt, r cos wt), rate (A x A') / |A|^2; the block turns with the
@@ -292,18 +310,7 @@ def test_a_slotted_lever_follows_its_block_and_a_crank_shaper_runs():
         assert rate == pytest.approx((a[0] * ad[1] - a[1] * ad[0]) / (a @ a), abs=1e-8)
         assert abs(block[3] - angle) < 1e-12 and np.max(np.abs(np.array(block[0]) - a)) < 1e-10
     # the shaper's rod, flexible, with a clearance joint at the lever's tip B and pinned to the ram
-    m = fc.Model()
-    for body in ("crank", "lever"):
-        m.add_body(body, frame=frames[body])
-    m.add_slider("ram", mass=2.0, path=frames["ram"])
-    m.add_link(
-        "rod", length=0.25, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11,
-        frame=frames["rod"],
-    )  # fmt: skip
-    m.add_joint(
-        "lever_pin", "rod", 0, body="lever", point=(0.3, 0.0), clearance=2e-4, stiffness=5e7, damping=500.0
-    )
-    m.add_pin("ram_pin", "rod", 6, slider="ram")
+    m = _shaper_model(frames)
     res = m.simulate(0.35, 1e-5, record=fc.Record(histories=False))
     j = res.joint("lever_pin")
     assert res.complete and j.impacts > 0 and 0 < j.max_force < 1e5
@@ -325,3 +332,62 @@ def test_a_block_in_a_slot_along_a_crank():
     q = lk.solve([0.3 - h, 0.3, 0.3 + h])["P"]
     assert np.allclose((q[0][2] - q[0][0]) / (2 * h), q[1][1], rtol=0, atol=1e-8)
     assert np.allclose((q[0][2] - 2 * q[0][1] + q[0][0]) / h**2, q[2][1], rtol=0, atol=1e-4)
+
+
+SECTION = dict(elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11)
+BEARING = dict(clearance=2.5e-4, stiffness=5e7, damping=500.0)
+
+
+def test_a_linkage_builds_the_model_one_would_build_by_hand():
+    # the same links, frames, pins and clearance joints as the hand-built models above, so the
+    # same run bit for bit: the four-bar's coupler (clearance at the crank pin A, pinned to the
+    # rocker at B) and the crank-shaper's rod (clearance at the lever's tip B, the ram at C)
+    frames = _four_bar().frames(0.02, spacing=5e-4)
+    ref = _model(frames).simulate(0.02, 1e-5)
+    m = _four_bar().model(0.02, flexible={"coupler": SECTION}, clearances={"A": BEARING}, spacing=5e-4)
+    assert m.joint_names == ["A"] and m.pin_names == ["B"]
+    res = m.simulate(0.02, 1e-5)
+    assert res.joint("A").impacts == ref.joint("crank_pin").impacts > 10
+    assert res.joint("A").max_force == ref.joint("crank_pin").max_force
+    for h in ("u", "v", "theta"):
+        assert np.array_equal(getattr(res.link("coupler"), h), getattr(ref.link("coupler"), h))
+    ref = _shaper_model(_crank_shaper().frames(0.05)).simulate(0.05, 1e-5)
+    shaper = _crank_shaper().model(
+        0.05,
+        flexible={"rod": SECTION},
+        clearances={"B": dict(BEARING, clearance=2e-4)},
+        slider_masses={"ram": 2.0},
+    )
+    res = shaper.simulate(0.05, 1e-5)
+    assert (shaper.joint_names, shaper.pin_names, shaper.slider_names) == (["B"], ["C"], ["ram"])
+    assert res.joint("B").max_force == ref.joint("lever_pin").max_force > 0
+    assert np.array_equal(res.slider("ram").position, ref.slider("ram").position)
+
+
+def test_flexible_links_meeting_at_a_point_and_on_the_ground():
+    # the four-bar with its coupler and rocker both flexible: the rocker's node 0 on the ground
+    # pivot O4, the coupler's last node its bearing at B (joint "B:rocker"); ideal pins share
+    # the translations, so the two links' ends at B coincide to the tables' interpolation
+    # between samples (each link's frame is its own table; measured 2.6e-11 m)
+    m = _four_bar().model(0.01, flexible={"coupler": SECTION, "rocker": SECTION}, clearances={"A": BEARING})
+    assert m.joint_names == ["A"] and sorted(m.pin_names) == ["B:rocker", "O4"]
+    res = m.simulate(0.01, 1e-5)
+    assert res.complete and res.joint("A").impacts > 0
+    cx, cy = res.link("coupler").global_positions()
+    rx, ry = res.link("rocker").global_positions()
+    assert np.max(np.hypot(cx[:, -1] - rx[:, -1], cy[:, -1] - ry[:, -1])) < 1e-9
+    assert np.max(np.hypot(rx[:, 0] - 0.254, ry[:, 0])) < 1e-12
+
+
+def test_a_linkage_model_refuses_what_it_cannot_build():
+    six = _watt_six_bar()
+    with pytest.raises(fc.InvalidParameterError, match="a binary link made by Linkage.link"):
+        six.model(0.01, flexible={"rocker": SECTION})  # a ternary link
+    with pytest.raises(fc.InvalidParameterError, match=r"flexible\['rod'\]\['length'\]"):
+        six.model(0.01, flexible={"rod": dict(SECTION, length=0.25)})
+    with pytest.raises(fc.InvalidParameterError, match="a point at a flexible link's end"):
+        six.model(0.01, flexible={"rod": SECTION}, clearances={"B": BEARING})
+    with pytest.raises(fc.InvalidParameterError, match="a mass for slider 'ram'"):
+        _crank_shaper().model(0.01, flexible={"rod": SECTION})
+    with pytest.raises(fc.InvalidParameterError, match="elements"):
+        six.model(0.01, flexible={"rod": dict(SECTION, elements=0)})

@@ -16,6 +16,13 @@ positions, velocities and accelerations: error ``O(h^6)`` in the table's spacing
     lk.link("rocker", "O4", "B", length=0.2794)
     frames = lk.frames(t_end=0.1)                      # {"crank": Frame, "coupler": ..., ...}
 
+:meth:`Linkage.model` builds the :class:`flexclear.Model` on those frames (chosen links flexible,
+clearance joints at chosen points, pins elsewhere)::
+
+    m = lk.model(0.1, flexible={"coupler": dict(elements=6, youngs_modulus=7.1e10, density=2710.0,
+                                                area=8.06e-5, inertia=6.78e-11)},
+                 clearances={"A": dict(clearance=2.5e-4, stiffness=5e7, damping=500.0)})
+
 A link's frame has its origin at the link's first point and its x axis towards the second, so a
 flexible link added with ``Model.add_link(..., frame=frames[name])`` lies from node 0 at the
 first point to its last node at the second; a body (``Model.add_body(name, frame=...)``) has its
@@ -232,6 +239,152 @@ class Linkage:
             origin = _motion.tabulated(times, *sol[point])
             frames[name] = Frame.rotating(Rotation.fixed(angle), origin=origin)
         return frames
+
+    def model(
+        self,
+        t_end: float,
+        *,
+        flexible: Mapping[str, Mapping[str, Any]],
+        clearances: Optional[Mapping[str, Mapping[str, Any]]] = None,
+        slider_masses: Optional[Mapping[str, float]] = None,
+        spacing: float = 1e-3,
+        start: float = 0.0,
+    ):
+        """A :class:`flexclear.Model` of this linkage over ``[start, t_end]`` (s), its frames
+        solved by :meth:`frames` (``spacing``, s): the links named in ``flexible`` are beam links,
+        every other link moves rigidly on its frame, and each end of a flexible link is joined to
+        what else holds its point.
+
+        Parameters
+        ----------
+        flexible : mapping
+            Binary link name (made by :meth:`link`) -> the keyword arguments of
+            :meth:`flexclear.Model.add_link` but ``length``, ``frame``, ``motion`` and ``angle``,
+            which the linkage sets: ``elements``, ``youngs_modulus`` (Pa), ``density`` (kg/m^3),
+            ``area`` (m^2), ``inertia`` (m^4), optionally ``damping``, ``geometric``, ... Node 0
+            is at the link's first point, node ``elements`` at its second.
+        clearances : mapping, optional
+            Point name -> the keyword arguments of :meth:`flexclear.Model.add_joint` (``clearance``
+            in m with ``stiffness`` in N/m and ``damping`` in N s/m, or ``law=``; ``friction``,
+            ...): the joints at that point are clearance joints; every other joint at a flexible
+            link's end is an ideal pin.
+        slider_masses : mapping, optional
+            Slider name -> its block's mass (kg > 0), for each slider whose pin is a flexible
+            link's end (the slider then has its own unknown along the guide).
+
+        Each end ``P`` of a flexible link is joined, in this order, to the ground (a body
+        ``"ground"``, fixed) when ``P`` is a ground point; to the first crank, rigid link or slot
+        block holding ``P`` (at ``P``'s coordinates in that link's frame); to the slider whose pin
+        ``P`` is; else to the other flexible link ending at ``P``. The joint is named ``P`` (``P:link``
+        where several flexible links end at ``P``), so ``Result.joint("A")`` is the joint at A.
+
+        Raises
+        ------
+        InvalidParameterError
+            A name that is not a binary link, a point that ends no flexible link, a missing or
+            bad slider mass, or an argument the linkage sets; and as :meth:`flexclear.Model.add_link`,
+            :meth:`~flexclear.Model.add_joint`.
+        ModelError
+            As :meth:`frames`.
+        """
+        from .model import Model
+
+        if not isinstance(flexible, Mapping) or not flexible:
+            raise _bad(
+                "flexible",
+                flexible,
+                "a mapping of one binary link name or more to Model.add_link's arguments",
+            )
+        clearances = {} if clearances is None else clearances
+        slider_masses = {} if slider_masses is None else slider_masses
+        for what, given in (("clearances", clearances), ("slider_masses", slider_masses)):
+            if not isinstance(given, Mapping):
+                raise _bad(what, given, "a mapping (or None)")
+        ends: dict[str, list[tuple[str, int]]] = {}
+        links: dict[str, tuple[float, dict]] = {}
+        for name, kw in flexible.items():
+            local = self._bodies.get(name)
+            if local is None or len(local) != 2 or list(local.values())[0] != (0.0, 0.0):
+                binary = [
+                    n
+                    for n, pts in self._bodies.items()
+                    if len(pts) == 2 and list(pts.values())[0] == (0.0, 0.0)
+                ]
+                raise _bad("flexible", name, f"a binary link made by Linkage.link (have {binary})")
+            if not isinstance(kw, Mapping):
+                raise _bad(f"flexible[{name!r}]", kw, "a mapping of Model.add_link's keyword arguments")
+            taken = sorted({"length", "frame", "motion", "angle"} & set(kw))
+            if taken:
+                raise _bad(f"flexible[{name!r}][{taken[0]!r}]", kw[taken[0]], "none: the linkage sets it")
+            (a, _), (b, (length, _)) = local.items()
+            links[name] = (length, dict(kw))
+            ends.setdefault(a, []).append((name, 0))
+            ends.setdefault(b, []).append((name, -1))  # its last node, once the link is made
+        for point in clearances:
+            if point not in ends:
+                raise _bad("clearances", point, f"a point at a flexible link's end (have {sorted(ends)})")
+        frames = self.frames(t_end, spacing=spacing, start=start)
+        m = Model()
+        for name, (length, kw) in links.items():
+            m.add_link(name, length=length, frame=frames[name], **kw)
+        # add_link took `elements` as a valid count
+        ends = {
+            p: [(n, int(links[n][1]["elements"]) if k < 0 else k) for n, k in held]
+            for p, held in ends.items()
+        }
+        ground = "ground" if "ground" not in frames else "ground_"
+        added: set[str] = set()
+
+        def body(name: str, frame) -> str:
+            if name not in added:
+                if frame is None:
+                    m.add_body(name)  # fixed at the origin: points in global coordinates
+                else:
+                    m.add_body(name, frame=frame)
+                added.add(name)
+            return name
+
+        for point, held in ends.items():
+            side = self._holder(point, frames, body, ground, m, slider_masses)
+            if side is None:
+                # only flexible links end here: the first is the others' bearing
+                (first, node0), held = held[0], held[1:]
+                side = {"target": (first, node0)}
+            for link, node in held:
+                name = point if len(ends[point]) == 1 else f"{point}:{link}"
+                if point in clearances:
+                    m.add_joint(name, link, node, **side, **clearances[point])
+                else:
+                    m.add_pin(name, link, node, **side)
+        return m
+
+    def _holder(self, point, frames, body, ground, m, slider_masses) -> Optional[dict]:
+        """The bearing side (``add_joint``'s keyword arguments) of a joint at a flexible link's
+        end ``point``: the ground, a rigid link holding it, or a slider; None when only flexible
+        links end there (bodies and sliders are added to the model ``m`` as they are first used)."""
+        if point in self._ground:
+            return {"body": body(ground, None), "point": self._ground[point]}
+        for name, (_, tip, length, _) in self._cranks.items():
+            if point == tip:
+                return {"body": body(name, frames[name]), "point": (length, 0.0)}
+        for name, local in self._bodies.items():
+            if point in local and name not in m.link_names:
+                return {"body": body(name, frames[name]), "point": local[point]}
+        for name, (pin, _, _) in self._slots.items():
+            if point == pin:
+                return {"body": body(name, frames[name]), "point": (0.0, 0.0)}
+        for name, (pin, _, angle) in self._sliders.items():
+            if point == pin:
+                if name not in m.slider_names:
+                    if name not in slider_masses:
+                        raise _bad(
+                            "slider_masses",
+                            dict(slider_masses),
+                            f"a mass for slider {name!r} (kg > 0): a flexible link ends on it",
+                        )
+                    m.add_slider(name, mass=slider_masses[name], path=frames[name], angle=angle)
+                return {"slider": name}
+        return None
 
     def plot(self, path, t_end: float, *, poses: int = 6, spacing: Optional[float] = None):
         """Saves a drawing of the linkage to ``path`` (PNG, ...) and returns it: the links at

@@ -418,6 +418,11 @@ class Model:
         return list(self._core.joint_names)
 
     @property
+    def pin_names(self) -> list[str]:
+        """Ideal pin names (:meth:`add_pin`), in order."""
+        return list(self._core.pin_names)
+
+    @property
     def body_names(self) -> list[str]:
         """Rigid body names added with :meth:`add_body`, in order."""
         return list(self._body_frames)
