@@ -391,3 +391,10 @@ def test_a_linkage_model_refuses_what_it_cannot_build():
         _crank_shaper().model(0.01, flexible={"rod": SECTION})
     with pytest.raises(fc.InvalidParameterError, match="elements"):
         six.model(0.01, flexible={"rod": dict(SECTION, elements=0)})
+    # a misspelt keyword is named, not a TypeError
+    with pytest.raises(fc.InvalidParameterError, match=r"flexible\['rod'\]\['elemnts'\]"):
+        six.model(0.01, flexible={"rod": dict(SECTION, elemnts=6)})
+    with pytest.raises(fc.InvalidParameterError, match=r"clearances\['C'\]\['stifness'\]"):
+        six.model(0.01, flexible={"rod": SECTION}, clearances={"C": dict(BEARING, stifness=1.0)})
+    with pytest.raises(fc.InvalidParameterError, match="a slider of the linkage"):
+        _crank_shaper().model(0.01, flexible={"rod": SECTION}, slider_masses={"rams": 2.0})

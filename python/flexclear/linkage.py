@@ -38,6 +38,7 @@ cannot be assembled (lengths that do not close, a dead point where the Jacobian 
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any, Optional
@@ -316,13 +317,27 @@ class Linkage:
             taken = sorted({"length", "frame", "motion", "angle"} & set(kw))
             if taken:
                 raise _bad(f"flexible[{name!r}][{taken[0]!r}]", kw[taken[0]], "none: the linkage sets it")
+            _known_keywords(
+                f"flexible[{name!r}]", kw, Model.add_link, {"name", "length", "frame", "motion", "angle"}
+            )
             (a, _), (b, (length, _)) = local.items()
             links[name] = (length, dict(kw))
             ends.setdefault(a, []).append((name, 0))
             ends.setdefault(b, []).append((name, -1))  # its last node, once the link is made
-        for point in clearances:
+        for point, kw in clearances.items():
             if point not in ends:
                 raise _bad("clearances", point, f"a point at a flexible link's end (have {sorted(ends)})")
+            if not isinstance(kw, Mapping):
+                raise _bad(f"clearances[{point!r}]", kw, "a mapping of Model.add_joint's keyword arguments")
+            _known_keywords(
+                f"clearances[{point!r}]",
+                kw,
+                Model.add_joint,
+                {"name", "link", "node", "body", "point", "target", "slider"},
+            )
+        for slider in slider_masses:
+            if slider not in self._sliders:
+                raise _bad("slider_masses", slider, f"a slider of the linkage (have {sorted(self._sliders)})")
         frames = self.frames(t_end, spacing=spacing, start=start)
         m = Model()
         for name, (length, kw) in links.items():
@@ -523,6 +538,17 @@ class Linkage:
             if {a, b} == {pivot, tip}:
                 return length
         return None
+
+
+def _known_keywords(what: str, given: Mapping[str, Any], method, fixed: set[str]) -> None:
+    """Raises InvalidParameterError naming ``what[key]`` for a key of ``given`` that ``method``
+    does not take as a keyword, or that the linkage sets itself (``fixed``)."""
+    allowed = sorted(set(inspect.signature(method).parameters) - {"self"} - fixed)
+    for key in given:
+        if key not in allowed:
+            raise _bad(
+                f"{what}[{key!r}]", given[key], f"a keyword of {method.__qualname__}: one of {allowed}"
+            )
 
 
 def _cross(u: np.ndarray, w: np.ndarray) -> np.ndarray:
