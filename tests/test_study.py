@@ -453,9 +453,13 @@ def test_a_study_files_own_builder_is_found_next_to_it(tmp_path, monkeypatch):
         "[vary]\nspeed = [30.0, 40.0, 50.0]\n"
     )
     monkeypatch.chdir(tmp_path)
-    res = load(study_file).run(threads=1, progress=False)
+    res = load(study_file).run(threads=1, progress=False, store=folder / "store")
     assert list(res.frame["status"]) == ["ok"] * 3
     assert np.all(res.frame["crank_pin.max_force"] > 0)
+    # its store read back in a fresh session (flexclear compare): the module beside the store
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p != str(folder)])
+    monkeypatch.delitem(sys.modules, "my_quick_return")
+    assert load(folder / "store").build == "my_quick_return:build"
     # a module that is nowhere says where it was looked for
     study_file.write_text('build = "not_a_module_anywhere:build"\nsamples = 1\n[vary]\nspeed = [30.0]\n')
     with pytest.raises(flexclear.InvalidParameterError, match="cannot be imported.*in its own folder"):

@@ -2557,6 +2557,8 @@ def load(path: Union[str, os.PathLike]) -> Study:
         raise InvalidParameterError(f"study file {str(path)!r} does not exist")
     if path.suffix == ".json":
         stored = json.loads(path.read_text())
+        # a store's builder of one's own: beside the store or in the current directory
+        _find_builder(stored.get("study", {}).get("build"), path.parent.parent)
         study = Study.from_dict(stored["study"])
         study.report_thresholds = dict(stored.get("report_thresholds", {}))
         return study
