@@ -88,6 +88,39 @@ fn short_number(text: String) -> String {
     }
 }
 
+/// `x` as C's `%g` prints it (6 significant digits, trailing zeros dropped; `inf`, `nan`), the
+/// form of the numbers in messages.
+pub(crate) fn g6(x: f64) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "nan".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
+    if x == 0.0 {
+        return if x.is_sign_negative() { "-0".into() } else { "0".into() };
+    }
+    let sci = format!("{x:.5e}");
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    let trim = |s: String| -> String {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    if (-4..6).contains(&exp) {
+        trim(format!("{x:.*}", (5 - exp) as usize))
+    } else {
+        let sign = if exp < 0 { '-' } else { '+' };
+        format!("{}e{sign}{:02}", trim(mantissa.to_string()), exp.abs())
+    }
+}
+
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -199,5 +232,33 @@ mod tests {
         assert_eq!(shown(1.2e6), "1200000");
         assert_eq!(shown(f64::NAN), "NaN");
         assert!(Error::param("x", -1e-300, "").to_string().len() < 60);
+    }
+
+    #[test]
+    fn g6_prints_as_percent_g() {
+        for (x, s) in [
+            (0.35, "0.35"),
+            (1e-300, "1e-300"),
+            (2.5e-4, "0.00025"),
+            (1.0e-5, "1e-05"),
+            (123456789.0, "1.23457e+08"),
+            (100000.0, "100000"),
+            (0.0, "0"),
+            (f64::INFINITY, "inf"),
+            (6.451599999e-5, "6.4516e-05"),
+        ] {
+            assert_eq!(g6(x), s, "{x}");
+        }
+    }
+
+    #[test]
+    fn numbers_in_messages_read_as_percent_g() {
+        assert_eq!(g6(0.0), "0");
+        assert_eq!(g6(0.0125), "0.0125");
+        assert_eq!(g6(1e20), "1e+20");
+        assert_eq!(g6(1e-5), "1e-05");
+        assert_eq!(g6(123456.7), "123457");
+        assert_eq!(g6(1.5e300), "1.5e+300");
+        assert_eq!(g6(f64::INFINITY), "inf");
     }
 }

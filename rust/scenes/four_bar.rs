@@ -21,7 +21,7 @@ use std::sync::Arc;
 use super::bearing::{hertz_secant, BearingDerived};
 use super::{bad, finite, positive};
 use crate::contact::{ContactLaw, DampingLaw, SpringDamper};
-use crate::error::{check_non_negative, Error, Result};
+use crate::error::{check_non_negative, g6, Error, Result};
 use crate::kinematics::{FourBar, FourBarFrame, FourBarLink, FrameKinematics, Rotation};
 use crate::model::check_elements;
 use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Pin, Support, Terms};
@@ -146,39 +146,6 @@ pub struct FourBarDerived {
     pub bearing: Option<BearingDerived>,
 }
 
-/// `x` as C's `%g` prints it (6 significant digits, trailing zeros dropped; `inf`, `nan`), the
-/// form of the numbers in the scene's messages.
-fn g(x: f64) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "nan".into()
-        } else if x > 0.0 {
-            "inf".into()
-        } else {
-            "-inf".into()
-        };
-    }
-    if x == 0.0 {
-        return if x.is_sign_negative() { "-0".into() } else { "0".into() };
-    }
-    let sci = format!("{x:.5e}");
-    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
-    let exp: i32 = exp.parse().unwrap_or(0);
-    let trim = |s: String| -> String {
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    };
-    if (-4..6).contains(&exp) {
-        trim(format!("{x:.*}", (5 - exp) as usize))
-    } else {
-        let sign = if exp < 0 { '-' } else { '+' };
-        format!("{}e{sign}{:02}", trim(mantissa.to_string()), exp.abs())
-    }
-}
-
 impl FlexibleFourBar {
     /// The checks that come before `clearance_at` in the scene's order: the lengths, material and
     /// section (finite and > 0), `crank_speed` and `damping` (finite, damping >= 0), `branch`.
@@ -269,9 +236,9 @@ impl FlexibleFourBar {
                 format!(
                     "a section whose area width depth and inertia width depth^3 / 12 are finite and > 0 (here \
                      width = {} m: {} m^2, {} m^4)",
-                    g(width),
-                    g(area),
-                    g(inertia)
+                    g6(width),
+                    g6(area),
+                    g6(inertia)
                 ),
             ));
         }
@@ -293,9 +260,9 @@ impl FlexibleFourBar {
                         format!(
                             "a density whose coupler mass rho A L is finite and > 0 (here {} kg with A = {} m^2, \
                              L = {} m)",
-                            g(coupler_mass),
-                            g(area),
-                            g(self.coupler_length)
+                            g6(coupler_mass),
+                            g6(area),
+                            g6(self.coupler_length)
                         ),
                     ));
                 }
@@ -438,23 +405,6 @@ impl FlexibleFourBar {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn g_prints_as_percent_g() {
-        for (x, s) in [
-            (0.35, "0.35"),
-            (1e-300, "1e-300"),
-            (2.5e-4, "0.00025"),
-            (1.0e-5, "1e-05"),
-            (123456789.0, "1.23457e+08"),
-            (100000.0, "100000"),
-            (0.0, "0"),
-            (f64::INFINITY, "inf"),
-            (6.451599999e-5, "6.4516e-05"),
-        ] {
-            assert_eq!(g(x), s, "{x}");
-        }
-    }
 
     #[test]
     fn pins_joint_and_support_in_the_order_of_the_scene() {

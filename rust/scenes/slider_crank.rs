@@ -21,7 +21,7 @@ use std::sync::Arc;
 use super::bearing::{hertz_secant, BearingDerived};
 use super::{bad, finite, positive};
 use crate::contact::{ContactLaw, DampingLaw, SpringDamper};
-use crate::error::Result;
+use crate::error::{g6, Result};
 use crate::kinematics::{FrameKinematics, Rotation, SliderCrank, SliderCrankFrame, SliderCrankLink};
 use crate::model::check_elements;
 use crate::model::mechanism::{Clearance, Endpoint, Link, Mechanism, Pin, Slider, Terms};
@@ -136,12 +136,6 @@ pub struct SliderCrankDerived {
     pub rod_mass: f64,
     /// The clearance joint's bearing, when `clearance_at` is set.
     pub bearing: Option<BearingDerived>,
-}
-
-/// `x` with 6 significant digits, shortest form (as C's `%g` for lengths of order metres).
-fn g6(x: f64) -> String {
-    let rounded: f64 = format!("{x:.5e}").parse().unwrap_or(x);
-    rounded.to_string()
 }
 
 impl FlexibleSliderCrank {
