@@ -106,6 +106,34 @@ def test_the_four_bar_study_file_runs_from_the_cli(tmp_path):
     assert "## Resolution: steps per contact period" in report and "Unresolved:" not in report
 
 
+def test_the_six_bar_study_of_ones_own_linkage_runs_from_the_cli(tmp_path, monkeypatch):
+    # benches/studies/watt_six_bar_clearance.toml with its builder module beside it (copied
+    # together), reduced to 3 samples of 5 ms: a linkage of one's own, solved and built by
+    # flexclear.Linkage for each sample, runs as a study from a study file
+    import shutil
+    import sys
+    from pathlib import Path
+
+    from flexclear.cli import main
+
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    studies = Path(__file__).parent.parent / "benches" / "studies"
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    shutil.copy(studies / "watt_six_bar.py", folder)
+    ref = (studies / "watt_six_bar_clearance.toml").read_text()
+    small = ref.replace("samples = 64", "samples = 3").replace("t_end = 0.1 ", "t_end = 0.005 ")
+    small = small.replace("span = 0.1 ", "span = 0.005 ")
+    assert small.count("0.005") == 2
+    (folder / "s.toml").write_text(small)
+    out = tmp_path / "out"
+    assert main(["montecarlo", str(folder / "s.toml"), "--out", str(out), "--no-progress"]) == 0
+    report = (out / "report.md").read_text()
+    assert "- 3 samples: 3 ok" in report and "| C.max_force | 3 |" in report
+    assert "| rod.max_midspan | 3 |" in report
+    sys.modules.pop("watt_six_bar", None)
+
+
 def test_the_cli_warns_of_a_step_that_does_not_resolve_the_contacts(tmp_path, capsys):
     # the four-bar study file at its former dt of 1e-5 s: 1.4 steps a contact
     report, _ = _reduced_study_report(
