@@ -132,16 +132,16 @@ def test_a_four_bar_run_on_the_linkages_frames_is_the_closed_forms_run():
 
 def _watt_six_bar() -> Linkage:
     """Two four-bars in series (a Watt II six-bar): the four-bar above, whose rocker is a ternary
-    link O4-B-C, drives a second one C-D-O6 (m)."""
-    six = Linkage()
-    six.ground("O2", (0.0, 0.0)).ground("O4", (0.254, 0.0)).ground("O6", (0.45, 0.05))
-    six.crank("crank", "O2", "A", length=0.0508, driver=DRIVER)
-    six.point("B", near=(0.15, 0.26)).point("C", near=(0.14, 0.06)).point("D", near=(0.35, 0.2))
-    six.link("coupler", "A", "B", length=0.2794)
-    six.body("rocker", {"O4": (0.0, 0.0), "B": (0.2794, 0.0), "C": (0.1, 0.08)})
-    six.link("rod", "C", "D", length=0.25)
-    six.link("output", "O6", "D", length=0.15)
-    return six
+    link O4-B-C, drives a second one C-D-O6 (m); the six-bar of the study file of
+    benches/studies/watt_six_bar.py, at the crank speed of DRIVER."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parent.parent / "benches" / "studies" / "watt_six_bar.py"
+    spec = importlib.util.spec_from_file_location("_watt_six_bar_study", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.linkage(DRIVER.at(0.0)[1])
 
 
 def test_a_six_bar_keeps_its_lengths_and_runs_with_a_clearance_joint():
