@@ -383,6 +383,12 @@ def test_a_linkage_model_refuses_what_it_cannot_build():
     six = _watt_six_bar()
     with pytest.raises(fc.InvalidParameterError, match="a binary link made by Linkage.link"):
         six.model(0.01, flexible={"rocker": SECTION})  # a ternary link
+    # a two-point body with B off its x axis: a beam along the axis would not reach B
+    off_axis = Linkage().ground("O2", (0.0, 0.0)).ground("O4", (0.254, 0.0))
+    off_axis.crank("crank", "O2", "A", length=0.0508, driver=DRIVER).point("B", near=(0.15, 0.26))
+    off_axis.body("coupler", {"A": (0.0, 0.0), "B": (0.2794, 0.01)}).link("rocker", "O4", "B", length=0.2794)
+    with pytest.raises(fc.InvalidParameterError, match="a binary link made by Linkage.link"):
+        off_axis.model(0.01, flexible={"coupler": SECTION})
     with pytest.raises(fc.InvalidParameterError, match=r"flexible\['rod'\]\['length'\]"):
         six.model(0.01, flexible={"rod": dict(SECTION, length=0.25)})
     with pytest.raises(fc.InvalidParameterError, match="a point at a flexible link's end"):

@@ -305,12 +305,8 @@ class Linkage:
         links: dict[str, tuple[float, dict]] = {}
         for name, kw in flexible.items():
             local = self._bodies.get(name)
-            if local is None or len(local) != 2 or list(local.values())[0] != (0.0, 0.0):
-                binary = [
-                    n
-                    for n, pts in self._bodies.items()
-                    if len(pts) == 2 and list(pts.values())[0] == (0.0, 0.0)
-                ]
+            if local is None or not _binary(local):
+                binary = [n for n, pts in self._bodies.items() if _binary(pts)]
                 raise _bad("flexible", name, f"a binary link made by Linkage.link (have {binary})")
             if not isinstance(kw, Mapping):
                 raise _bad(f"flexible[{name!r}]", kw, "a mapping of Model.add_link's keyword arguments")
@@ -360,7 +356,7 @@ class Linkage:
             return name
 
         for point, held in ends.items():
-            side = self._holder(point, frames, body, ground, m, slider_masses)
+            side = self._holder(point, frames, body, ground, m, links, slider_masses)
             if side is None:
                 # only flexible links end here: the first is the others' bearing
                 (first, node0), held = held[0], held[1:]
@@ -373,17 +369,18 @@ class Linkage:
                     m.add_pin(name, link, node, **side)
         return m
 
-    def _holder(self, point, frames, body, ground, m, slider_masses) -> Optional[dict]:
+    def _holder(self, point, frames, body, ground, m, flexible, slider_masses) -> Optional[dict]:
         """The bearing side (``add_joint``'s keyword arguments) of a joint at a flexible link's
-        end ``point``: the ground, a rigid link holding it, or a slider; None when only flexible
-        links end there (bodies and sliders are added to the model ``m`` as they are first used)."""
+        end ``point``: the ground, a rigid link (not one of ``flexible``) holding it, or a slider;
+        None when only flexible links end there (bodies and sliders are added to the model ``m``
+        as they are first used)."""
         if point in self._ground:
             return {"body": body(ground, None), "point": self._ground[point]}
         for name, (_, tip, length, _) in self._cranks.items():
             if point == tip:
                 return {"body": body(name, frames[name]), "point": (length, 0.0)}
         for name, local in self._bodies.items():
-            if point in local and name not in m.link_names:
+            if point in local and name not in flexible:
                 return {"body": body(name, frames[name]), "point": local[point]}
         for name, (pin, _, _) in self._slots.items():
             if point == pin:
@@ -538,6 +535,16 @@ class Linkage:
             if {a, b} == {pivot, tip}:
                 return length
         return None
+
+
+def _binary(local: Mapping[str, tuple[float, float]]) -> bool:
+    """Whether a link's points (in its frame) are those :meth:`Linkage.link` makes: two, the
+    first at the origin and the second on the positive x axis (a beam from node 0 to its last
+    node)."""
+    if len(local) != 2:
+        return False
+    (x0, y0), (x1, y1) = local.values()
+    return x0 == y0 == y1 == 0.0 and x1 > 0.0
 
 
 def _known_keywords(what: str, given: Mapping[str, Any], method, fixed: set[str]) -> None:
