@@ -1025,37 +1025,34 @@ def _run_linkage(case: dict) -> list[str]:
     bad: list[str] = []
     for name, f in frames.items():
         for t in np.linspace(0.0, float(case["t_end"]), 7):
-            _nonfinite(
-                f"frames[{name!r}].at({t:g})", [*f.at(t)[0], *f.at(t)[1], *f.at(t)[2], *f.at(t)[3:]], bad
-            )
-    if case["run"] and not bad and int(str(case.get("id", "0:0")).rpartition(":")[2] or 0) % 2 == 0:
-        # every other case builds its model with Linkage.model (a clearance joint at the
-        # flexible link's first end, a pin at its second)
-        link, ends = case["flexible"], case["ends"]
-        section = dict(elements=4, youngs_modulus=7e10, density=2700.0, area=8e-5, inertia=7e-11)
+            o, v, a, *angle = f.at(t)
+            _nonfinite(f"frames[{name!r}].at({t:g})", [*o, *v, *a, *angle], bad)
+    if not case["run"] or bad:
+        return bad
+    link, ends = case["flexible"], case["ends"]
+    section = dict(elements=4, youngs_modulus=7e10, density=2700.0, area=8e-5, inertia=7e-11)
+    bearing = dict(clearance=case["clearance"], stiffness=5e7, damping=500.0)
+    if int(str(case.get("id", "0:0")).rpartition(":")[2] or 0) % 2 == 0:
+        # every other case builds its model with Linkage.model
         m = lk.model(
             case["t_end"],
             flexible={link: section},
-            clearances={ends[0][2]: dict(clearance=case["clearance"], stiffness=5e7, damping=500.0)},
+            clearances={ends[0][2]: bearing},
             slider_masses={body: 0.1 for body, frame, _ in ends if frame is None},
             spacing=case["spacing"],
         )
-        res = m.simulate(min(float(case["t_end"]), 5e-3), 1e-5, progress=False)
-        bad += check_result(res)
-    elif case["run"] and not bad:
-        link = case["flexible"]
+    else:
         length = next(op[-1]["length"] for op in case["ops"] if op[0] == "link" and op[1] == link)
         m = flexclear.Model()
-        for body, frame, _ in case["ends"]:
+        for body, frame, _ in ends:
             if frame is not None:
                 m.add_body(body, frame=frames[frame])
             else:
                 m.add_slider(body, mass=0.1, path=frames[body])
-        m.add_link(link, length=length, elements=4, youngs_modulus=7e10, density=2700.0, area=8e-5,
-                   inertia=7e-11, frame=frames[link])  # fmt: skip
+        m.add_link(link, length=length, frame=frames[link], **section)
         points = lk.solve([0.0])
-        for k, (body, frame, point) in enumerate(case["ends"]):
-            node = 0 if k == 0 else 4
+        for k, (body, frame, point) in enumerate(ends):
+            node = 0 if k == 0 else section["elements"]
             if frame is None:
                 m.add_pin(f"end{k}", link, node, slider=body)
                 continue
@@ -1067,13 +1064,11 @@ def _run_linkage(case: dict) -> list[str]:
                 -d[0] * np.sin(angle) + d[1] * np.cos(angle),
             )
             if k == 0:
-                m.add_joint(f"end{k}", link, node, body=body, point=local, clearance=case["clearance"],
-                            stiffness=5e7, damping=500.0)  # fmt: skip
+                m.add_joint(f"end{k}", link, node, body=body, point=local, **bearing)
             else:
                 m.add_pin(f"end{k}", link, node, body=body, point=local)
-        res = m.simulate(min(float(case["t_end"]), 5e-3), 1e-5, progress=False)
-        bad += check_result(res)
-    return bad
+    res = m.simulate(min(float(case["t_end"]), 5e-3), 1e-5, progress=False)
+    return bad + check_result(res)
 
 
 def _run_study(case: dict, workdir: str) -> list[str]:
