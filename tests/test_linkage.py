@@ -13,6 +13,10 @@ from flexclear import Frame, Rotation
 from flexclear.linkage import Linkage
 
 DRIVER = Rotation.constant(100.0)  # rad/s
+#: The flexible links' section (aluminium, m^2, m^4) and the clearance joints' bearing (m, N/m,
+#: N s/m) of the models below, hand-built and from Linkage.model alike.
+SECTION = dict(elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11)
+BEARING = dict(clearance=2.5e-4, stiffness=5e7, damping=500.0)
 
 
 def _four_bar(near_b=(0.15, 0.26)) -> Linkage:
@@ -99,13 +103,10 @@ def _flexible(frames, bodies, link, length, joint, pin) -> fc.Model:
     m = fc.Model()
     for body in bodies:
         m.add_body(body, frame=frames[body])
-    m.add_link(
-        link, length=length, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5,
-        inertia=6.78e-11, frame=frames[link],
-    )  # fmt: skip
+    m.add_link(link, length=length, frame=frames[link], **SECTION)
     name, body, point = joint
-    m.add_joint(name, link, 0, body=body, point=point, clearance=2.5e-4, stiffness=5e7, damping=500.0)
-    m.add_pin(pin[0], link, 6, body=pin[1], point=pin[2])
+    m.add_joint(name, link, 0, body=body, point=point, **BEARING)
+    m.add_pin(pin[0], link, SECTION["elements"], body=pin[1], point=pin[2])
     return m
 
 
@@ -284,14 +285,9 @@ def _shaper_model(frames) -> fc.Model:
     for body in ("crank", "lever"):
         m.add_body(body, frame=frames[body])
     m.add_slider("ram", mass=2.0, path=frames["ram"])
-    m.add_link(
-        "rod", length=0.25, elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11,
-        frame=frames["rod"],
-    )  # fmt: skip
-    m.add_joint(
-        "lever_pin", "rod", 0, body="lever", point=(0.3, 0.0), clearance=2e-4, stiffness=5e7, damping=500.0
-    )
-    m.add_pin("ram_pin", "rod", 6, slider="ram")
+    m.add_link("rod", length=0.25, frame=frames["rod"], **SECTION)
+    m.add_joint("lever_pin", "rod", 0, body="lever", point=(0.3, 0.0), **dict(BEARING, clearance=2e-4))
+    m.add_pin("ram_pin", "rod", SECTION["elements"], slider="ram")
     return m
 
 
@@ -332,10 +328,6 @@ def test_a_block_in_a_slot_along_a_crank():
     q = lk.solve([0.3 - h, 0.3, 0.3 + h])["P"]
     assert np.allclose((q[0][2] - q[0][0]) / (2 * h), q[1][1], rtol=0, atol=1e-8)
     assert np.allclose((q[0][2] - 2 * q[0][1] + q[0][0]) / h**2, q[2][1], rtol=0, atol=1e-4)
-
-
-SECTION = dict(elements=6, youngs_modulus=7.1e10, density=2710.0, area=8.06e-5, inertia=6.78e-11)
-BEARING = dict(clearance=2.5e-4, stiffness=5e7, damping=500.0)
 
 
 def test_a_linkage_builds_the_model_one_would_build_by_hand():
