@@ -198,9 +198,9 @@ pub struct AngleTable {
     time: Vec<f64>,
     angle: Vec<f64>,
     rate: Vec<f64>,
-    accel: Vec<f64>,
-    /// Whether the accelerations were given (quintic interpolation), not derived (cubic).
-    quintic: bool,
+    /// The accelerations when given (quintic interpolation); None: cubic through angles and
+    /// rates.
+    accel: Option<Vec<f64>>,
 }
 
 /// [`crate::model::motion::gradient`] of scalar samples.
@@ -260,18 +260,18 @@ impl AngleTable {
                 check_angle_samples(name, label, v, unit)?;
             }
         }
-        let quintic = accel.is_some();
         let rate = rate.unwrap_or_else(|| gradient(&time, &angle));
-        let accel = accel.unwrap_or_else(|| gradient(&time, &rate));
         // derived by differences: samples too close for their angles give rates beyond range
+        // (the rates' differences bound the cubic's accelerations, which are not kept)
         check_angle_samples(name, "rate (from the angles)", &rate, "rad/s")?;
-        check_angle_samples(name, "accel (from the angles)", &accel, "rad/s^2")?;
+        if accel.is_none() {
+            check_angle_samples(name, "accel (from the angles)", &gradient(&time, &rate), "rad/s^2")?;
+        }
         Ok(AngleTable {
             time,
             angle,
             rate,
             accel,
-            quintic,
         })
     }
 
@@ -296,7 +296,7 @@ impl AngleTable {
         let (i, s) = crate::model::motion::segment(&self.time, t);
         let two = |a: &[f64]| [a[i], a[i + 1]];
         let h = self.time[i + 1] - self.time[i];
-        let accel = self.quintic.then(|| two(&self.accel));
+        let accel = self.accel.as_deref().map(two);
         crate::model::motion::hermite(h, s, two(&self.angle), two(&self.rate), accel)
     }
 }
@@ -362,7 +362,7 @@ impl Rotation {
             Rotation::Harmonic {
                 amplitude, frequency, ..
             } => *amplitude == 0.0 || *frequency == 0.0,
-            Rotation::Tabulated(table) => table.rate.iter().chain(&table.accel).all(|&x| x == 0.0),
+            Rotation::Tabulated(table) => table.rate.iter().chain(table.accel.iter().flatten()).all(|&x| x == 0.0),
         }
     }
 

@@ -136,9 +136,9 @@ pub struct Table {
     time: Vec<f64>,
     pos: Vec<[f64; 2]>,
     vel: Vec<[f64; 2]>,
-    acc: Vec<[f64; 2]>,
-    /// Whether the accelerations were given (quintic interpolation), not derived (cubic).
-    quintic: bool,
+    /// The accelerations when given (quintic interpolation); None: cubic through positions and
+    /// velocities.
+    acc: Option<Vec<[f64; 2]>>,
 }
 
 /// Central differences (one-sided at the ends) of the samples `y` over the strictly increasing
@@ -208,19 +208,14 @@ impl Table {
                 check_samples(name, label, a)?;
             }
         }
-        let quintic = acc.is_some();
         let vel = vel.unwrap_or_else(|| gradient(&time, &pos));
-        let acc = acc.unwrap_or_else(|| gradient(&time, &vel));
         // derived by differences: samples too close for their positions give rates beyond range
+        // (the accelerations' differences bound the cubic's, which are not kept)
         check_samples(name, "velocity (from the positions)", &vel)?;
-        check_samples(name, "acceleration (from the positions)", &acc)?;
-        Ok(Table {
-            time,
-            pos,
-            vel,
-            acc,
-            quintic,
-        })
+        if acc.is_none() {
+            check_samples(name, "acceleration (from the positions)", &gradient(&time, &vel))?;
+        }
+        Ok(Table { time, pos, vel, acc })
     }
 
     /// Last tabulated time, s.
@@ -242,7 +237,7 @@ impl Table {
         let mut k = Kinematics::default();
         for c in 0..2 {
             let two = |a: &[[f64; 2]]| [a[i][c], a[i + 1][c]];
-            let acc = self.quintic.then(|| two(&self.acc));
+            let acc = self.acc.as_deref().map(two);
             (k.pos[c], k.vel[c], k.acc[c]) = hermite(h, s, two(&self.pos), two(&self.vel), acc);
         }
         k
