@@ -37,6 +37,7 @@ import inspect
 import json
 import math
 import os
+import sys
 import threading
 import time
 import warnings
@@ -2527,8 +2528,6 @@ def _find_builder(build: Any, folder: Path) -> None:
             return
     except (ImportError, ValueError):
         return
-    import sys
-
     for place in (folder.resolve(), Path.cwd()):
         if (place / f"{top}.py").is_file() or (place / top / "__init__.py").is_file():
             if str(place) not in sys.path:
