@@ -353,7 +353,7 @@ impl Rotation {
 
     /// True when the rate and acceleration are identically zero (the angle never changes):
     /// `Fixed`, a zero `Constant` rate or spin-up `final_rate`, a zero harmonic amplitude or
-    /// frequency, a table whose rates and accelerations are all zero.
+    /// frequency, a table whose angles are all equal and whose rates and accelerations are all zero.
     pub fn is_fixed(&self) -> bool {
         match self {
             Rotation::Fixed { .. } => true,
@@ -362,7 +362,11 @@ impl Rotation {
             Rotation::Harmonic {
                 amplitude, frequency, ..
             } => *amplitude == 0.0 || *frequency == 0.0,
-            Rotation::Tabulated(table) => table.rate.iter().chain(table.accel.iter().flatten()).all(|&x| x == 0.0),
+            // the angles too: the cubic through equal-rate samples of different angles turns
+            Rotation::Tabulated(table) => {
+                table.angle.windows(2).all(|w| w[0] == w[1])
+                    && table.rate.iter().chain(table.accel.iter().flatten()).all(|&x| x == 0.0)
+            }
         }
     }
 

@@ -676,6 +676,9 @@ fn frame_kinematics_wrappers() {
     assert!(!still.rotates() && !still.translates());
     let table_zero = Rotation::tabulated(vec![0.0, 1.0], vec![0.5, 0.5], None, None).unwrap();
     assert!(table_zero.is_fixed());
+    // zero rates at the samples, but the angle moves between them (the cubic through them)
+    let table_turning = Rotation::tabulated(vec![0.0, 1.0], vec![0.0, 1.0], Some(vec![0.0, 0.0]), None).unwrap();
+    assert!(table_turning.at(0.5).1 > 0.0 && !table_turning.is_fixed());
     assert!(Rotation::Constant { angle0: 1.0, rate: 0.0 }.is_fixed());
     assert!(!smooth_drivers().iter().any(Rotation::is_fixed));
     assert_eq!(sc.slider_frame(t).origin, sc.slider(t).pos);
