@@ -68,6 +68,20 @@ def test_fuzz_harness_classifies_crash_and_hang() -> None:
 # -- regressions found by the campaign ---------------------------------------------------------------
 
 
+def test_fuzz_linkage_tabulated_closer_than_its_rates_allow() -> None:
+    """Campaign 79, case 60599: a crank-shaper driven at 1e20 rad/s and tabulated over 1e-300 s.
+    Its samples, 1e-300 s apart, gave infinite accelerations between them (a frame's accel of
+    -inf at 1.7e-301 s); the tables now refuse samples whose change and rates imply accelerations
+    beyond 1e75, naming the later sample's time."""
+    case = harness.generate(79, 60599)
+    assert case["kind"] == "linkage"
+    out = harness.execute(case)
+    assert out["outcome"] == "flexclear_error", out
+    assert "time[1]" in out["detail"] and "(at most 1e75)" in out["detail"], out["detail"]
+    with pytest.raises(fc.InvalidParameterError, match=r"time\[1\]"):
+        fc.Rotation.tabulated([0.0, 1e-300], [0.0, 1e-280], rate=[1e20, 1e20])
+
+
 def test_fuzz_clearance_joint_to_a_node_in_a_translating_model() -> None:
     """``add_joint(..., target=(link, node))`` while every link translates passed the
     moving-frame keyword ``target`` to the translating core: TypeError (seed 1, 137 of 2000)."""

@@ -216,7 +216,9 @@ impl AngleTable {
     /// when empty).
     ///
     /// Fails with [`Error::InvalidParameter`] for fewer than 2 samples, non-finite or
-    /// non-increasing times, arrays of different lengths or non-finite values.
+    /// non-increasing times, arrays of different lengths, non-finite values or values beyond
+    /// 1e75, or samples closer than their rates allow
+    /// ([`check_spacing`](crate::model::motion::check_spacing), naming `name.time[i]`).
     pub fn new(
         name: &str,
         time: Vec<f64>,
@@ -267,6 +269,14 @@ impl AngleTable {
         if accel.is_none() {
             check_angle_samples(name, "accel (from the angles)", &gradient(&time, &rate), "rad/s^2")?;
         }
+        crate::model::motion::check_spacing(
+            &time,
+            1,
+            |i, _| angle[i],
+            |i, _| rate[i],
+            |i| field(name, &format!("time[{i}]")),
+            "rad",
+        )?;
         Ok(AngleTable {
             time,
             angle,

@@ -296,6 +296,70 @@ fn tabulated_rotation_validates_and_interpolates() {
 }
 
 #[test]
+fn tabulated_motions_stay_finite_at_the_extremes_of_their_spacing() {
+    // an angle of 1 rad held over 1e-200 s with its rates and accelerations zero: in range, and
+    // the quintic's rate and acceleration are exactly zero
+    let held = Rotation::tabulated(
+        vec![0.0, 1e-200],
+        vec![1.0, 1.0],
+        Some(vec![0.0; 2]),
+        Some(vec![0.0; 2]),
+    )
+    .unwrap();
+    for t in [0.0, 1.6e-201, 5e-201, 1e-200] {
+        assert_eq!(held.at(t), (1.0, 0.0, 0.0), "{t}");
+    }
+    // the same through the cubic (no accelerations given)
+    let cubic = Rotation::tabulated(vec![0.0, 1e-200], vec![1.0, 1.0], Some(vec![0.0; 2]), None).unwrap();
+    assert_eq!(cubic.at(5e-201), (1.0, 0.0, 0.0));
+    // a crank at 1e20 rad/s tabulated 1e-300 s apart (fuzz case 79:60599, a linkage run over
+    // 1e-300 s): accelerations of the order of 1e320 rad/s^2, refused naming the later sample
+    let fast = |acc: Option<Vec<f64>>| {
+        AngleTable::new("crank", vec![0.0, 1e-300], vec![0.0, 1e-280], Some(vec![1e20; 2]), acc).unwrap_err()
+    };
+    for e in [fast(Some(vec![0.0; 2])), fast(None)] {
+        let msg = e.to_string();
+        assert_eq!(err_name(e), "crank.time[1]");
+        assert!(
+            msg.contains("(at most 1e75)") && msg.contains("1e-300 s apart"),
+            "{msg}"
+        );
+    }
+    // the same rate 1e-3 s apart is in range, and its accelerations are finite
+    let ok = Rotation::tabulated(
+        vec![0.0, 1e-3],
+        vec![0.0, 1e17],
+        Some(vec![1e20; 2]),
+        Some(vec![0.0; 2]),
+    )
+    .unwrap();
+    assert!([0.2e-3, 0.5e-3, 0.9e-3].iter().all(|&t| {
+        let (a, r, al) = ok.at(t);
+        a.is_finite() && r.is_finite() && al.is_finite()
+    }));
+    // translations: a point held at 1 m over 1e-200 s, and one moving at 1e20 m/s 1e-300 s apart
+    let point = Table::new(
+        "slider",
+        vec![0.0, 1e-200],
+        vec![[1.0, -1.0]; 2],
+        Some(vec![[0.0; 2]; 2]),
+        Some(vec![[0.0; 2]; 2]),
+    )
+    .unwrap();
+    let k = crate::model::Motion::Tabulated(point).at(5e-201);
+    assert_eq!((k.pos, k.vel, k.acc), ([1.0, -1.0], [0.0; 2], [0.0; 2]));
+    let e = Table::new(
+        "slider",
+        vec![0.0, 1e-300],
+        vec![[0.0; 2], [1e-280, 0.0]],
+        Some(vec![[1e20, 0.0]; 2]),
+        None,
+    )
+    .unwrap_err();
+    assert_eq!(err_name(e), "slider.time[1]");
+}
+
+#[test]
 fn rotation_validate_names_the_field() {
     let v = |d: Rotation| err_name(d.validate("r").unwrap_err());
     assert_eq!(v(Rotation::Fixed { angle: f64::NAN }), "r.angle");

@@ -141,6 +141,47 @@ pub struct Table {
     acc: Option<Vec<[f64; 2]>>,
 }
 
+/// Checks that the interpolant of every sample interval stays within range: its second derivative
+/// is of the order `(|y1 - y0| / h + |v0| + |v1|) / h` (the values' change `y1 - y0` and the
+/// rates `v0`, `v1` at the ends of an interval of `h` s, per component), which must be at most
+/// [`MAX_MAGNITUDE`](crate::error::MAX_MAGNITUDE) (1e75): samples far closer than their rates
+/// allow (1e20 rad/s tabulated 1e-300 s apart) would give infinite accelerations. `dim`
+/// components, `y(i, k)` and `v(i, k)` the value and rate of component `k` at sample `i`; the
+/// error names `time(i)`, the later sample of the interval, with `unit` the values' unit.
+pub(crate) fn check_spacing(
+    time: &[f64],
+    dim: usize,
+    y: impl Fn(usize, usize) -> f64,
+    v: impl Fn(usize, usize) -> f64,
+    time_field: impl Fn(usize) -> String,
+    unit: &str,
+) -> Result<()> {
+    for i in 0..time.len().saturating_sub(1) {
+        let h = time[i + 1] - time[i];
+        for k in 0..dim {
+            let scale = ((y(i + 1, k) - y(i, k)).abs() / h + v(i, k).abs() + v(i + 1, k).abs()) / h;
+            if !crate::error::in_range(scale) {
+                return Err(Error::param(
+                    time_field(i + 1),
+                    time[i + 1],
+                    format!(
+                        "a sample far enough after the one before it (at {} s) for the rates: {} s \
+                         apart, with the values changing by {} and the rates reaching {} {unit}/s, \
+                         the interpolated accelerations are of the order of {} {unit}/s^2 (at most \
+                         1e75)",
+                        crate::error::g6(time[i]),
+                        crate::error::g6(h),
+                        crate::error::g6((y(i + 1, k) - y(i, k)).abs()),
+                        crate::error::g6(v(i, k).abs().max(v(i + 1, k).abs())),
+                        crate::error::g6(scale),
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Central differences (one-sided at the ends) of the samples `y` over the strictly increasing
 /// times `t` (s), per component: the derivative of every tabulated motion (translations here,
 /// frame angles in [`crate::kinematics::AngleTable`]).
@@ -167,7 +208,8 @@ impl Table {
     /// accelerations given it is interpolated by [`quintic_hermite`], else by [`cubic_hermite`].
     ///
     /// Fails with [`Error::InvalidParameter`] if fewer than 2 samples, non-increasing or
-    /// non-finite times, or arrays of different lengths.
+    /// non-finite times, arrays of different lengths, values beyond 1e75, or samples closer than
+    /// their rates allow ([`check_spacing`], naming `name.time[i]`).
     pub fn new(
         name: &str,
         time: Vec<f64>,
@@ -215,6 +257,14 @@ impl Table {
         if acc.is_none() {
             check_samples(name, "acceleration (from the positions)", &gradient(&time, &vel))?;
         }
+        check_spacing(
+            &time,
+            2,
+            |i, k| pos[i][k],
+            |i, k| vel[i][k],
+            |i| format!("{name}.time[{i}]"),
+            "m",
+        )?;
         Ok(Table { time, pos, vel, acc })
     }
 
