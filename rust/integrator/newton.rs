@@ -2047,13 +2047,14 @@ impl<'a> NewtonRun<'a> {
     fn update_frames(&mut self, t: f64) {
         self.tracked_state = false;
         self.t_frames = t;
-        for (f, l) in self.frames.iter_mut().zip(&self.mech.links) {
-            *f = l.frame.frame(t);
+        for ((f, r), l) in self.frames.iter_mut().zip(&mut self.rots).zip(&self.mech.links) {
+            (*f, *r) = l.frame.frame_rotation(t);
         }
         self.refresh_transforms();
     }
 
-    /// Recomputes the per-link rotations and per-node transforms from the current frames.
+    /// Recomputes the per-node transforms from the current frames and their rotations (`rots`,
+    /// set with the frames by [`Self::update_frames`]).
     #[inline(always)]
     fn refresh_transforms(&mut self) {
         if self.node_off.len() != self.links.len() {
@@ -2064,13 +2065,12 @@ impl<'a> NewtonRun<'a> {
             for (li, ld) in self.links.iter().enumerate() {
                 self.node_off.push(self.node_ts.len());
                 for map in &ld.nodes {
-                    let r = rot(self.frames[li].angle);
-                    self.node_ts.push(node_t(map, &self.frames[li], r, &self.slider_dir));
+                    self.node_ts
+                        .push(node_t(map, &self.frames[li], self.rots[li], &self.slider_dir));
                 }
             }
         }
         for (li, ld) in self.links.iter().enumerate() {
-            self.rots[li] = rot(self.frames[li].angle);
             let off = self.node_off[li];
             for (k, map) in ld.nodes.iter().enumerate() {
                 if !self.node_ts[off + k].plain {

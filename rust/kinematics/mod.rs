@@ -468,6 +468,16 @@ pub trait FrameKinematics: std::fmt::Debug + Send + Sync {
     /// [`FrameKinematics::check`] passes.
     fn frame(&self, t: f64) -> FrameState;
 
+    /// The frame state at `t` (s) with its rotation matrix `R` (row-major; its columns are the
+    /// frame's axes in global coordinates, [`FrameState::rotation`]). The default takes `R` from
+    /// the angle; a mechanism whose loop closure gives the angle's cosine and sine returns those,
+    /// without the round trip through the angle (one `sin_cos` a call fewer in the Newton
+    /// stepper's frame update).
+    fn frame_rotation(&self, t: f64) -> (FrameState, [[f64; 2]; 2]) {
+        let f = self.frame(t);
+        (f, f.rotation())
+    }
+
     /// Checks that the motion is defined over `[0, t_end]` (s): parameters, table coverage,
     /// closure of a mechanism's loop. `name` prefixes parameter names in errors.
     ///

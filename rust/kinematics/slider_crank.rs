@@ -25,6 +25,8 @@ pub struct SliderCrank {
 struct SliderCrankPose {
     theta: (f64, f64, f64),
     psi: (f64, f64, f64),
+    /// `(cos psi, sin psi)` of the loop closure (from which `psi` is taken).
+    psi_cs: (f64, f64),
     pin_a: Kinematics,
     pin_b: Kinematics,
 }
@@ -110,6 +112,7 @@ impl SliderCrank {
         SliderCrankPose {
             theta: (th, w, al),
             psi: (psi, psi_d, psi_dd),
+            psi_cs: (cp, sp),
             pin_a,
             pin_b,
         }
@@ -133,6 +136,19 @@ impl SliderCrank {
     pub fn rod_frame(&self, t: f64) -> FrameState {
         self.last
             .with(t, |t| self.solve(t), |p| FrameState::at(&p.pin_a, p.psi))
+    }
+
+    /// [`Self::rod_frame`] with the rod's rotation matrix from the loop closure's own `cos psi`
+    /// and `sin psi` (`psi` itself is their `atan2`).
+    pub fn rod_frame_rotation(&self, t: f64) -> (FrameState, [[f64; 2]; 2]) {
+        self.last.with(
+            t,
+            |t| self.solve(t),
+            |p| {
+                let (c, s) = p.psi_cs;
+                (FrameState::at(&p.pin_a, p.psi), [[c, -s], [s, c]])
+            },
+        )
     }
 
     /// Position (m), velocity (m/s) and acceleration (m/s^2) of the slider pin B at `t` (s).
@@ -181,6 +197,18 @@ impl FrameKinematics for SliderCrankFrame {
             SliderCrankLink::Crank => self.mechanism.crank_frame(t),
             SliderCrankLink::Rod => self.mechanism.rod_frame(t),
             SliderCrankLink::Slider => self.mechanism.slider_frame(t),
+        }
+    }
+
+    /// The rod's rotation from the loop closure's `(cos psi, sin psi)`; the crank's and the
+    /// slider's from their angles.
+    fn frame_rotation(&self, t: f64) -> (FrameState, [[f64; 2]; 2]) {
+        match self.link {
+            SliderCrankLink::Rod => self.mechanism.rod_frame_rotation(t),
+            _ => {
+                let f = self.frame(t);
+                (f, f.rotation())
+            }
         }
     }
 

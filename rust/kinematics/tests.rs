@@ -457,6 +457,38 @@ fn slider_crank_loop_closes() {
 }
 
 #[test]
+fn slider_crank_rod_rotation_is_the_closures_own() {
+    // the rod's rotation matrix from the loop closure's (cos psi, sin psi): the frame of the
+    // same instant, orthonormal, and the matrix of its angle to rounding; the crank's and the
+    // slider's are their angles' (the default)
+    for sc in slider_cranks() {
+        let sc = Arc::new(sc);
+        let frame = |link| SliderCrankFrame {
+            mechanism: sc.clone(),
+            link,
+        };
+        for t in times(0.0, 2.0, 401) {
+            for link in [SliderCrankLink::Crank, SliderCrankLink::Rod, SliderCrankLink::Slider] {
+                let f = frame(link);
+                let (state, r) = f.frame_rotation(t);
+                assert_eq!(state, f.frame(t));
+                let by_angle = state.rotation();
+                if link == SliderCrankLink::Rod {
+                    let det = r[0][0] * r[1][1] - r[0][1] * r[1][0];
+                    assert!((det - 1.0).abs() < 4.0 * f64::EPSILON, "{t}: det {det}");
+                    assert!(r[0][0] == r[1][1] && r[0][1] == -r[1][0]);
+                    for (a, b) in r.iter().flatten().zip(by_angle.iter().flatten()) {
+                        assert!((a - b).abs() < 4.0 * f64::EPSILON, "{t}: {r:?} vs {by_angle:?}");
+                    }
+                } else {
+                    assert_eq!(r, by_angle);
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn slider_crank_dead_centres() {
     let (a, l) = (0.1, 0.45);
     let at = |th: f64| {
