@@ -644,13 +644,8 @@ fn midspan(e: &BeamElement, elements: usize, w: impl Fn(usize) -> [f64; 3]) -> f
     e.transverse_at(xi, &q) - 0.5 * (w(0)[1] + w(elements)[1])
 }
 
-fn rot(a: f64) -> [[f64; 2]; 2] {
-    let (s, c) = a.sin_cos();
-    [[c, -s], [s, c]]
-}
-
-/// The transforms of a node (see [`NodeT`]) in a link frame `f` whose rotation `R(f.angle)` is
-/// `r` (computed once per link), with the guides' unit directions `slider_dir`.
+/// The transforms of a node (see [`NodeT`]) in a link frame `f` whose rotation is `r` (kept with
+/// the frame, once per link), with the guides' unit directions `slider_dir`.
 fn node_t(map: &NodeMap, f: &FrameState, r: [[f64; 2]; 2], slider_dir: &[[f64; 2]]) -> NodeT {
     let mut nt = NodeT {
         idx: [NONE, NONE, map.rot],
@@ -1371,7 +1366,7 @@ impl<'a> NewtonRun<'a> {
             signature: Vec::new(),
             sig_new: Vec::new(),
             frames: vec![FrameState::default(); mech.links.len()],
-            rots: vec![rot(0.0); mech.links.len()],
+            rots: vec![FrameState::default().rotation(); mech.links.len()],
             node_ts: Vec::new(),
             node_off: Vec::new(),
             link_ck: Vec::new(),
