@@ -159,7 +159,8 @@ pub(crate) fn check_spacing(
     for i in 0..time.len().saturating_sub(1) {
         let h = time[i + 1] - time[i];
         for k in 0..dim {
-            let scale = ((y(i + 1, k) - y(i, k)).abs() / h + v(i, k).abs() + v(i + 1, k).abs()) / h;
+            let dy = (y(i + 1, k) - y(i, k)).abs();
+            let scale = (dy / h + v(i, k).abs() + v(i + 1, k).abs()) / h;
             if !crate::error::in_range(scale) {
                 return Err(Error::param(
                     time_field(i + 1),
@@ -171,7 +172,7 @@ pub(crate) fn check_spacing(
                          1e75)",
                         crate::error::g6(time[i]),
                         crate::error::g6(h),
-                        crate::error::g6((y(i + 1, k) - y(i, k)).abs()),
+                        crate::error::g6(dy),
                         crate::error::g6(v(i, k).abs().max(v(i + 1, k).abs())),
                         crate::error::g6(scale),
                     ),
