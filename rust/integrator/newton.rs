@@ -944,6 +944,10 @@ pub struct NewtonRun<'a> {
     extrapolation: Extrapolation,
     a: Vec<f64>,
     r: Vec<f64>,
+    /// The element vectors of a group of lanes (`y`, `yd`, `ydd`), kept between residuals so the
+    /// residual does not zero them each time (lanes past a group's width keep what an earlier
+    /// group left: their forces are not read). Taken out by [`Self::residual_body`] and put back.
+    lane_vectors: Option<Box<[element_lanes::Lanes; 3]>>,
     contact: Vec<ContactTerms>,
     /// Tangent of the contact force of each joint at the current iterate, `(-dF/dq, -dF/dqd)`
     /// (implicit contact only: modified coupling with `iterate`).
@@ -1389,6 +1393,7 @@ impl<'a> NewtonRun<'a> {
             extrapolation: Extrapolation::new(n),
             a: vec![0.0; n],
             r: vec![0.0; n],
+            lane_vectors: Some(Box::new([[[0.0; element_lanes::MAX_LANES]; 6]; 3])),
             contact: vec![ContactTerms::default(); mech.joints.len()],
             contact_tan: vec![([[0.0; 2]; 2], [[0.0; 2]; 2]); mech.joints.len()],
             implicit_contact: matches!(
@@ -1811,17 +1816,14 @@ impl<'a> NewtonRun<'a> {
             if refactor {
                 rs.basis_ready = false;
             }
-            if refactor || rs.rows_new.cols != rs.rows.cols {
-                std::mem::swap(&mut rs.rows, &mut rs.rows_new);
+            let rebuild = refactor || rs.rows_new.cols != rs.rows.cols;
+            // the new rows replace the old by a swap, not a copy: `fill_joint_rows` wrote every
+            // entry of `rows_new` (without split joints all but `split` and `vel`, which then
+            // keep the values of the clone both started from); the old rows are overwritten at
+            // the next step
+            std::mem::swap(&mut rs.rows, &mut rs.rows_new);
+            if rebuild {
                 rs.rebuild_columns(self.split_joints);
-            } else {
-                // same columns; the axes' angle and the rate for this step
-                rs.rows.axes.clone_from_slice(&rs.rows_new.axes);
-                rs.rows.rate.clone_from_slice(&rs.rows_new.rate);
-                if self.split_joints {
-                    rs.rows.split.clone_from_slice(&rs.rows_new.split);
-                    rs.rows.vel.clone_from_slice(&rs.rows_new.vel);
-                }
             }
             if self.split_joints && rs.rows.split.contains(&true) {
                 // the velocity rows move with the rates: V Z at every step
@@ -2258,7 +2260,7 @@ impl<'a> NewtonRun<'a> {
     /// numbered from its last node ([`Self::elem_swapped`]), whose element slices hold node
     /// `e + 1`'s unknowns before node `e`'s.
     #[inline(always)]
-    fn link_element_forces<const SWAPPED: bool>(&self, li: usize, r: &mut [f64]) {
+    fn link_element_forces<const SWAPPED: bool>(&self, li: usize, r: &mut [f64], qs: &mut [element_lanes::Lanes; 3]) {
         let ld = &self.links[li];
         let mut prev = self.nt(li, 0);
         // the local state of `prev` where the last element computed it
@@ -2280,7 +2282,6 @@ impl<'a> NewtonRun<'a> {
         let wide = lanes && self.avx512;
         let w = if wide { 8 } else { 4 };
         let mut e = 0;
-        let mut qs = [[[0.0; element_lanes::MAX_LANES]; 6]; 3];
         while e < elements {
             let width = if lanes { w.min(elements - e) } else { 1 };
             // each element's vectors and its nodes (lanes past `width` keep what an earlier
@@ -2295,10 +2296,10 @@ impl<'a> NewtonRun<'a> {
                 let vs = [&self.y[..], &self.yd, &self.ydd];
                 if wide {
                     // SAFETY: `wide` is set only where the CPU has AVX-512F, AVX2 and FMA
-                    unsafe { element_lanes::avx512::gather_run(vs, s0, &mut qs) };
+                    unsafe { element_lanes::avx512::gather_run(vs, s0, qs) };
                 } else {
                     // SAFETY: `lanes` is set only where the CPU has AVX2 and FMA
-                    unsafe { element_lanes::avx2::gather_run(vs, s0, &mut qs) };
+                    unsafe { element_lanes::avx2::gather_run(vs, s0, qs) };
                 }
                 prev = self.nt(li, e + w);
                 wprev = None;
@@ -2388,13 +2389,17 @@ impl<'a> NewtonRun<'a> {
     fn residual_body(&mut self, _h: f64, t: f64) {
         let mut r = std::mem::take(&mut self.r);
         r.fill(0.0);
+        let mut qs = self
+            .lane_vectors
+            .take()
+            .expect("lane vectors put back by the last residual");
         for li in 0..self.links.len() {
             // the beam elements' forces; a link numbered from its last node (dofs::number)
             // reads its elements' slices with the nodes swapped
             if self.elem_swapped[li] {
-                self.link_element_forces::<true>(li, &mut r);
+                self.link_element_forces::<true>(li, &mut r, &mut qs);
             } else {
-                self.link_element_forces::<false>(li, &mut r);
+                self.link_element_forces::<false>(li, &mut r, &mut qs);
             }
             let ld = &self.links[li];
             let le = self.mech.links[li].element_length();
@@ -2442,6 +2447,7 @@ impl<'a> NewtonRun<'a> {
         if self.friction {
             self.apply_friction(_h, &mut r);
         }
+        self.lane_vectors = Some(qs);
         self.r = r;
     }
 
