@@ -5,6 +5,7 @@
 //! cargo run --release --example profile_newton -- crank-pin 0.1     # Simeon's slider-crank, clearance at the crank pin
 //! cargo run --release --example profile_newton -- ideal 0.1         # the same with ideal pins
 //! cargo run --release --example profile_newton -- slider-pin 0.1    # the clearance at the slider pin instead
+//! cargo run --release --example profile_newton -- four-bar 0.05     # the four-bar, clearance at the rocker pin
 //! cargo run --release --example profile_newton -- spin-newton 0.02  # spinning beam in a bearing, Newton stepper
 //! cargo run --release --example profile_newton -- spin-rate 0.02    # the same on the constant-rate stepper
 //! ```
@@ -14,14 +15,15 @@
 //! and every node's displacements at every step; `FLEXCLEAR_WARM=1`: timed on a second run, the
 //! first one's memory reused). The slider-crank
 //! runs with the scene's defaults of `flexclear.scenes.slider_crank(clearance_at="crank_pin")`
-//! (8 elements, 26 unknowns, geometric terms on, implicit contact iterated to `iter_tol` 1e-10).
+//! (8 elements, 26 unknowns, geometric terms on, implicit contact iterated to `iter_tol` 1e-10);
+//! the four-bar with those of `flexclear.scenes.four_bar(clearance_at="rocker_pin")`.
 
 use std::time::Instant;
 
 use flexclear::contact::Coupling;
 use flexclear::integrator::newton::{simulate_constant_rate, simulate_mechanism};
 use flexclear::record::{LinkChannels, RecordSpec};
-use flexclear::scenes::{spinning_beam_in_a_bearing, FlexibleSliderCrank, SliderCrankPin};
+use flexclear::scenes::{spinning_beam_in_a_bearing, FlexibleFourBar, FlexibleSliderCrank, FourBarPin, SliderCrankPin};
 use flexclear::Settings;
 
 fn main() {
@@ -68,8 +70,14 @@ fn main() {
         }
         .build()
         .expect("slider-crank scene"),
+        "four-bar" => FlexibleFourBar {
+            clearance_at: Some(FourBarPin::RockerPin),
+            ..Default::default()
+        }
+        .build()
+        .expect("four-bar scene"),
         "spin-newton" | "spin-rate" => spinning_beam_in_a_bearing(),
-        other => panic!("unknown case {other:?}: crank-pin, slider-pin, ideal, spin-newton or spin-rate"),
+        other => panic!("unknown case {other:?}: crank-pin, slider-pin, ideal, four-bar, spin-newton or spin-rate"),
     };
     // FLEXCLEAR_WARM=1: a first run untimed (the process's memory then holds the histories'
     // pages: the timed run sees no first-touch page faults)

@@ -52,6 +52,8 @@ struct FourBarPose {
     th: [f64; 3],
     w: [f64; 3],
     al: [f64; 3],
+    /// `(cos, sin)` of each angle of `th` (the closure's own `sin_cos` of it).
+    e: [Vec2; 3],
     pin_a: Kinematics,
 }
 
@@ -166,6 +168,7 @@ impl FourBar {
             th: [th2, th3, th4],
             w: [w2, w3, w4],
             al: [al2, al3, al4],
+            e: [e2, e3, e4],
             pin_a: Kinematics {
                 pos: a,
                 vel: comb([(a2 * w2, n2)]),
@@ -208,6 +211,43 @@ impl FourBar {
                 rate: p.w[2],
                 accel: p.al[2],
                 ..FrameState::default()
+            },
+        )
+    }
+
+    /// The frame of `link` at `t` (s) with its rotation matrix from the closure's own `cos` and
+    /// `sin` of the link's angle: the frame of [`Self::crank_frame`], [`Self::coupler_frame`] or
+    /// [`Self::rocker_frame`], and bitwise the matrix of its angle ([`FrameState::rotation`], the
+    /// same `sin_cos` of the same angle), with no `sin_cos` of its own.
+    pub fn frame_rotation(&self, link: FourBarLink, t: f64) -> (FrameState, [[f64; 2]; 2]) {
+        self.last.with(
+            t,
+            |t| self.solve(t),
+            |p| {
+                let k = match link {
+                    FourBarLink::Crank => 0,
+                    FourBarLink::Coupler => 1,
+                    FourBarLink::Rocker => 2,
+                };
+                let (angle, rate, accel) = (p.th[k], p.w[k], p.al[k]);
+                let f = match link {
+                    FourBarLink::Crank => FrameState {
+                        angle,
+                        rate,
+                        accel,
+                        ..FrameState::default()
+                    },
+                    FourBarLink::Coupler => FrameState::at(&p.pin_a, (angle, rate, accel)),
+                    FourBarLink::Rocker => FrameState {
+                        origin: [self.ground, 0.0],
+                        angle,
+                        rate,
+                        accel,
+                        ..FrameState::default()
+                    },
+                };
+                let [c, s] = p.e[k];
+                (f, [[c, -s], [s, c]])
             },
         )
     }
@@ -415,6 +455,12 @@ impl FrameKinematics for FourBarFrame {
             FourBarLink::Coupler => self.mechanism.coupler_frame(t),
             FourBarLink::Rocker => self.mechanism.rocker_frame(t),
         }
+    }
+
+    /// The rotation from the closure's own `(cos, sin)` of the link's angle
+    /// ([`FourBar::frame_rotation`]).
+    fn frame_rotation(&self, t: f64) -> (FrameState, [[f64; 2]; 2]) {
+        self.mechanism.frame_rotation(self.link, t)
     }
 
     /// [`FourBar::check`]: loop closure over `[0, t_end]` and table coverage.

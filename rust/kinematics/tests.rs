@@ -543,6 +543,29 @@ fn four_bars(driver: &Rotation) -> Vec<FourBar> {
 }
 
 #[test]
+fn four_bar_rotations_are_their_angles_bitwise() {
+    // the closure's own (cos, sin) of each link's angle: the frame of the same instant and
+    // bitwise the matrix of its angle, for every link, both branches, crank-rocker and drag link
+    for d in smooth_drivers() {
+        for fb in four_bars(&d) {
+            let fb = Arc::new(fb);
+            for t in times(0.0, 2.0, 201) {
+                for link in [FourBarLink::Crank, FourBarLink::Coupler, FourBarLink::Rocker] {
+                    let f = FourBarFrame {
+                        mechanism: fb.clone(),
+                        link,
+                    };
+                    let (state, r) = f.frame_rotation(t);
+                    assert_eq!(state, f.frame(t), "{t}: {link:?}");
+                    let bits = |m: [[f64; 2]; 2]| m.map(|row| row.map(f64::to_bits));
+                    assert_eq!(bits(r), bits(state.rotation()), "{t}: {link:?} {r:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn four_bar_frames_match_finite_differences() {
     let ts = times(0.0, 2.0, 81);
     for d in smooth_drivers() {
