@@ -1082,6 +1082,9 @@ class Study:
             matrix and step (e.g. differing only in clearance or bearing law) that record no
             history are stepped together on one thread, sharing one factorization (0 = default,
             8; 1 = every sample alone; at most 8). Results are bitwise the same for any value.
+            Lanes group samples on the constant stepper (links in translating frames, e.g. the
+            slider-yoke); samples on the Newton stepper (rotating links: slider-cranks,
+            four-bars, linkages) run one lane each whatever the value.
         pilot : bool
             Run the accuracy pilot of a study with ``tol`` first (:meth:`pilot`; default True).
             False leaves :attr:`StudyResult.accuracy` None, e.g. where the study's accuracy is
