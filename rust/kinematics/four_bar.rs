@@ -192,27 +192,36 @@ impl FourBar {
     /// Frame of the coupler at `t` (s): origin at the crank pin A (moving with it), angle
     /// `theta3`, x axis toward B.
     pub fn coupler_frame(&self, t: f64) -> FrameState {
-        self.last.with(
-            t,
-            |t| self.solve(t),
-            |p| FrameState::at(&p.pin_a, (p.th[1], p.w[1], p.al[1])),
-        )
+        self.last
+            .with(t, |t| self.solve(t), |p| self.pose_frame(p, FourBarLink::Coupler))
     }
 
     /// Frame of the rocker at `t` (s): origin at O4 = (ground, 0), at rest; angle `theta4`, x
     /// axis toward B.
     pub fn rocker_frame(&self, t: f64) -> FrameState {
-        self.last.with(
-            t,
-            |t| self.solve(t),
-            |p| FrameState {
-                origin: [self.ground, 0.0],
-                angle: p.th[2],
-                rate: p.w[2],
-                accel: p.al[2],
-                ..FrameState::default()
-            },
-        )
+        self.last
+            .with(t, |t| self.solve(t), |p| self.pose_frame(p, FourBarLink::Rocker))
+    }
+
+    /// The frame of `link` in the pose `p`: at rest on O2 (the crank), on the crank pin A (the
+    /// coupler) or at rest on O4 (the rocker), at the link's angle, rate and acceleration.
+    fn pose_frame(&self, p: &FourBarPose, link: FourBarLink) -> FrameState {
+        let k = pose_index(link);
+        let turn = (p.th[k], p.w[k], p.al[k]);
+        match link {
+            FourBarLink::Coupler => FrameState::at(&p.pin_a, turn),
+            FourBarLink::Crank | FourBarLink::Rocker => {
+                let at_rest = Kinematics {
+                    pos: if link == FourBarLink::Crank {
+                        [0.0; 2]
+                    } else {
+                        [self.ground, 0.0]
+                    },
+                    ..Kinematics::default()
+                };
+                FrameState::at(&at_rest, turn)
+            }
+        }
     }
 
     /// The frame of `link` at `t` (s) with its rotation matrix from the closure's own `cos` and
@@ -224,30 +233,8 @@ impl FourBar {
             t,
             |t| self.solve(t),
             |p| {
-                let k = match link {
-                    FourBarLink::Crank => 0,
-                    FourBarLink::Coupler => 1,
-                    FourBarLink::Rocker => 2,
-                };
-                let (angle, rate, accel) = (p.th[k], p.w[k], p.al[k]);
-                let f = match link {
-                    FourBarLink::Crank => FrameState {
-                        angle,
-                        rate,
-                        accel,
-                        ..FrameState::default()
-                    },
-                    FourBarLink::Coupler => FrameState::at(&p.pin_a, (angle, rate, accel)),
-                    FourBarLink::Rocker => FrameState {
-                        origin: [self.ground, 0.0],
-                        angle,
-                        rate,
-                        accel,
-                        ..FrameState::default()
-                    },
-                };
-                let [c, s] = p.e[k];
-                (f, [[c, -s], [s, c]])
+                let [c, s] = p.e[pose_index(link)];
+                (self.pose_frame(p, link), [[c, -s], [s, c]])
             },
         )
     }
@@ -425,6 +412,15 @@ fn pi_multiples_between(a: f64, b: f64) -> Vec<f64> {
         }
     }
     out
+}
+
+/// The index of `link`'s angle in a [`FourBarPose`] (`th`, `w`, `al`, `e`).
+fn pose_index(link: FourBarLink) -> usize {
+    match link {
+        FourBarLink::Crank => 0,
+        FourBarLink::Coupler => 1,
+        FourBarLink::Rocker => 2,
+    }
 }
 
 /// Which link of a [`FourBar`] a [`FourBarFrame`] follows.
