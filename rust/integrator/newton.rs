@@ -3888,7 +3888,14 @@ impl<'a> NewtonRun<'a> {
                 h.qx.push(q[0]);
                 h.qy.push(q[1]);
             }
-            if let Some(s) = self.joint_friction(j, 0.0) {
+            // (`self.friction`: whether any joint has friction; a joint without it has none to
+            // record, and the check inlined for every joint cost about 30 instructions a step)
+            let fric = if self.friction {
+                self.joint_friction(j, 0.0)
+            } else {
+                None
+            };
+            if let Some(s) = fric {
                 let h = &mut self.hist_joints[slot];
                 h.friction.push(s.eval.force);
                 h.slip.push(s.slip);
@@ -3939,7 +3946,12 @@ impl<'a> NewtonRun<'a> {
                 self.episode[j] = crate::contact::next_episode(q, qd, terms.penetration, self.episode[j]);
             }
             (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, f, q, qd);
-            if let Some(s) = self.joint_friction(j, 0.0) {
+            let fric = if self.friction {
+                self.joint_friction(j, 0.0)
+            } else {
+                None
+            };
+            if let Some(s) = fric {
                 // the work of the step on the trapezoidal rule of Newmark's average
                 // acceleration: -(F0 + F1) / 2 (v0 + v1) / 2 dt
                 let (ft, v) = (s.eval.force, s.slip);
