@@ -2472,7 +2472,19 @@ impl<'a> NewtonRun<'a> {
     /// it), the slip speed `v = (v_J - v_B) . t + R_J w_J - R_B w_B` with `t = S n`. An open
     /// joint (no compressive normal force) carries no friction and its bristle state is reset.
     /// `None` for a joint without friction.
+    #[inline(always)]
     fn joint_friction(&self, j: usize, h: f64) -> Option<JointFrictionState> {
+        // `friction`: whether any joint has friction. A mechanism without it asks nothing of its
+        // joints, in the caller (the recording and the joint tracking ask for every joint at
+        // every step: the call itself cost about 70 instructions a step)
+        if !self.friction {
+            return None;
+        }
+        self.friction_of_joint(j, h)
+    }
+
+    /// [`Self::joint_friction`] where some joint of the mechanism has friction.
+    fn friction_of_joint(&self, j: usize, h: f64) -> Option<JointFrictionState> {
         let jt = &self.mech.joints[j];
         let fr = jt.friction.as_ref()?;
         let (q, qd) = self.joint_state(j, &self.y, &self.yd);
@@ -3888,14 +3900,7 @@ impl<'a> NewtonRun<'a> {
                 h.qx.push(q[0]);
                 h.qy.push(q[1]);
             }
-            // (`self.friction`: whether any joint has friction; a joint without it has none to
-            // record, and the check inlined for every joint cost about 30 instructions a step)
-            let fric = if self.friction {
-                self.joint_friction(j, 0.0)
-            } else {
-                None
-            };
-            if let Some(s) = fric {
+            if let Some(s) = self.joint_friction(j, 0.0) {
                 let h = &mut self.hist_joints[slot];
                 h.friction.push(s.eval.force);
                 h.slip.push(s.slip);
@@ -3946,12 +3951,7 @@ impl<'a> NewtonRun<'a> {
                 self.episode[j] = crate::contact::next_episode(q, qd, terms.penetration, self.episode[j]);
             }
             (self.jpen[j], self.jforce[j], self.jq[j], self.jqd[j]) = (terms.penetration, f, q, qd);
-            let fric = if self.friction {
-                self.joint_friction(j, 0.0)
-            } else {
-                None
-            };
-            if let Some(s) = fric {
+            if let Some(s) = self.joint_friction(j, 0.0) {
                 // the work of the step on the trapezoidal rule of Newmark's average
                 // acceleration: -(F0 + F1) / 2 (v0 + v1) / 2 dt
                 let (ft, v) = (s.eval.force, s.slip);
