@@ -102,7 +102,7 @@ mod state_update;
 
 use state_update::{correct, max_abs_difference, max_of_lanes, predict};
 #[cfg(target_arch = "x86_64")]
-use state_update::{correct_avx2, max_abs_difference_avx2};
+use state_update::{correct_avx2, max_abs_difference_avx2, predict_avx2};
 
 /// Largest relative correction (of the displacement scale) that a step may stall at and still be
 /// accepted as converged at round-off: when a Newton correction below this level is no smaller
@@ -3321,10 +3321,17 @@ impl<'a> NewtonRun<'a> {
         // Contact terms from the start-of-step state (lagged kappa, force method); the implicit
         // contact's tangent is that of the first iterate (below)
         self.evaluate_contacts(true, false);
-        // State at the start (kept for a retry).
-        self.y0.copy_from_slice(&self.y);
-        self.yd0.copy_from_slice(&self.yd);
-        self.ydd0.copy_from_slice(&self.ydd);
+        // State at the start (kept for a retry): swapped out of the state, which the predictor
+        // then overwrites (the generalized-alpha predictor reads it in place: copied)
+        if nm.is_alpha() {
+            self.y0.copy_from_slice(&self.y);
+            self.yd0.copy_from_slice(&self.yd);
+            self.ydd0.copy_from_slice(&self.ydd);
+        } else {
+            std::mem::swap(&mut self.y0, &mut self.y);
+            std::mem::swap(&mut self.yd0, &mut self.yd);
+            std::mem::swap(&mut self.ydd0, &mut self.ydd);
+        }
         // the step's end: the grid instant the run loop asked for where this step ends there up
         // to rounding (its frames are then the record's and the slider tracking's), else t + h
         let t_end = match self.step_end.take() {
@@ -3337,14 +3344,21 @@ impl<'a> NewtonRun<'a> {
         } else {
             // the first iterate: `a_n`, or its extrapolation along the last step where that
             // step ended here and nothing has changed the accelerations since
-            let w = self.extrapolation.start(t, h, &self.ydd);
+            let w = self.extrapolation.start(t, h, &self.ydd0);
             // (`w = 0`: `a = a0` exactly)
-            predict(
-                [&mut self.y[..n], &mut self.yd[..n], &mut self.ydd[..n]],
-                [&mut self.y_pred[..n], &mut self.v_pred[..n], &mut self.a[..n]],
-                &self.extrapolation.a0[..n],
-                [h, nm.beta, nm.gamma, bh2, gh, w],
-            );
+            let start = [&self.y0[..n], &self.yd0[..n], &self.ydd0[..n]];
+            let state = [&mut self.y[..n], &mut self.yd[..n], &mut self.ydd[..n]];
+            let pred = [&mut self.y_pred[..n], &mut self.v_pred[..n], &mut self.a[..n]];
+            let (a_prev, c) = (&self.extrapolation.a0[..n], [h, nm.beta, nm.gamma, bh2, gh, w]);
+            #[cfg(target_arch = "x86_64")]
+            if self.avx2 {
+                // SAFETY: `avx2` is set only where the CPU has AVX2 and FMA
+                unsafe { predict_avx2(start, state, pred, a_prev, c) }
+            } else {
+                predict(start, state, pred, a_prev, c)
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            predict(start, state, pred, a_prev, c);
         }
         let iterate_contact = self.implicit_contact;
         // friction is evaluated at every iterate (its force in the residual, its slip-speed
