@@ -285,6 +285,14 @@ pub(super) unsafe fn max_abs_difference_avx2(a: &[f64], b: &[f64]) -> f64 {
 mod tests {
     use super::*;
 
+    /// Numbers uniform in [-0.5, 0.5) from a linear congruential generator seeded with `seed`.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        }
+    }
+
     /// The AVX2 correction (whole chunks and the masked tail) gives the scalar form's state
     /// and maxima bit for bit, for every remainder of the unknowns' count modulo 4.
     #[test]
@@ -293,11 +301,7 @@ mod tests {
         if !crate::linalg::avx2_fma_available() {
             return;
         }
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = uniform(7);
         for n in 1..=13 {
             let mut vs: Vec<Vec<f64>> = (0..7).map(|_| (0..n).map(|_| next()).collect()).collect();
             if n == 6 {
@@ -318,6 +322,7 @@ mod tests {
             assert_eq!(m_avx2.1.to_bits(), m_scalar.1.to_bits(), "n {n}");
         }
     }
+
     /// The AVX2 predictor (whole chunks and the scalar tail) gives the scalar form's predictors,
     /// first iterate and state bit for bit, with and without the extrapolation, for every
     /// remainder of the unknowns' count modulo 4 and the Newmark constants of a run.
@@ -327,11 +332,7 @@ mod tests {
         if !crate::linalg::avx2_fma_available() {
             return;
         }
-        let mut seed = 11u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = uniform(11);
         for n in 1..=13 {
             for (h, beta, gamma, w) in [
                 (1e-5, 0.25, 0.5, 0.0),
