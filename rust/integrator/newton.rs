@@ -2363,8 +2363,32 @@ impl<'a> NewtonRun<'a> {
                 }
                 std::array::from_fn(|j| std::array::from_fn(|l| if l == 0 { f[j] } else { 0.0 }))
             };
-            // added element by element, in order
-            for (l, &(p, nx)) in ends.iter().enumerate().take(width) {
+            // the leading elements on consecutive unknowns (node after node): each node's
+            // entries loaded and stored once, the forces of the element before it and then of
+            // the one after it added in turn (the element-by-element order, entry by entry), so
+            // that no load of an entry waits on the overlapping store of the element before
+            let mut plain = 0;
+            let s0 = first[e];
+            if !SWAPPED && s0 != NONE {
+                plain = 1;
+                while plain < width && first[e + plain] == s0 + 3 * plain {
+                    plain += 1;
+                }
+                let rr = &mut r[s0..s0 + 3 * plain + 3];
+                for i in 0..3 {
+                    rr[i] += f[i][0];
+                }
+                for k in 1..plain {
+                    for i in 0..3 {
+                        rr[3 * k + i] = rr[3 * k + i] + f[3 + i][k - 1] + f[i][k];
+                    }
+                }
+                for i in 0..3 {
+                    rr[3 * plain + i] += f[3 + i][plain - 1];
+                }
+            }
+            // the rest added element by element, in order
+            for (l, &(p, nx)) in ends.iter().enumerate().take(width).skip(plain) {
                 let s0 = first[e + l];
                 if s0 != NONE {
                     if SWAPPED {
