@@ -85,7 +85,6 @@ pub(super) fn parse_solver(py: Python<'_>, solver: &str) -> PyResult<SolverMode>
     }
 }
 
-/// The compiled core of flexclear.
 /// Sets up, at import, what the numpy crate otherwise sets up on the first array a run hands
 /// over: NumPy's C API table (imported from `numpy.core.multiarray`, with a check of NumPy's
 /// version) and the type of the object that owns a `Vec`'s memory inside an array. Done there, it
@@ -96,6 +95,7 @@ fn init_numpy(py: Python<'_>) {
     let _ = Vec::<f64>::new().into_pyarray(py);
 }
 
+/// The compiled core of flexclear.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<motion::PyMotion>()?;

@@ -114,16 +114,14 @@ pub(super) unsafe fn predict_avx2(
         st(yddv, a);
         i += 4;
     }
-    for i in whole..n {
-        let (y0, v0, a0) = (y0v[i], v0v[i], a0v[i]);
-        yp[i] = y0 + h * v0 + c1 * a0;
-        vp[i] = v0 + c2 * a0;
-        let a = if extrapolate { a0 + w * (a0 - a_prev[i]) } else { a0 };
-        av[i] = a;
-        yv[i] = yp[i] + bh2 * a;
-        ydv[i] = vp[i] + gh * a;
-        yddv[i] = a;
-    }
+    // the last `n % 4` unknowns by the scalar form
+    predict(
+        [&y0v[whole..n], &v0v[whole..n], &a0v[whole..n]],
+        [&mut yv[whole..n], &mut ydv[whole..n], &mut yddv[whole..n]],
+        [&mut yp[whole..n], &mut vp[whole..n], &mut av[whole..n]],
+        &a_prev[whole..n],
+        c,
+    );
 }
 
 /// A Newton correction `dx` (the accelerations' `-dx`) into `[a, ydd, y, yd]` from the predictors
