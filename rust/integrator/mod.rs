@@ -2,17 +2,19 @@
 //! (Newmark on a contact-free effective matrix factorized once, contact by Woodbury, lockstep
 //! lanes) and [`newton`] (Newton iterations on the moving-frame equations, the band LU
 //! refactorized when the Jacobian changes); `adaptive` holds the parts of adaptive steps both
-//! share; [`events`] locates contact entry and exit for both,
-//! and one divergence rule serves both.
+//! share; [`events`] locates contact entry and exit for both, [`newmark`] holds the schemes both
+//! step with, and one divergence rule serves both.
 
 pub(crate) mod adaptive;
 pub mod constant;
 pub mod divergence;
 pub mod events;
+pub mod newmark;
 pub mod newton;
 pub(crate) mod run_loop;
 
-pub use constant::{Newmark, NewmarkRun};
+pub use constant::NewmarkRun;
+pub use newmark::Newmark;
 
 /// Instants less than this fraction of a step apart are taken as the same instant: a grid's
 /// `k dt` and the end `t + h` of the step that reached it differ by rounding (a few ulps of `t`,
