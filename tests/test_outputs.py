@@ -610,7 +610,7 @@ def test_study_slider_outputs_against_the_ideal_mechanism():
     # an ideal joint has zero deviation: a clearance joint that never closes follows the ideal
     # mechanism's path only as far as the journal floats, so compare the ideal with itself
     same = scenes.slider_crank().simulate(0.004, 1e-5, record=Record(histories=False, sliders=True))
-    from flexclear.study import _slider_outputs
+    from flexclear.study.runner import _slider_outputs
 
     zero = _slider_outputs(same, same, "slider", 0.0)
     assert all(
@@ -641,7 +641,7 @@ def test_study_holds_an_ideal_run_only_while_samples_of_its_structure_wait(monke
     # histories: O(steps)); the batch drops each once its samples have it, so that the runs held
     # stay about one per thread instead of growing with the samples (256 samples of the
     # reference study: 409 -> 174 MiB peak RSS)
-    from flexclear import study as st
+    from flexclear.study import runner as st
 
     held = []
     get = st._IdealRuns.get
@@ -723,7 +723,7 @@ def test_a_run_without_histories_keeps_o_outputs_whatever_its_length():
     assert kept.time.size == kept.slider("slider").position.size == 201
     # a study sample with slider outputs: the same stored values over T and 4T (its deviations
     # online against the ideal run)
-    from flexclear import study as st
+    from flexclear.study import runner as st
 
     runs = []
     for t_end in (0.002, 0.008):

@@ -25,6 +25,7 @@ import pandas as pd
 import pytest
 from flexclear import study as study_mod
 from flexclear.study import LogNormal, Study, Uniform, load, open_store
+from flexclear.study import store as store_mod
 
 PYTHON_DIR = str(Path(flexclear.__file__).resolve().parent.parent)
 
@@ -58,7 +59,8 @@ HOLD_LOCK = textwrap.dedent(
     """
     import sys, time
     from pathlib import Path
-    from flexclear.study import _Store, load
+    from flexclear.study import load
+    from flexclear.study.store import _Store
     store = _Store(Path(sys.argv[1]), load(sys.argv[2]))
     print("locked", flush=True)
     time.sleep(60)
@@ -95,7 +97,7 @@ def test_item2_two_writers_second_is_refused_and_a_dead_writers_lock_is_taken_ov
     assert len(res.frame) == 12 and res.frame.index.is_unique
     assert not (out / study_mod.LOCK_FILE).exists()  # released at the end
     # a process killed right after start (a pid that is gone) leaves a stale lock too
-    (out / study_mod.LOCK_FILE).write_text(json.dumps({"pid": 2**22 + 12345, "host": study_mod._host()}))
+    (out / study_mod.LOCK_FILE).write_text(json.dumps({"pid": 2**22 + 12345, "host": store_mod._host()}))
     assert len(s.run(store=out, progress=False).frame) == 12
 
 
@@ -110,7 +112,7 @@ def test_item2_part_files_are_named_by_their_samples_and_reads_deduplicate(tmp_p
     ]
     # the same samples written again go to the same name: no duplicate
     frame = pd.read_parquet(parts[0])
-    writer = study_mod._Store(tmp_path, s)
+    writer = store_mod._Store(tmp_path, s)
     writer.write(frame)
     writer.close()
     assert len(list(tmp_path.glob("part-*.parquet"))) == 3
@@ -134,7 +136,8 @@ WRITE_SLOWLY = textwrap.dedent(
     import io, sys, time
     import pandas as pd
     from flexclear import study as study_mod
-    study_mod.FLUSH_SECONDS = 0.0  # a part after every call of the engine (one sample, threads=1)
+    from flexclear.study import store as store_mod
+    store_mod.FLUSH_SECONDS = 0.0  # a part after every call of the engine (one sample, threads=1)
     to_parquet = pd.DataFrame.to_parquet
 
     def slowly(frame, path, *a, **k):  # every file half written for 20 ms
@@ -189,7 +192,7 @@ def test_item2_parts_reach_the_disk_before_their_name(tmp_path, monkeypatch):
     that makes it visible, and the folder after it: a crash of the machine cannot leave a named
     but empty part, which every later read would refuse."""
     events = []
-    real_fsync, real_replace = study_mod._fsync, os.replace
+    real_fsync, real_replace = store_mod._fsync, os.replace
 
     def fsync(p):
         events.append(("fsync", Path(p).name))
@@ -199,8 +202,8 @@ def test_item2_parts_reach_the_disk_before_their_name(tmp_path, monkeypatch):
         events.append(("rename", Path(a).name, Path(b).name))
         real_replace(a, b)
 
-    monkeypatch.setattr(study_mod, "_fsync", fsync)
-    monkeypatch.setattr(study_mod.os, "replace", replace)
+    monkeypatch.setattr(store_mod, "_fsync", fsync)
+    monkeypatch.setattr(store_mod.os, "replace", replace)
     small_study(samples=2).run(store=tmp_path, progress=False, chunk_size=2)
     renames = [e for e in events if e[0] == "rename"]
     assert {e[2] for e in renames} >= {"study.json", "inputs.parquet"}
@@ -218,7 +221,7 @@ def test_item2_temporary_files_of_a_live_writer_are_kept(tmp_path):
     live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
-    host = study_mod._host()
+    host = store_mod._host()
     try:
         mine = tmp_path / f"part-000000000-000000001-x.parquet.{live.pid}@{host}.tmp"
         gone = tmp_path / f"part-000000000-000000001-y.parquet.{dead.pid}@{host}.tmp"
@@ -410,7 +413,7 @@ def test_item3_a_failed_write_keeps_the_computed_rows_in_the_exception(tmp_path,
 def test_item3_parts_are_written_as_samples_finish_within_a_chunk(tmp_path, monkeypatch):
     """With one chunk of every sample, finished samples still reach the store every
     FLUSH_SECONDS (here 0: after every call of the engine), not only at the chunk's end."""
-    monkeypatch.setattr(study_mod, "FLUSH_SECONDS", 0.0)
+    monkeypatch.setattr(store_mod, "FLUSH_SECONDS", 0.0)
     s = small_study()
     stored_while_running = []
 
@@ -429,7 +432,7 @@ def test_item3_on_dask_parts_are_written_as_samples_finish_within_a_chunk(tmp_pa
     about FLUSH_SECONDS (here 0: one sample per task) and finished samples reach the store as
     their tasks end; results bitwise those of the local run."""
     distributed = pytest.importorskip("distributed")
-    monkeypatch.setattr(study_mod, "FLUSH_SECONDS", 0.0)
+    monkeypatch.setattr(store_mod, "FLUSH_SECONDS", 0.0)
     s = small_study()
     stored_while_running = []
 

@@ -214,7 +214,7 @@ def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, na
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..study import _label, _panel_grid, _sci_ticks
+    from ..study.definition import _label, _panel_grid, _sci_ticks
 
     folder = _folder(folder)
     stats_ = [c[: -len("_diff")] for c in table.columns if c.endswith("_diff")]
@@ -449,7 +449,7 @@ class Convergence:
         import matplotlib.pyplot as plt
         from matplotlib.ticker import NullFormatter
 
-        from ..study import _panel_grid
+        from ..study.definition import _panel_grid
 
         outputs = [c[: -len("_verdict")] for c in self.table.columns if c.endswith("_verdict")]
         folder = _folder(folder)

@@ -49,7 +49,7 @@ def _rerun(study, row, joint: str):
     """The sample of ``row`` (its stored inputs and the step it ended with) run again with the
     journal position of ``joint`` recorded."""
     from ..result import Record
-    from ..study import _RUN_OPTION_ALIASES
+    from ..study.definition import _RUN_OPTION_ALIASES
 
     params = {k: row[k] for k in study.vary}
     model = study._scene_fn(**study._scene_kwargs(params))
