@@ -235,6 +235,40 @@ def test_cli_writes_results_and_report(tmp_path):
     assert len(open_store(out).frame) == 8
 
 
+def test_plots_carry_the_power_of_ten_in_the_label_not_at_the_axis_end():
+    """A power-of-ten factor (drawn at the axis's end, where a long label ran into it) goes into
+    the label's unit; axes without one keep their labels."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from flexclear.study.definition import _scale_into_labels, _sci_ticks
+
+    fig, (a, b, c) = plt.subplots(1, 3)
+    a.plot([2e5, 9e5], [1.0, 2.0])
+    a.set_xlabel("slider.acceleration_deviation_max [m/s^2]")
+    b.plot([2e-5, 9e-5], [3e-4, 7e-4])
+    b.set_xlabel("shift")
+    b.set_ylabel("crank_pin.max_penetration [m]")
+    c.plot([1.0, 3.0], [10.0, 40.0])
+    c.set_xlabel("crank_pin.impacts [count]")
+    for ax in (a, b, c):
+        _sci_ticks(ax, "both")
+    _scale_into_labels(fig)
+    minus = "\u2212" if matplotlib.rcParams["axes.unicode_minus"] else "-"
+    assert a.get_xlabel() == "slider.acceleration_deviation_max [1e5 m/s^2]"
+    assert b.get_xlabel() == f"shift [1e{minus}5]"
+    assert b.get_ylabel() == f"crank_pin.max_penetration [1e{minus}4 m]"
+    assert c.get_xlabel() == "crank_pin.impacts [count]" and c.get_ylabel() == ""
+    fig.canvas.draw()
+    assert not any(
+        axis.get_offset_text().get_visible() and axis.get_offset_text().get_text()
+        for ax in (a, b, c)
+        for axis in (ax.xaxis, ax.yaxis)
+    )
+    plt.close(fig)
+
+
 def test_store_refuses_a_different_study(tmp_path):
     small_study(samples=2, t_end=0.005).run(store=tmp_path, progress=False)
     with pytest.raises(flexclear.InvalidParameterError, match="different study"):

@@ -214,7 +214,7 @@ def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, na
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..study.definition import _label, _panel_grid, _sci_ticks
+    from ..study.definition import _label, _panel_grid, _scale_into_labels, _sci_ticks
 
     folder = _folder(folder)
     stats_ = [c[: -len("_diff")] for c in table.columns if c.endswith("_diff")]
@@ -280,6 +280,7 @@ def plot(table, a, b, folder, *, confidence: float = 0.95, rtol: float = 0.0, na
         ax.set_ylabel("fraction of samples <= x")
         _sci_ticks(ax, "x")
         ax.legend(fontsize=8)
+    _scale_into_labels(fig)
     fig.tight_layout()
     paths.append(folder / "compare_ecdf.png")
     fig.savefig(paths[-1], dpi=110)

@@ -168,6 +168,27 @@ def _sci_ticks(ax, axis: str) -> None:
     ax.ticklabel_format(axis=axis, style="sci", scilimits=(-3, 5), useOffset=False)
 
 
+def _scale_into_labels(fig) -> None:
+    """Moves each axis's power-of-ten factor (:func:`_sci_ticks`' ``1e5`` at the axis's end,
+    which a long label runs into) into its label's unit: ``name [m/s^2]`` over ``1e5`` becomes
+    ``name [1e5 m/s^2]``, a label without a unit gets ``[1e5]``. Draws the figure once to know
+    the factors; call it after the data and labels are set, before the layout."""
+    fig.canvas.draw()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            text = axis.get_offset_text()
+            factor = text.get_text()
+            if not factor or not text.get_visible():
+                continue
+            label = axis.get_label_text()
+            if label.endswith("]") and " [" in label:
+                name, _, unit = label[:-1].rpartition(" [")
+                axis.set_label_text(f"{name} [{factor} {unit}]")
+            else:
+                axis.set_label_text(f"{label} [{factor}]")
+            text.set_visible(False)
+
+
 def _panel_grid(count: int, ncol: int, size: tuple[float, float]):
     """A figure of ``count`` panels in rows of up to ``ncol``, each ``size`` (width, height)
     inches: the figure, its panels in reading order and its number of rows; the grid's places

@@ -14,7 +14,7 @@ from .._numbers import is_real
 from ..errors import (
     InvalidParameterError,
 )
-from .definition import RESOLVED_STEPS_PER_CONTACT, Study, _label, _panel_grid, _sci_ticks
+from .definition import RESOLVED_STEPS_PER_CONTACT, Study, _label, _panel_grid, _scale_into_labels, _sci_ticks
 from .runner import _concat
 from .store import _Store
 from .study_file import load
@@ -191,6 +191,7 @@ class StudyResult:
             ax.set_ylabel("samples")
             _sci_ticks(ax, "x")
         fig.suptitle(f"{self.study.build}: {len(ok)} samples ({len(self.failed)} failed)")
+        _scale_into_labels(fig)
         # room above the top row for the title
         fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / (3.2 * nrow)))
         paths.append(folder / "histograms.png")
@@ -206,6 +207,7 @@ class StudyResult:
                 ax.set_xlabel(_label(k))
                 ax.set_ylabel(_label(o))
                 _sci_ticks(ax, "both")
+            _scale_into_labels(fig)
             fig.tight_layout()
             paths.append(folder / f"outputs_vs_{k}.png")
             fig.savefig(paths[-1], dpi=110)
