@@ -3,7 +3,7 @@
 //! Banerjee (1987), the axially loaded pinned-pinned beam, the energy balance of a driven rotating
 //! beam, rigid-kinematics limits of multi-link mechanisms, term selection and error reporting.
 //!
-//! Every test states its tolerance and why. Run with `cargo test --profile dev-opt --test newton`.
+//! Every test states its tolerance and why. Run with `cargo test --profile dev-opt --test integration newton::`.
 
 use std::sync::Arc;
 
@@ -19,8 +19,7 @@ use flexclear::RunOutput;
 use flexclear::Settings;
 use nalgebra::{DMatrix, DVector};
 
-mod common;
-use common::{fixed_frame, hub, link};
+use crate::common::{fixed_frame, hub, link};
 
 // ------------------------------------------------------------------------------------------------
 // Helpers

@@ -4,7 +4,7 @@
 //! hanging pendulum (`omega^2 = m g c / J0`), flexible links of growing stiffness converging to
 //! the rigid response, the energy of a free pendulum, and the plan's routing.
 //!
-//! Run with `cargo test --release --test rigid`.
+//! Run with `cargo test --release --test integration rigid::`.
 
 use std::sync::Arc;
 
@@ -15,8 +15,7 @@ use flexclear::plan::{Plan, StepperKind};
 use flexclear::record::LinkChannels;
 use flexclear::Settings;
 
-mod common;
-use common::{hub, link};
+use crate::common::{hub, link};
 
 fn rigid(length: f64, body: RigidBody, frame: Arc<dyn FrameKinematics>) -> Link {
     let mut l = link("bar", length, 1, 1.0, 1.0, 1.0, 1.0, frame);

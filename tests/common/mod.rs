@@ -1,5 +1,5 @@
-//! Helpers shared by the integration tests (each test crate includes this module with
-//! `mod common;` and uses what it needs).
+//! Helpers shared by the integration tests (a module of `tests/integration.rs`, the one test
+//! binary; each test file uses what it needs).
 #![allow(dead_code)]
 
 use std::sync::Arc;
