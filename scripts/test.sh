@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds flexclear once (release, the abi3 wheel in target/dist, installed into .venv) and runs
-# every check: rustfmt, clippy, the Rust tests, ruff, stubtest (the stubs
+# every check: rustfmt, clippy, rustdoc (no broken links), the Rust tests, ruff, stubtest (the stubs
 # python/flexclear/_core.pyi against the compiled module), pytest against the installed wheel,
 # the speed gate (benches/gate.py --quick: this tree against benches/gate_base) and a fresh-venv
 # check of the wheel (scripts/fresh_venv_check.sh: README examples and CLI quick paths). Prints
@@ -39,12 +39,18 @@ for mod in (flexclear, flexclear._core):
 print(f"flexclear from {Path(flexclear.__file__).parent}")
 PY
 }
+cargo_doc() {
+  # the API docs and the developers' (private items too) without a broken or private link
+  RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -q --all-features &&
+    RUSTDOCFLAGS="-D warnings" cargo doc --no-deps -q --all-features --document-private-items
+}
 ruff_all() { ruff check python tests benches scripts && ruff format --check python tests benches scripts; }
 
 step "setup (venv, wheel)" bash scripts/setup.sh
 . .venv/bin/activate
 step "cargo fmt --check"   cargo fmt --check
 step "cargo clippy"        cargo clippy --all-targets --all-features -q -- -D warnings
+step "cargo doc"           cargo_doc
 step "cargo test"          cargo test --release -q
 step "ruff"                ruff_all
 step "stubtest"            env MYPY_CACHE_DIR=target/mypy_cache python -m mypy.stubtest flexclear._core \

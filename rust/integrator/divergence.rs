@@ -1,6 +1,6 @@
 //! The one divergence rule of every stepper.
 //!
-//! Every [`CHECK_STRIDE`] steps (of an adaptive run: accepted steps, [`AcceptedSteps`]) and at
+//! Every [`CHECK_STRIDE`] steps (of an adaptive run: accepted steps, `AcceptedSteps`) and at
 //! the last step, the state is checked: every unknown's displacement and velocity must be
 //! finite, and every translational unknown (a displacement in metres: nodal `u, v` in a link
 //! frame, global `x, y` of a pinned node, a slider's travel) must stay within the divergence

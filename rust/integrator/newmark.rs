@@ -102,7 +102,7 @@ impl Newmark {
     }
 
     /// The `gamma` of a step's first-order velocity error, `|gamma - 1/2| h |a_(n+1) - a_n|`
-    /// ([`crate::integrator::adaptive::ForceErrors`]): Newmark's own, and 1/2 for the alpha
+    /// (`crate::integrator::adaptive::ForceErrors`): Newmark's own, and 1/2 for the alpha
     /// schemes, which are of second order with `gamma > 1/2` (their first-order terms cancel
     /// over steps).
     #[inline]

@@ -152,7 +152,7 @@ pub const CONTRACTION_STOP: f64 = 0.5;
 /// (the last correction over the one before) and this fraction of the carried one, so it falls
 /// by at most this factor a measurement. A step stops at any iteration whose correction times
 /// the carried rate (the error it leaves) is within the Newton tolerance, when that rate is
-/// below [`CONTRACTION_STOP`] and [`NewtonRun::carried_rate_margin`] allows it: every joint's
+/// below [`CONTRACTION_STOP`] and `NewtonRun::carried_rate_margin` allows it: every joint's
 /// contact status at the corrected iterate is the one its terms were evaluated at, and in a
 /// fixed-step run with a joint in contact the error left must be within
 /// [`CONTACT_RATE_MARGIN`] of the tolerance. Not for friction or continuous contact. Without
@@ -732,7 +732,7 @@ fn node_t(map: &NodeMap, f: &FrameState, r: [[f64; 2]; 2], slider_dir: &[[f64; 2
 type EndpointJac = [(usize, [f64; 2], [f64; 2]); 3];
 
 /// Contact-free factors of other step sizes that the Newton stepper keeps besides the one in use
-/// (adaptive steps and event cuts change the step; [`NewtonRun::rate_prepare`]): a step of a size
+/// (adaptive steps and event cuts change the step; `NewtonRun::rate_prepare`): a step of a size
 /// that comes back within the Jacobian age limit
 /// ([`NewtonSettings::jacobian_age`](crate::run::NewtonSettings::jacobian_age), in steps of any
 /// size) solves on its factor as a step of the same size does. Over one crank turn of the
@@ -816,7 +816,7 @@ pub struct NewtonRun<'a> {
     /// [`Self::woodbury_fits`], fixed for the run.
     woodbury_fits: bool,
     /// Whether some clearance joint has its two sides' unknowns on different frames (a link's
-    /// and another link's or fixed axes): only such a joint can be [`JointRows::split`].
+    /// and another link's or fixed axes): only such a joint can be [`JointRows::split`](rate::JointRows::split).
     split_joints: bool,
     /// Contact status switches of each joint within the current step's iteration (implicit
     /// contact: [`evaluation::iterated_terms`]).
@@ -1434,7 +1434,7 @@ impl<'a> NewtonRun<'a> {
     /// link whose node 0 has fixed axes (part of its unknowns turns with the link, part not).
     /// Each side's unknowns then turn at one rate: where both sides turn at the same rate the
     /// velocity's position dependence is `rate S P` and the contact block is `P^T G P`; where
-    /// they turn at different rates ([`JointRows::split`]) it is `P^T (G P + H V)`
+    /// they turn at different rates ([`JointRows::split`](rate::JointRows::split)) it is `P^T (G P + H V)`
     /// ([`Woodbury::solve_with`]).
     fn woodbury_fits(&self) -> bool {
         let mixed = |e: &Endpoint| match e {

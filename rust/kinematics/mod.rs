@@ -189,9 +189,9 @@ pub enum Rotation {
 /// Samples of a tabulated angle: times (s), angles (rad), rates (rad/s) and accelerations
 /// (rad/s^2). Between two samples the angle is the quintic Hermite polynomial through their
 /// angles, rates and accelerations, and the rate and acceleration are its derivatives
-/// ([`crate::model::motion::quintic_hermite`]: consistent, twice continuously differentiable,
+/// (`crate::model::motion::quintic_hermite`: consistent, twice continuously differentiable,
 /// `O(h^6)`); a table built without accelerations takes the cubic through angles and rates
-/// ([`crate::model::motion::cubic_hermite`]); outside the table the end sample's values are
+/// (`crate::model::motion::cubic_hermite`); outside the table the end sample's values are
 /// held. Build it with [`AngleTable::new`] or [`Rotation::tabulated`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AngleTable {
@@ -218,7 +218,7 @@ impl AngleTable {
     /// Fails with [`Error::InvalidParameter`] for fewer than 2 samples, non-finite or
     /// non-increasing times, arrays of different lengths, non-finite values or values beyond
     /// 1e75, or samples closer than their rates allow
-    /// ([`check_spacing`](crate::model::motion::check_spacing), naming `name.time[i]`).
+    /// (`check_spacing`, naming `name.time[i]`).
     pub fn new(
         name: &str,
         time: Vec<f64>,

@@ -345,7 +345,7 @@ impl Cholesky {
     /// analyzed (only its upper triangle is read). Fails with [`Error::Singular`] naming `what`
     /// (and the first pivot that is not positive and finite) if the matrix is not positive
     /// definite. A factor within half-bandwidth [`BAND`] (chains of beam elements) is computed by
-    /// the band's own LDL^T ([`Self::factorize_band`]: about a tenth of faer's simplicial
+    /// the band's own LDL^T (`Self::factorize_band`: about a tenth of faer's simplicial
     /// factorization's work at these sizes, n = 39 and b = 5 on the slider-yoke, where adaptive
     /// steps refactorize for every new step length), else by faer.
     pub fn factorize(&mut self, a: &[f64], what: &str) -> Result<()> {

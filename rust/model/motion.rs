@@ -35,8 +35,8 @@ pub enum Motion {
     /// Tabulated motion: positions, velocities and accelerations at the samples (the last two
     /// given by the caller or derived by central differences at construction), interpolated by
     /// the quintic Hermite polynomial of each interval when the accelerations were given
-    /// ([`quintic_hermite`]), else by the cubic through positions and velocities
-    /// ([`cubic_hermite`]).
+    /// (`quintic_hermite`), else by the cubic through positions and velocities
+    /// (`cubic_hermite`).
     Tabulated(Table),
 }
 
@@ -206,11 +206,11 @@ pub(crate) fn gradient<const D: usize>(t: &[f64], y: &[[f64; D]]) -> Vec<[f64; D
 impl Table {
     /// Builds a table from strictly increasing times (s) and positions (m); velocity (m/s) and
     /// acceleration (m/s^2) are derived by central differences when not given. With the
-    /// accelerations given it is interpolated by [`quintic_hermite`], else by [`cubic_hermite`].
+    /// accelerations given it is interpolated by `quintic_hermite`, else by `cubic_hermite`.
     ///
     /// Fails with [`Error::InvalidParameter`] if fewer than 2 samples, non-increasing or
     /// non-finite times, arrays of different lengths, values beyond 1e75, or samples closer than
-    /// their rates allow ([`check_spacing`], naming `name.time[i]`).
+    /// their rates allow (`check_spacing`, naming `name.time[i]`).
     pub fn new(
         name: &str,
         time: Vec<f64>,
@@ -365,7 +365,7 @@ pub(crate) fn segment(time: &[f64], t: f64) -> (usize, f64) {
     (i, ((t - time[i]) / (time[i + 1] - time[i])).clamp(0.0, 1.0))
 }
 
-/// Every sample of `a` finite and at most [`MAX_MAGNITUDE`] in magnitude (SI), else an error
+/// Every sample of `a` finite and at most [`MAX_MAGNITUDE`](crate::error::MAX_MAGNITUDE) in magnitude (SI), else an error
 /// naming `name.label[i]`.
 fn check_samples(name: &str, label: &str, a: &[[f64; 2]]) -> Result<()> {
     match a.iter().position(|p| !(in_range(p[0]) && in_range(p[1]))) {

@@ -1,5 +1,5 @@
 //! The continuous-contact (massless-link) model of a clearance joint on the Newton stepper
-//! (`method="continuous"`, [`Coupling::Continuous`]): Earles & Wu (1977), "A determination of
+//! (`method="continuous"`, [`Coupling::Continuous`](crate::contact::Coupling::Continuous)): Earles & Wu (1977), "A determination of
 //! contact-loss at a bearing of a linkage mechanism", ASME J. Eng. Ind. 99(2):375, and Haines
 //! (1980). The journal is kept on the bearing circle, the contact direction is an unknown and the
 //! normal force is a result; the model holds while that force is compressive.
