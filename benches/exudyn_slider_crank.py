@@ -42,6 +42,8 @@ import statistics
 import subprocess
 import sys
 
+import bench_host  # benches/bench_host.py: which machine a run was on
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -75,7 +77,7 @@ def worker_flexclear(case: dict) -> dict:
     keys = ("steps", "iterations", "factorizations", "halved_substeps", "unconverged_steps", "stepper")
     x, y = (np.asarray(a) for a in res.link("rod").global_positions())
     out = {
-        "tool": f"flexclear {getattr(flexclear, '__version__', '?')}",
+        "tool": f"flexclear {getattr(flexclear, '__version__', '?')} ({flexclear._core.SIMD_PATHS} paths)",
         "seconds": res.wall_time,
         "stats": {k: res.stats.get(k) for k in keys},
         "steps": res.stats["steps"],
@@ -226,6 +228,7 @@ def main(argv=None) -> int:
         f"{args.repeats} repeats, comparison over [0, {case['window']:g}] s"
         + (", each timed run the second in its process (--warm)" if args.warm else "")
     )
+    print(bench_host.describe())
     if args.no_geometric:
         print("!!! flexclear with geometric=False (not the scene's default: these times do not count)")
     tools = {

@@ -24,6 +24,8 @@ import statistics
 import subprocess
 import sys
 
+import bench_host  # benches/bench_host.py: which machine a run was on
+
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import exudyn_scene  # selects exudynCPPfast before exudyn is imported
@@ -110,6 +112,7 @@ def main(argv=None) -> int:
         )
     )
     print(f"Exudyn: {exudyn_scene.exudyn_info()}")
+    print(bench_host.describe())
 
     tools = {"exudyn": run_exudyn}
     if flexclear_available():

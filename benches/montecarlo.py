@@ -26,6 +26,8 @@ import subprocess
 import sys
 import time
 
+import bench_host  # benches/bench_host.py: which machine a run was on
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 #: The reference studies (``--study``): the Table 1 slider-yoke (the default) and Simeon's
 #: slider-crank with a crank-pin clearance (issue 14 item 5; its samples run on the Newton
@@ -222,6 +224,7 @@ def main(argv=None) -> int:
     study_file = STUDIES[args.study]
     crank = args.study == "slider-crank"
     print(f"flexclear {flexclear.__version__}; reference study {study_file}")
+    print(bench_host.describe())
     steps = "T = 0.1 s, dt = 1e-5 s (1e4 steps each)" if crank else "T = 0.5 s, dt = 1e-5 s (5e4 steps each)"
     print(f"== throughput: {args.samples} samples, {steps}")
     print(f"load average before: {os.getloadavg()}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import platform
 import random
 import signal
 import subprocess
@@ -721,6 +722,31 @@ def test_item7_numbers_in_error_messages_are_short():
     assert len(str(exc.value)) < 800 and "1e+298 records" in str(exc.value)
 
 
+def _cpu_flags() -> set:
+    """The first processor's flags in /proc/cpuinfo (Linux), read independently of the core."""
+    with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+        for line in f:
+            if line.startswith("flags"):
+                return set(line.partition(":")[2].split())
+    return set()
+
+
+@pytest.mark.skipif(
+    not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")),
+    reason="/proc/cpuinfo's x86 flags",
+)
+def test_the_simd_paths_are_those_the_cpu_flags_allow():
+    # the core detects the CPU's features itself (std::arch); /proc/cpuinfo is the kernel's view
+    flags = _cpu_flags()
+    if {"avx512f", "avx2", "fma"} <= flags:
+        expected = "avx512"
+    elif {"avx2", "fma"} <= flags:
+        expected = "avx2"
+    else:
+        expected = "baseline"
+    assert flexclear._core.SIMD_PATHS == expected
+
+
 def run_cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "flexclear.cli", *args], capture_output=True, text=True, timeout=120, env=env()
@@ -729,7 +755,8 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 def test_item7_cli_errors_are_usage_errors_and_version_is_known(tmp_path):
     r = run_cli("--version")
-    assert r.returncode == 0 and r.stdout.strip() == f"flexclear {flexclear.__version__}"
+    expected = f"flexclear {flexclear.__version__} (SIMD paths on this CPU: {flexclear._core.SIMD_PATHS})"
+    assert r.returncode == 0 and r.stdout.strip() == expected
     for args, what in [
         (("frequencies", "--elements", "0"), "`elements` = 0"),
         (("frequencies", "--count", "-3"), "`count` = -3"),

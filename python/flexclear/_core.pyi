@@ -36,9 +36,13 @@ __all__ = [
     "LINKAGE_TOLERANCE",
     "LINKAGE_MAX_CONDITION",
     "__version__",
+    "SIMD_PATHS",
 ]
 
 __version__: str
+#: The widest SIMD paths the core takes on this CPU: "avx512", "avx2" or "baseline" (bitwise the
+#: same results on each; they differ in speed only).
+SIMD_PATHS: str
 #: Retries of a diverged sample stop before the step falls below this fraction of its own.
 RETRY_MIN_STEP_RATIO: float
 #: Default fraction of a fixed step's local truncation error at which its Newton iterations stop

@@ -15,10 +15,14 @@ def _default_rotating_table():
 
 
 def main(argv: Optional[list] = None) -> int:
-    from . import __version__
+    from . import __version__, _core
 
     parser = argparse.ArgumentParser(prog="flexclear", description=__doc__)
-    parser.add_argument("--version", action="version", version=f"flexclear {__version__}")
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"flexclear {__version__} (SIMD paths on this CPU: {_core.SIMD_PATHS})",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("paper", help="reproduce Hong & Kim (1993) Table 1, Fig. 5 and Fig. 6 (slider-yoke)")
     p.add_argument("--out", default="flexclear-report", help="output folder (default: %(default)s)")

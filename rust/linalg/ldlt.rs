@@ -593,6 +593,21 @@ pub(crate) fn avx512_available() -> bool {
     }
 }
 
+/// The widest SIMD paths the core takes on this CPU: `"avx512"` (AVX-512F besides AVX2 and FMA:
+/// the Newton residual's beam elements eight at a time, the rest as with `"avx2"`), `"avx2"` (AVX2
+/// and FMA: the band substitutions, the constant stepper's lockstep lanes, the Newton step and
+/// residual) or `"baseline"` (neither, or not x86-64: the portable code). Every path gives
+/// bitwise the same results; they differ only in speed.
+pub fn simd_paths() -> &'static str {
+    if avx512_available() {
+        "avx512"
+    } else if avx2_fma_available() {
+        "avx2"
+    } else {
+        "baseline"
+    }
+}
+
 /// Symbolic analyses shared among runs whose models have the same sparsity pattern (the samples
 /// of a study that differ only in values share one; a sample that changes the element count gets
 /// its own). Thread-safe; the lock is taken once per run, before the time loop.

@@ -17,5 +17,5 @@ pub use band_lu_lanes::BandLuLanes;
 pub use dense::solve_dense_in_place;
 pub use factor::Factor;
 pub(crate) use ldlt::{avx2_fma_available, avx512_available};
-pub use ldlt::{Analysis, AnalysisCache, Cholesky, BAND};
+pub use ldlt::{simd_paths, Analysis, AnalysisCache, Cholesky, BAND};
 pub use woodbury::{capacitance_solve, subtract_ws, LowRankBlocks, Woodbury, WoodburyScratch};

@@ -126,6 +126,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_ITER", crate::run::MAX_ITER)?;
     m.add("REBOUND_DEPTH", crate::record::REBOUND_DEPTH)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("SIMD_PATHS", crate::linalg::simd_paths())?;
     init_numpy(m.py());
     Ok(())
 }
