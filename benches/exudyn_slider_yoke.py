@@ -24,10 +24,9 @@ import statistics
 import subprocess
 import sys
 
-import bench_host  # benches/bench_host.py: which machine a run was on
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import bench_host  # benches/bench_host.py: which machine a run was on
 import exudyn_scene  # selects exudynCPPfast before exudyn is imported
 from exudyn_scene import run_exudyn
 

@@ -1,6 +1,5 @@
 //! Helpers shared by the integration tests (a module of `tests/integration.rs`, the one test
 //! binary; each test file uses what it needs).
-#![allow(dead_code)]
 
 use std::sync::Arc;
 
